@@ -1,0 +1,1 @@
+//! Matrix-theoretic analysis of operators.

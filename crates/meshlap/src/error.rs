@@ -1,0 +1,39 @@
+//! The crate's top-level error type. Each module has its own typed error; this enum
+//! wraps them so that applications can use one `Result`.
+
+use std::path::PathBuf;
+
+/// Every error meshlap can return.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// Reading or writing a mesh file failed.
+    #[error(transparent)]
+    Io(#[from] crate::io::IoError),
+    /// The mesh is unsuitable for the requested operation.
+    #[error(transparent)]
+    Mesh(#[from] crate::mesh::MeshError),
+    /// An operator could not be assembled.
+    #[error(transparent)]
+    Operator(#[from] crate::operator::OperatorError),
+    /// A linear solve failed.
+    #[error(transparent)]
+    Solve(#[from] crate::solve::SolveError),
+    /// A spectral computation failed.
+    #[error(transparent)]
+    Spectral(#[from] crate::spectral::SpectralError),
+    /// Writing an output file failed.
+    #[error("cannot write {path}: {source}")]
+    Write {
+        /// The file that could not be written.
+        path: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A user-supplied argument is invalid.
+    #[error("{0}")]
+    InvalidArgument(String),
+}
+
+/// `Result` with the crate's [`Error`].
+pub type Result<T, E = Error> = std::result::Result<T, E>;

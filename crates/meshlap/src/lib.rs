@@ -1,0 +1,36 @@
+//! # meshlap
+//!
+//! Discrete mesh Laplacians for digital geometry processing, after
+//! H. Zhang, *Discrete Combinatorial Laplacian Operators for Digital Geometry
+//! Processing* (Geometric Modeling and Computing, Seattle 2003; Nashboro Press 2004).
+//!
+//! ## Sign convention
+//! Every operator in this crate is **positive semi-definite**: `F = D − W`, as in the
+//! paper (the Kirchhoff operator has `+d_i` on the diagonal and `−1` off it). libigl's
+//! `cotmatrix` and pmp-library use the opposite (negative semi-definite) sign.
+//!
+//! ## Layout
+//! - [`mesh`]: the indexed triangle mesh, its half-edge connectivity, cleaning and
+//!   validation, non-manifold splitting and built-in generated meshes.
+//! - [`io`]: OBJ, OFF, PLY (ascii/binary, tristrips) and STL readers and writers.
+//! - [`operator`]: the combinatorial (KL, TL, GL, SQL, SSTL, T²) and geometric (SDL,
+//!   cotangent, mean-value) operators as sparse matrices.
+//! - [`analysis`]: matrix-theoretic properties (symmetry, stochasticity, GSML status,
+//!   eigenvalue bounds), smoothing iterations and SQL negative-weight repair.
+//! - [`solve`]: CG, PCG, BiCG, BiCGSTAB and direct solvers for implicit fairing.
+//! - [`spectral`]: eigenvalue-decomposition (ED) transforms, partial spectra, partitioning.
+
+pub mod analysis;
+pub mod error;
+pub mod io;
+pub mod mesh;
+pub mod operator;
+pub mod solve;
+pub mod spectral;
+
+pub use error::{Error, Result};
+pub use mesh::{FaceId, TriMesh, VertexId};
+
+/// Sparse matrix type used throughout the crate: compressed sparse column, `f64`
+/// values, `usize` indices (faer). For the symmetric operators CSC and CSR coincide.
+pub type SparseMatrix = faer::sparse::SparseColMat<usize, f64>;

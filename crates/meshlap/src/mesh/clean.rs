@@ -1,0 +1,1 @@
+//! Mesh cleaning and validation.
