@@ -1,4 +1,41 @@
-//! Discrete mesh Laplacian operators.
+//! Discrete mesh Laplacian operators as sparse n×n matrices.
+//!
+//! **Sign convention.** Every operator here is written `F = D − W` as in Zhang (2004):
+//! positive (semi-)definite where the theory says so, zero row sums for the GSMLs, and
+//! `F·x` pointing *outwards* on a convex surface. libigl's `cotmatrix` and
+//! pmp-library's Laplacians are the negatives of ours.
+//!
+//! | kind | matrix | symmetric | zero row sum | module |
+//! |---|---|---|---|---|
+//! | Kirchhoff (KL) | `K = diag(d) − A` | yes | yes | [`kirchhoff`] |
+//! | Tutte (TL) | `T = I − D⁻¹A` | no | yes | [`tutte`] |
+//! | normalized graph (GL) | `G = I − D^{-1/2} A D^{-1/2}` | yes | no | [`graph`] |
+//! | symmetric quasi-Laplacian (SQL) | `S = D − W` (Zhang §3.7) | yes | yes | [`sql`] |
+//! | second-order symmetric Tutte (SSTL) | `J = TᵀT` | yes | yes | [`sstl`] |
+//! | second-order Tutte | `T²` | no | yes | [`tutte2`] |
+//! | scale-dependent (SDL) | `I − W̃`, `w_ij ∝ 1/‖x_i − x_j‖` row-normalised | no | yes | [`sdl`] |
+//! | cotangent (Pinkall–Polthier) | `L_ij = −½(cot α + cot β)` + mass matrix | yes | yes | [`cotan`] |
+//! | mean-value (Floater 2003) | `I − W̃`, `w_ij = (tan δ/2 + tan γ/2)/‖x_i − x_j‖` | no | yes | [`mean_value`] |
+//!
+//! All matrices are in the vertex order of the (cleaned) mesh; `d_i` is the number of
+//! distinct neighbours of vertex i.
+
+pub(crate) mod assemble;
+mod geometry;
+pub mod cotan;
+pub mod graph;
+pub mod kirchhoff;
+pub mod mean_value;
+pub mod sdl;
+pub mod sql;
+pub mod sstl;
+pub mod tutte;
+pub mod tutte2;
+
+use crate::mesh::{topology::Topology, TriMesh};
+use crate::SparseMatrix;
+use serde::Serialize;
+use std::str::FromStr;
 
 /// Errors of operator assembly.
 #[derive(Debug, thiserror::Error)]
@@ -6,4 +43,235 @@ pub enum OperatorError {
     /// The mesh is unsuitable.
     #[error(transparent)]
     Mesh(#[from] crate::mesh::MeshError),
+    /// An operator that divides by the degree met a vertex without neighbours.
+    #[error("vertex {vertex} has no neighbours; clean the mesh first")]
+    IsolatedVertex {
+        /// The isolated vertex.
+        vertex: u32,
+    },
+    /// A geometric operator met a zero-length edge.
+    #[error("edge ({a}, {b}) has zero length; the {kind} operator is undefined there")]
+    ZeroLengthEdge {
+        /// First endpoint.
+        a: u32,
+        /// Second endpoint.
+        b: u32,
+        /// Operator name.
+        kind: &'static str,
+    },
+    /// A geometric operator met a degenerate (zero-area) triangle.
+    #[error("face ({a}, {b}, {c}) is degenerate (zero area); the {kind} operator is undefined there")]
+    DegenerateFace {
+        /// Face corners.
+        a: u32,
+        /// Face corners.
+        b: u32,
+        /// Face corners.
+        c: u32,
+        /// Operator name.
+        kind: &'static str,
+    },
+    /// Unknown operator name.
+    #[error("unknown operator `{0}`; choose one of kirchhoff (kl), tutte (tl), graph (gl), sql, sstl, tutte2 (t2), sdl, cotan, mean-value (mv)")]
+    UnknownKind(String),
+}
+
+/// The operators meshlap assembles.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum OperatorKind {
+    /// Kirchhoff operator (graph Laplacian) `K = diag(d) − A`.
+    Kirchhoff,
+    /// Tutte Laplacian `T = I − D⁻¹A` (the uniform / umbrella operator).
+    Tutte,
+    /// Normalized graph Laplacian `G = I − D^{-1/2} A D^{-1/2}`.
+    Graph,
+    /// Zhang's symmetric quasi-Laplacian.
+    Sql,
+    /// Zhang's second-order symmetric Tutte Laplacian `TᵀT`.
+    Sstl,
+    /// Second-order Tutte Laplacian `T²`.
+    Tutte2,
+    /// Scale-dependent Laplacian (inverse edge-length weights).
+    Sdl,
+    /// Cotangent Laplace–Beltrami stiffness matrix.
+    Cotan,
+    /// Floater's mean-value weights.
+    MeanValue,
+}
+
+impl OperatorKind {
+    /// Every kind, in the order of the table above.
+    pub const ALL: [OperatorKind; 9] = [
+        OperatorKind::Kirchhoff,
+        OperatorKind::Tutte,
+        OperatorKind::Graph,
+        OperatorKind::Sql,
+        OperatorKind::Sstl,
+        OperatorKind::Tutte2,
+        OperatorKind::Sdl,
+        OperatorKind::Cotan,
+        OperatorKind::MeanValue,
+    ];
+
+    /// Canonical name (as accepted on the command line).
+    pub fn name(self) -> &'static str {
+        match self {
+            OperatorKind::Kirchhoff => "kirchhoff",
+            OperatorKind::Tutte => "tutte",
+            OperatorKind::Graph => "graph",
+            OperatorKind::Sql => "sql",
+            OperatorKind::Sstl => "sstl",
+            OperatorKind::Tutte2 => "tutte2",
+            OperatorKind::Sdl => "sdl",
+            OperatorKind::Cotan => "cotan",
+            OperatorKind::MeanValue => "mean-value",
+        }
+    }
+
+    /// True for operators that depend on connectivity only.
+    pub fn is_combinatorial(self) -> bool {
+        !matches!(
+            self,
+            OperatorKind::Sdl | OperatorKind::Cotan | OperatorKind::MeanValue
+        )
+    }
+
+    /// True when the operator is symmetric by construction.
+    pub fn is_symmetric(self) -> bool {
+        matches!(
+            self,
+            OperatorKind::Kirchhoff
+                | OperatorKind::Graph
+                | OperatorKind::Sql
+                | OperatorKind::Sstl
+                | OperatorKind::Cotan
+        )
+    }
+}
+
+impl std::fmt::Display for OperatorKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for OperatorKind {
+    type Err = OperatorError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Ok(match s.to_ascii_lowercase().as_str() {
+            "kirchhoff" | "kl" | "k" => OperatorKind::Kirchhoff,
+            "tutte" | "tl" | "t" | "uniform" | "umbrella" => OperatorKind::Tutte,
+            "graph" | "gl" | "normalized" => OperatorKind::Graph,
+            "sql" | "quasi" => OperatorKind::Sql,
+            "sstl" | "j" => OperatorKind::Sstl,
+            "tutte2" | "t2" => OperatorKind::Tutte2,
+            "sdl" | "scale-dependent" => OperatorKind::Sdl,
+            "cotan" | "cot" | "cotangent" | "laplace-beltrami" => OperatorKind::Cotan,
+            "mean-value" | "mv" | "mvc" | "meanvalue" => OperatorKind::MeanValue,
+            _ => return Err(OperatorError::UnknownKind(s.to_string())),
+        })
+    }
+}
+
+/// Options of [`Operator::assemble`].
+#[derive(Clone, Copy, Debug, Default)]
+pub struct OperatorOptions {
+    /// Boundary diagonal of the SQL (see [`sql::BoundaryDiagonal`]).
+    pub sql_boundary: sql::BoundaryDiagonal,
+    /// Mass matrix of the cotangent operator.
+    pub mass: cotan::MassKind,
+}
+
+/// An assembled operator.
+#[derive(Clone, Debug)]
+pub struct Operator {
+    /// Which operator.
+    pub kind: OperatorKind,
+    /// The n×n matrix, `F = D − W` sign convention.
+    pub matrix: SparseMatrix,
+    /// Lumped (diagonal) mass matrix, for the cotangent operator.
+    pub mass: Option<Vec<f64>>,
+}
+
+impl Operator {
+    /// Assembles `kind` on `mesh` with connectivity `topo`.
+    pub fn assemble(
+        kind: OperatorKind,
+        mesh: &TriMesh,
+        topo: &Topology,
+        opts: &OperatorOptions,
+    ) -> Result<Self, OperatorError> {
+        let mut mass = None;
+        let matrix = match kind {
+            OperatorKind::Kirchhoff => kirchhoff::kirchhoff(topo),
+            OperatorKind::Tutte => tutte::tutte(topo)?,
+            OperatorKind::Graph => graph::graph(topo)?,
+            OperatorKind::Sql => sql::sql(topo, opts.sql_boundary)?,
+            OperatorKind::Sstl => sstl::sstl(topo)?,
+            OperatorKind::Tutte2 => tutte2::tutte2(topo)?,
+            OperatorKind::Sdl => sdl::sdl(mesh, topo)?,
+            OperatorKind::Cotan => {
+                let (l, m) = cotan::cotan(mesh, topo, opts.mass)?;
+                mass = Some(m);
+                l
+            }
+            OperatorKind::MeanValue => mean_value::mean_value(mesh, topo)?,
+        };
+        Ok(Operator { kind, matrix, mass })
+    }
+}
+
+/// Vertex degrees as `f64`, or an error naming an isolated vertex.
+pub(crate) fn degrees_checked(topo: &Topology) -> Result<Vec<f64>, OperatorError> {
+    let d = topo.degrees();
+    if let Some(v) = d.iter().position(|&x| x == 0) {
+        return Err(OperatorError::IsolatedVertex { vertex: v as u32 });
+    }
+    Ok(d.into_iter().map(|x| x as f64).collect())
+}
+
+#[cfg(test)]
+pub(crate) mod test_util {
+    use crate::mesh::{builtin, topology::Topology, TriMesh};
+    use crate::SparseMatrix;
+
+    /// Generated meshes of every kind: closed, with boundary, several valences.
+    pub fn meshes() -> Vec<(&'static str, TriMesh)> {
+        vec![
+            ("tetrahedron", builtin::tetrahedron()),
+            ("icosahedron", builtin::icosahedron()),
+            ("icosphere2", builtin::icosphere(2).unwrap()),
+            ("torus", builtin::torus(9, 7).unwrap()),
+            ("grid", builtin::grid(6).unwrap()),
+            ("cube", builtin::cube(3).unwrap()),
+            ("step", builtin::step(5).unwrap()),
+        ]
+    }
+
+    pub fn topo(m: &TriMesh) -> Topology {
+        Topology::new(m).unwrap()
+    }
+
+    pub fn max_abs_row_sum(m: &SparseMatrix) -> f64 {
+        let n = m.nrows();
+        let mut rs = vec![0.0; n];
+        for j in 0..n {
+            for (&i, &v) in m.row_idx_of_col_raw(j).iter().zip(m.val_of_col(j)) {
+                rs[i] += v;
+            }
+        }
+        rs.iter().fold(0.0f64, |a, &b| a.max(b.abs()))
+    }
+
+    pub fn asymmetry(m: &SparseMatrix) -> f64 {
+        let d = m.to_dense();
+        let mut worst = 0.0f64;
+        for i in 0..d.nrows() {
+            for j in 0..d.ncols() {
+                worst = worst.max((d[(i, j)] - d[(j, i)]).abs());
+            }
+        }
+        worst
+    }
 }

@@ -1,0 +1,173 @@
+//! The cotangent Laplace–Beltrami operator, Pinkall & Polthier (1993); Desbrun et al.
+//! (1999); Meyer et al. (2003), with its lumped mass matrix.
+//!
+//! Stiffness `L`: n×n, symmetric, `L_ij = −½(cot α_ij + cot β_ij)` for an interior edge
+//! (α, β the angles opposite the edge), `−½ cot α_ij` on a boundary edge, and
+//! `L_ii = −Σ_j L_ij`. Sign convention `F = D − W`: positive semi-definite when no
+//! weight is negative (libigl's `cotmatrix` is `−L`). Zero row sums; linear precision on
+//! planar meshes (`L·x = 0` at interior vertices for linear `x`). The generalized
+//! eigenproblem `L v = λ M v` uses the diagonal mass matrix `M`:
+//!
+//! - [`MassKind::Voronoi`]: the mixed Voronoi area of Meyer et al. (2003) (circumcentric
+//!   Voronoi cells, with the obtuse-triangle fallback: half the area to the obtuse
+//!   vertex, a quarter to each other);
+//! - [`MassKind::Barycentric`]: one third of each incident triangle's area.
+//!
+//! A degenerate (zero-area) triangle is an error: its cotangents are infinite.
+
+use super::geometry::{cross, dot, norm, sub};
+use super::OperatorError;
+use crate::mesh::{topology::Topology, TriMesh};
+use crate::SparseMatrix;
+
+/// Lumped mass matrix of the cotangent operator.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub enum MassKind {
+    /// Mixed Voronoi areas (Meyer et al. 2003).
+    #[default]
+    Voronoi,
+    /// One third of the incident triangle areas.
+    Barycentric,
+}
+
+/// Assembles the cotangent stiffness matrix and the lumped mass diagonal.
+pub fn cotan(
+    mesh: &TriMesh,
+    topo: &Topology,
+    mass_kind: MassKind,
+) -> Result<(SparseMatrix, Vec<f64>), OperatorError> {
+    let mut w = vec![0.0f64; topo.n_edges()];
+    let mut mass = vec![0.0f64; topo.n_vertices()];
+    let p = |v: u32| mesh.positions[v as usize];
+    for (f, t) in topo.faces().iter().enumerate() {
+        let [a, b, c] = t.map(p);
+        let area2 = norm(cross(sub(b, a), sub(c, a)));
+        if !(area2 > 0.0) || !area2.is_finite() {
+            return Err(OperatorError::DegenerateFace {
+                a: t[0],
+                b: t[1],
+                c: t[2],
+                kind: "cotan",
+            });
+        }
+        // cot of the angle at corner k, opposite half-edge k+1 → k+2.
+        let mut cots = [0.0; 3];
+        for k in 0..3 {
+            let o = t[k];
+            let (u, v) = (sub(p(t[(k + 1) % 3]), p(o)), sub(p(t[(k + 2) % 3]), p(o)));
+            cots[k] = dot(u, v) / area2;
+            let h = (3 * f + (k + 1) % 3) as u32;
+            w[topo.half_edge_edge(h).idx()] += 0.5 * cots[k];
+        }
+        let area = 0.5 * area2;
+        match mass_kind {
+            MassKind::Barycentric => {
+                for &v in t {
+                    mass[v as usize] += area / 3.0;
+                }
+            }
+            MassKind::Voronoi => {
+                let obtuse = (0..3).find(|&k| cots[k] < 0.0);
+                for k in 0..3 {
+                    let v = t[k] as usize;
+                    mass[v] += match obtuse {
+                        Some(o) if o == k => area / 2.0,
+                        Some(_) => area / 4.0,
+                        None => {
+                            // Voronoi area at corner k: 1/8 (|e_kj|² cot at l + |e_kl|² cot at j).
+                            let (j, l) = ((k + 1) % 3, (k + 2) % 3);
+                            let pk = p(t[k]);
+                            let ekj = sub(p(t[j]), pk);
+                            let ekl = sub(p(t[l]), pk);
+                            (dot(ekj, ekj) * cots[l] + dot(ekl, ekl) * cots[j]) / 8.0
+                        }
+                    };
+                }
+            }
+        }
+    }
+    let diag: Vec<f64> = (0..topo.n_vertices())
+        .map(|v| {
+            topo.neighbor_edges(crate::VertexId(v as u32))
+                .iter()
+                .map(|&e| w[e as usize])
+                .sum()
+        })
+        .collect();
+    let l = super::assemble::one_ring_matrix(topo, |i| diag[i], |_, _, e| -w[e]);
+    Ok((l, mass))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::{builtin, VertexId};
+    use crate::operator::test_util::*;
+    use rand::{Rng, SeedableRng};
+
+    fn jittered_grid(n: usize, seed: u64) -> TriMesh {
+        let mut m = builtin::grid(n).unwrap();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let h = 1.0 / n as f64;
+        for p in &mut m.positions {
+            if p[0] > 0.0 && p[0] < 1.0 && p[1] > 0.0 && p[1] < 1.0 {
+                p[0] += rng.gen_range(-0.2..0.2) * h;
+                p[1] += rng.gen_range(-0.2..0.2) * h;
+            }
+        }
+        m
+    }
+
+    #[test]
+    fn linear_precision_on_planar_meshes() {
+        for seed in 0..3 {
+            let m = jittered_grid(7, seed);
+            let t = topo(&m);
+            let (l, _) = cotan(&m, &t, MassKind::Voronoi).unwrap();
+            for coord in 0..2 {
+                let x = faer::Col::<f64>::from_fn(m.n_vertices(), |i| m.positions[i][coord]);
+                let y = &l * &x;
+                for v in 0..m.n_vertices() {
+                    if !t.is_boundary_vertex(VertexId(v as u32)) {
+                        assert!(y[v].abs() < 1e-13, "seed {seed} vertex {v}: {}", y[v]);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn symmetric_zero_row_sum_and_mass_is_area() {
+        for (name, m) in meshes() {
+            let t = topo(&m);
+            let area: f64 = m
+                .faces
+                .iter()
+                .map(|f| {
+                    let [a, b, c] = f.map(|v| m.positions[v as usize]);
+                    0.5 * norm(cross(sub(b, a), sub(c, a)))
+                })
+                .sum();
+            for kind in [MassKind::Voronoi, MassKind::Barycentric] {
+                let (l, mass) = cotan(&m, &t, kind).unwrap();
+                assert!(asymmetry(&l) < 1e-14, "{name}");
+                assert!(max_abs_row_sum(&l) < 1e-12, "{name}");
+                let total: f64 = mass.iter().sum();
+                assert!((total - area).abs() < 1e-12 * area, "{name} {kind:?}");
+                assert!(mass.iter().all(|&x| x > 0.0));
+            }
+        }
+    }
+
+    #[test]
+    fn degenerate_face_is_an_error() {
+        let m = TriMesh::new(
+            vec![[0.0; 3], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]],
+            vec![[0, 1, 2]],
+        );
+        assert!(matches!(
+            cotan(&m, &topo(&m), MassKind::Voronoi),
+            Err(OperatorError::DegenerateFace { .. })
+        ));
+    }
+}

@@ -1,0 +1,113 @@
+//! Floater's mean-value weights, Floater (2003), as a Laplacian.
+//!
+//! For an edge (i, j), `w_ij = (tan(δ_ij/2) + tan(γ_ij/2)) / ‖x_j − x_i‖`, where δ and γ
+//! are the angles **at x_i** of the (one or two) triangles adjacent to the edge. The
+//! weights are positive for any non-degenerate triangle and not symmetric; normalised
+//! per row, `F = I − W̃` with `W̃_ij = w_ij / Σ_k w_ik`: n×n, non-symmetric, zero row
+//! sums, sign convention `F = D − W`. Mean-value coordinates reproduce linear
+//! functions, so `F·x = 0` at interior vertices of a planar mesh.
+
+use super::geometry::{cross, dot, norm, sub};
+use super::OperatorError;
+use crate::mesh::{topology::Topology, TriMesh};
+use crate::SparseMatrix;
+
+/// Assembles the row-normalised mean-value Laplacian of `mesh`.
+pub fn mean_value(mesh: &TriMesh, topo: &Topology) -> Result<SparseMatrix, OperatorError> {
+    // Directed weights per edge: [from edges[e][0], from edges[e][1]].
+    let mut w = vec![[0.0f64; 2]; topo.n_edges()];
+    let p = |v: u32| mesh.positions[v as usize];
+    for (f, t) in topo.faces().iter().enumerate() {
+        for k in 0..3 {
+            let (i, j, l) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
+            let (u, v) = (sub(p(j), p(i)), sub(p(l), p(i)));
+            let (lu, lv) = (norm(u), norm(v));
+            if !(lu > 0.0) || !(lv > 0.0) {
+                let (a, b) = if lu > 0.0 { (i, l) } else { (i, j) };
+                return Err(OperatorError::ZeroLengthEdge { a, b, kind: "mean-value" });
+            }
+            // tan(θ/2) = sin θ / (1 + cos θ) = |u×v| / (|u||v| + u·v)
+            let denom = lu * lv + dot(u, v);
+            if !(denom > 0.0) {
+                return Err(OperatorError::DegenerateFace {
+                    a: t[0],
+                    b: t[1],
+                    c: t[2],
+                    kind: "mean-value",
+                });
+            }
+            let half_tan = norm(cross(u, v)) / denom;
+            // The angle at i touches edges (i, j) (half-edge k) and (i, l) (half-edge k+2).
+            for (h, other, len) in [(3 * f + k, j, lu), (3 * f + (k + 2) % 3, l, lv)] {
+                let e = topo.half_edge_edge(h as u32).idx();
+                let dir = usize::from(topo.edge(crate::mesh::EdgeId(e as u32))[0] != i);
+                debug_assert!(topo.edge(crate::mesh::EdgeId(e as u32)).contains(&other));
+                w[e][dir] += half_tan / len;
+            }
+        }
+    }
+    let sums: Vec<f64> = (0..topo.n_vertices())
+        .map(|v| {
+            topo.neighbor_edges(crate::VertexId(v as u32))
+                .iter()
+                .map(|&e| {
+                    let dir = usize::from(topo.edges()[e as usize][0] != v as u32);
+                    w[e as usize][dir]
+                })
+                .sum()
+        })
+        .collect();
+    Ok(super::assemble::one_ring_matrix(
+        topo,
+        |_| 1.0,
+        |i, _, e| {
+            let dir = usize::from(topo.edges()[e][0] != i as u32);
+            -w[e][dir] / sums[i]
+        },
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::{builtin, VertexId};
+    use crate::operator::test_util::*;
+    use rand::{Rng, SeedableRng};
+
+    #[test]
+    fn reproduces_linear_functions_on_planar_meshes() {
+        let mut m = builtin::grid(6).unwrap();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        for p in &mut m.positions {
+            if p[0] > 0.0 && p[0] < 1.0 && p[1] > 0.0 && p[1] < 1.0 {
+                p[0] += rng.gen_range(-0.03..0.03);
+                p[1] += rng.gen_range(-0.03..0.03);
+            }
+        }
+        let t = topo(&m);
+        let f = mean_value(&m, &t).unwrap();
+        for coord in 0..2 {
+            let x = faer::Col::<f64>::from_fn(m.n_vertices(), |i| m.positions[i][coord]);
+            let y = &f * &x;
+            for v in 0..m.n_vertices() {
+                if !t.is_boundary_vertex(VertexId(v as u32)) {
+                    assert!(y[v].abs() < 1e-13, "vertex {v}: {}", y[v]);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn positive_weights_and_zero_row_sums() {
+        for (name, m) in meshes() {
+            let f = mean_value(&m, &topo(&m)).unwrap();
+            assert!(max_abs_row_sum(&f) < 1e-14, "{name}");
+            let d = f.to_dense();
+            for i in 0..d.nrows() {
+                for j in 0..d.ncols() {
+                    assert!(i == j || d[(i, j)] <= 0.0, "{name}");
+                }
+            }
+        }
+    }
+}

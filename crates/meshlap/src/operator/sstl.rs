@@ -1,0 +1,53 @@
+//! Zhang's second-order symmetric Tutte Laplacian (SSTL), Zhang (2004) §3.8.
+//!
+//! `J = TᵀT` with `T` the Tutte Laplacian: n×n, symmetric, positive semi-definite
+//! (`vᵀJv = ‖Tv‖²`), zero row sums (because `T·1 = 0`), sign convention `F = D − W`.
+//! Its pattern is the two-ring of each vertex. Boundary vertices need no special case.
+
+use super::{assemble, degrees_checked, OperatorError};
+use crate::mesh::{topology::Topology, VertexId};
+use crate::SparseMatrix;
+
+/// Assembles `J = TᵀT` directly from the connectivity: column j of J is
+/// `Σ_k T_kj · (row k of T)ᵀ`, with `T_jj = 1` and `T_kj = −1/d_k` for k ∈ N(j).
+pub fn sstl(topo: &Topology) -> Result<SparseMatrix, OperatorError> {
+    let d = degrees_checked(topo)?;
+    Ok(assemble::combine_columns(
+        topo.n_vertices(),
+        |j, out| {
+            out.push((j, 1.0));
+            for &k in topo.neighbors(VertexId(j as u32)) {
+                out.push((k as usize, -1.0 / d[k as usize]));
+            }
+        },
+        |k, out| assemble::one_ring_column(topo, k, 1.0, |_| -1.0 / d[k], out),
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::operator::{test_util::*, tutte::tutte};
+
+    #[test]
+    fn equals_dense_tt_product() {
+        for (name, m) in meshes() {
+            let t = topo(&m);
+            let j = sstl(&t).unwrap().to_dense();
+            let td = tutte(&t).unwrap().to_dense();
+            let want = td.transpose() * &td;
+            assert!((&j - &want).norm_max() < 1e-14, "{name}");
+        }
+    }
+
+    #[test]
+    fn zero_row_sums_symmetric_psd() {
+        for (name, m) in meshes() {
+            let j = sstl(&topo(&m)).unwrap();
+            assert!(max_abs_row_sum(&j) < 1e-14, "{name}");
+            assert!(asymmetry(&j) < 1e-15, "{name}");
+            let ev = j.to_dense().self_adjoint_eigenvalues(faer::Side::Lower).unwrap();
+            assert!(ev[0] > -1e-12 && ev[1] > 1e-9, "{name}: {:?}", &ev[..2]);
+        }
+    }
+}
