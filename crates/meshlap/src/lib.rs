@@ -20,6 +20,9 @@
 //! - [`solve`]: CG, PCG, BiCG, BiCGSTAB and direct solvers for implicit fairing.
 //! - [`spectral`]: eigenvalue-decomposition (ED) transforms, partial spectra, partitioning.
 
+// Index loops over vertices read like the formulas they implement.
+#![allow(clippy::needless_range_loop)]
+
 pub mod analysis;
 pub mod error;
 pub mod io;

@@ -1,1 +1,6 @@
-//! Matrix-theoretic analysis of operators.
+//! Matrix-theoretic analysis of operators (Zhang 2004 §2–3): the property report,
+//! smoothing iterations `Hᵖx`, and removal of the SQL's negative weights.
+
+pub mod properties;
+pub mod repair;
+pub mod smoothing;

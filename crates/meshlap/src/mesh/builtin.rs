@@ -314,7 +314,9 @@ pub fn step(n: usize) -> Result<TriMesh, MeshError> {
 /// triangles; shared vertices along the cube's edges are welded. `6n² + 2` vertices.
 pub fn cube(n: usize) -> Result<TriMesh, MeshError> {
     if n == 0 {
-        return Err(MeshError::Builtin("cube needs at least 1 cell per side".into()));
+        return Err(MeshError::Builtin(
+            "cube needs at least 1 cell per side".into(),
+        ));
     }
     let side = n + 1;
     // Vertex index by integer lattice coordinate; only surface points are used.

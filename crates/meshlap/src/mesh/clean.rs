@@ -368,7 +368,13 @@ mod tests {
     #[test]
     fn drops_and_counts() {
         let m = TriMesh::new(
-            vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [9.0; 3], [1.0, 1.0, 0.0]],
+            vec![
+                [0.0; 3],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [9.0; 3],
+                [1.0, 1.0, 0.0],
+            ],
             vec![[0, 1, 2], [2, 1, 0], [0, 0, 1], [1, 4, 2]],
         );
         let (c, r) = clean(&m, &CleanOptions::default()).unwrap();
@@ -384,7 +390,10 @@ mod tests {
     #[test]
     fn empty_after_cleaning_is_an_error() {
         let m = TriMesh::new(vec![[0.0; 3]; 3], vec![[0, 0, 1]]);
-        assert_eq!(clean(&m, &CleanOptions::default()).unwrap_err(), MeshError::Empty);
+        assert_eq!(
+            clean(&m, &CleanOptions::default()).unwrap_err(),
+            MeshError::Empty
+        );
     }
 
     #[test]

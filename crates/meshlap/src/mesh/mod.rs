@@ -112,8 +112,7 @@ impl TriMesh {
     pub fn bbox_diagonal(&self) -> f64 {
         match self.bounding_box() {
             Some((lo, hi)) => {
-                ((hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2) + (hi[2] - lo[2]).powi(2))
-                    .sqrt()
+                ((hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2) + (hi[2] - lo[2]).powi(2)).sqrt()
             }
             None => 0.0,
         }

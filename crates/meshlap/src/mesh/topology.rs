@@ -159,10 +159,10 @@ impl Topology {
         let mut vertex_out = vec![INVALID; n];
         for h in 0..nh {
             let v = faces[h / 3][h % 3] as usize;
-            if vertex_out[v] == INVALID || twin[h] == INVALID {
-                if vertex_out[v] == INVALID || twin[vertex_out[v] as usize] != INVALID {
-                    vertex_out[v] = h as u32;
-                }
+            let better = vertex_out[v] == INVALID
+                || (twin[h] == INVALID && twin[vertex_out[v] as usize] != INVALID);
+            if better {
+                vertex_out[v] = h as u32;
             }
         }
         let mut topo = Topology {
@@ -519,13 +519,13 @@ impl Topology {
         let mut label = vec![u32::MAX; self.n_vertices];
         let mut root_label = vec![u32::MAX; self.n_vertices];
         let mut count = 0u32;
-        for v in 0..self.n_vertices {
+        for (v, l) in label.iter_mut().enumerate() {
             let r = uf.find(v);
             if root_label[r] == u32::MAX {
                 root_label[r] = count;
                 count += 1;
             }
-            label[v] = root_label[r];
+            *l = root_label[r];
         }
         (label, count as usize)
     }
@@ -657,10 +657,7 @@ mod tests {
     #[test]
     fn non_manifold_edge_detected() {
         // three triangles sharing edge (0, 1)
-        let m = TriMesh::new(
-            vec![[0.0; 3]; 5],
-            vec![[0, 1, 2], [1, 0, 3], [0, 1, 4]],
-        );
+        let m = TriMesh::new(vec![[0.0; 3]; 5], vec![[0, 1, 2], [1, 0, 3], [0, 1, 4]]);
         let t = Topology::new(&m).unwrap();
         assert_eq!(t.non_manifold_edges().count(), 1);
         assert!(!t.is_manifold_vertex(VertexId(0)));

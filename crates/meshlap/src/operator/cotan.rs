@@ -42,7 +42,7 @@ pub fn cotan(
     for (f, t) in topo.faces().iter().enumerate() {
         let [a, b, c] = t.map(p);
         let area2 = norm(cross(sub(b, a), sub(c, a)));
-        if !(area2 > 0.0) || !area2.is_finite() {
+        if area2.is_nan() || area2 <= 0.0 || !area2.is_finite() {
             return Err(OperatorError::DegenerateFace {
                 a: t[0],
                 b: t[1],

@@ -22,13 +22,17 @@ pub fn mean_value(mesh: &TriMesh, topo: &Topology) -> Result<SparseMatrix, Opera
             let (i, j, l) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
             let (u, v) = (sub(p(j), p(i)), sub(p(l), p(i)));
             let (lu, lv) = (norm(u), norm(v));
-            if !(lu > 0.0) || !(lv > 0.0) {
+            if lu.is_nan() || lv.is_nan() || lu <= 0.0 || lv <= 0.0 {
                 let (a, b) = if lu > 0.0 { (i, l) } else { (i, j) };
-                return Err(OperatorError::ZeroLengthEdge { a, b, kind: "mean-value" });
+                return Err(OperatorError::ZeroLengthEdge {
+                    a,
+                    b,
+                    kind: "mean-value",
+                });
             }
             // tan(θ/2) = sin θ / (1 + cos θ) = |u×v| / (|u||v| + u·v)
             let denom = lu * lv + dot(u, v);
-            if !(denom > 0.0) {
+            if denom.is_nan() || denom <= 0.0 {
                 return Err(OperatorError::DegenerateFace {
                     a: t[0],
                     b: t[1],

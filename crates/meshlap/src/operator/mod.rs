@@ -21,8 +21,8 @@
 //! distinct neighbours of vertex i.
 
 pub(crate) mod assemble;
-mod geometry;
 pub mod cotan;
+mod geometry;
 pub mod graph;
 pub mod kirchhoff;
 pub mod mean_value;
@@ -60,7 +60,9 @@ pub enum OperatorError {
         kind: &'static str,
     },
     /// A geometric operator met a degenerate (zero-area) triangle.
-    #[error("face ({a}, {b}, {c}) is degenerate (zero area); the {kind} operator is undefined there")]
+    #[error(
+        "face ({a}, {b}, {c}) is degenerate (zero area); the {kind} operator is undefined there"
+    )]
     DegenerateFace {
         /// Face corners.
         a: u32,

@@ -61,7 +61,10 @@ mod tests {
     #[test]
     fn zero_row_sums() {
         for (name, m) in meshes() {
-            assert!(max_abs_row_sum(&sdl(&m, &topo(&m)).unwrap()) < 1e-14, "{name}");
+            assert!(
+                max_abs_row_sum(&sdl(&m, &topo(&m)).unwrap()) < 1e-14,
+                "{name}"
+            );
         }
     }
 

@@ -112,7 +112,11 @@ mod tests {
     fn zero_row_sums_and_symmetry_everywhere() {
         for (name, m) in meshes() {
             let s = sql(&topo(&m), BoundaryDiagonal::ZeroRowSum).unwrap();
-            assert!(max_abs_row_sum(&s) < 1e-14, "{name}: {}", max_abs_row_sum(&s));
+            assert!(
+                max_abs_row_sum(&s) < 1e-14,
+                "{name}: {}",
+                max_abs_row_sum(&s)
+            );
             assert!(asymmetry(&s) == 0.0, "{name}");
         }
     }
@@ -170,7 +174,11 @@ mod tests {
             let w = sql_edge_weights(&t, &d).unwrap();
             let diag = sql_diagonal(&t, &d, BoundaryDiagonal::ZeroRowSum);
             for v in 0..t.n_vertices() {
-                let s: f64 = t.neighbor_edges(VertexId(v as u32)).iter().map(|&e| w[e as usize]).sum();
+                let s: f64 = t
+                    .neighbor_edges(VertexId(v as u32))
+                    .iter()
+                    .map(|&e| w[e as usize])
+                    .sum();
                 assert!((s - diag[v]).abs() < 1e-14, "{name} vertex {v}");
             }
         }

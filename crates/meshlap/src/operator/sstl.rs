@@ -46,7 +46,10 @@ mod tests {
             let j = sstl(&topo(&m)).unwrap();
             assert!(max_abs_row_sum(&j) < 1e-14, "{name}");
             assert!(asymmetry(&j) < 1e-15, "{name}");
-            let ev = j.to_dense().self_adjoint_eigenvalues(faer::Side::Lower).unwrap();
+            let ev = j
+                .to_dense()
+                .self_adjoint_eigenvalues(faer::Side::Lower)
+                .unwrap();
             assert!(ev[0] > -1e-12 && ev[1] > 1e-9, "{name}: {:?}", &ev[..2]);
         }
     }

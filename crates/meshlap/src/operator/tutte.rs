@@ -29,7 +29,10 @@ mod tests {
     #[test]
     fn zero_row_sums() {
         for (name, m) in meshes() {
-            assert!(max_abs_row_sum(&tutte(&topo(&m)).unwrap()) < 1e-15, "{name}");
+            assert!(
+                max_abs_row_sum(&tutte(&topo(&m)).unwrap()) < 1e-15,
+                "{name}"
+            );
         }
     }
 
