@@ -1,1 +1,59 @@
-fn main() {}
+//! `meshlap`: command-line front end of the meshlap library. Thin by design: parse
+//! arguments, call the library, print. Errors print one line on stderr and exit 1;
+//! usage errors exit 2.
+
+mod cmd;
+mod common;
+
+use clap::{Parser, Subcommand};
+
+/// Discrete mesh Laplacians for digital geometry processing (after Zhang 2004).
+///
+/// Every MESH argument is a file (OBJ, OFF, PLY, STL; format from the extension,
+/// `--format` to override) or a generated mesh `builtin:NAME[:ARGS]`:
+/// tetrahedron, octahedron, icosahedron, icosphere:N, torus:U:V, grid:N, cube:N,
+/// step:N. Meshes are cleaned on input (unreferenced vertices, faces with a repeated
+/// vertex and duplicate faces are dropped and counted).
+///
+/// Operators follow the paper's sign convention F = D − W (positive semi-definite);
+/// libigl and pmp use the negative.
+#[derive(Parser, Debug)]
+#[command(name = "meshlap", version, propagate_version = true)]
+struct Cli {
+    /// Worker threads (default: all cores).
+    #[arg(long, global = true)]
+    threads: Option<usize>,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    Info(cmd::info::Args),
+    Convert(cmd::convert::Args),
+    Clean(cmd::clean::Args),
+    Operator(cmd::operator::Args),
+    Iterate(cmd::iterate::Args),
+    RepairSql(cmd::repair::Args),
+}
+
+fn main() {
+    let cli = Cli::parse();
+    if let Some(t) = cli.threads {
+        // A pool can only be built once; ignore a second attempt.
+        let _ = rayon::ThreadPoolBuilder::new().num_threads(t.max(1)).build_global();
+    }
+    let result = match &cli.command {
+        Command::Info(a) => cmd::info::run(a),
+        Command::Convert(a) => cmd::convert::run(a),
+        Command::Clean(a) => cmd::clean::run(a),
+        Command::Operator(a) => cmd::operator::run(a),
+        Command::Iterate(a) => cmd::iterate::run(a),
+        Command::RepairSql(a) => cmd::repair::run(a),
+    };
+    if let Err(e) = result {
+        let msg = e.to_string().replace('\n', " ");
+        eprintln!("meshlap: error: {msg}");
+        std::process::exit(1);
+    }
+}

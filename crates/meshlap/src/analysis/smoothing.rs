@@ -67,6 +67,27 @@ pub fn iterate(
     (out, x)
 }
 
+/// An admissible k for `H = I − F/k` computed without a spectrum:
+/// `max(max_i F_ii, g/2)` with g Gershgorin's bound on λ_max, so `k ≥ λ_max/2` and H's
+/// diagonal is nonnegative.
+pub fn gershgorin_k(f: &SparseMatrix) -> f64 {
+    let n = f.nrows();
+    let mut diag = vec![0.0f64; n];
+    let mut off = vec![0.0f64; n];
+    for j in 0..n {
+        for (&i, &v) in f.row_idx_of_col_raw(j).iter().zip(f.val_of_col(j)) {
+            if i == j {
+                diag[i] += v;
+            } else {
+                off[i] += v.abs();
+            }
+        }
+    }
+    (0..n)
+        .map(|i| diag[i].max(0.5 * (diag[i] + off[i])))
+        .fold(f64::MIN_POSITIVE, f64::max)
+}
+
 fn weighted_mean(x: &[[f64; 3]], w: impl Fn(usize) -> f64) -> [f64; 3] {
     let mut s = [0.0; 3];
     let mut total = 0.0;

@@ -1,0 +1,72 @@
+"""Shared helpers of the side-by-side benchmarks: build meshlap, pin threads, time."""
+import json
+import os
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+MESHES = ROOT.parent / "shared" / "data" / "meshes"
+THREADS = int(os.environ.get("BENCH_THREADS", "2"))
+
+# Same threads on both sides: our rayon pool and the peers' BLAS.
+os.environ["RAYON_NUM_THREADS"] = str(THREADS)
+for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[var] = str(THREADS)
+
+
+def build():
+    subprocess.run(["cargo", "build", "--release", "-q", "-p", "meshlap-cli"], cwd=ROOT, check=True)
+    return ROOT / "target" / "release"
+
+
+def meshlap(*args):
+    exe = build() / "meshlap"
+    return subprocess.run([str(exe), *map(str, args)], check=True, capture_output=True, text=True).stdout
+
+
+def meshlap_bench(*args):
+    exe = build() / "meshlap-bench"
+    out = subprocess.run([str(exe), *map(str, args)], check=True, capture_output=True, text=True).stdout
+    return json.loads(out)
+
+
+def timeit(fn, repeat=7):
+    times = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t)
+    return statistics.median(times)
+
+
+def limit_threads():
+    from threadpoolctl import threadpool_limits
+    return threadpool_limits(limits=THREADS)
+
+
+def load_vf(path):
+    """Vertices and faces exactly as meshlap cleans them (via a temporary OFF)."""
+    import numpy as np
+    import tempfile
+    with tempfile.TemporaryDirectory() as d:
+        off = Path(d) / "m.off"
+        meshlap("convert", path, off)
+        lines = [l for l in off.read_text().split("\n") if l.strip() and not l.startswith("#")]
+        nv, nf = map(int, lines[1].split()[:2])
+        V = np.array([list(map(float, l.split()[:3])) for l in lines[2:2 + nv]])
+        F = np.array([list(map(int, l.split()[1:4])) for l in lines[2 + nv:2 + nv + nf]], dtype=np.int64)
+    return V, F
+
+
+def table(rows, header):
+    widths = [max(len(str(r[i])) for r in rows + [header]) for i in range(len(header))]
+    line = "| " + " | ".join(h.ljust(w) for h, w in zip(header, widths)) + " |"
+    sep = "|" + "|".join("-" * (w + 2) for w in widths) + "|"
+    print(line)
+    print(sep)
+    for r in rows:
+        print("| " + " | ".join(str(c).ljust(w) for c, w in zip(r, widths)) + " |")
+    sys.stdout.flush()

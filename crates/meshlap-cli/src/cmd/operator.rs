@@ -1,0 +1,152 @@
+//! `meshlap operator`.
+
+use crate::common::{opt, print_json, MeshArgs};
+use meshlap::analysis::properties::{analyze, PropertyOptions, PropertyReport};
+use meshlap::operator::{cotan::MassKind, sql::BoundaryDiagonal, Operator, OperatorKind, OperatorOptions};
+use serde::Serialize;
+use std::path::PathBuf;
+
+/// Assemble a Laplacian operator and report its matrix-theoretic properties, each
+/// measured on the matrix: symmetry, negative weights, irreducibility, row and column
+/// sums, the smoothing matrix H = I − F/k (nonnegative, row- or doubly stochastic,
+/// variance diminishing), positive semi-definiteness, GSML status with the failing
+/// condition named, and the spectrum against its Gershgorin bounds.
+///
+/// Kinds: kirchhoff (kl), tutte (tl), graph (gl), sql, sstl, tutte2 (t2), sdl, cotan,
+/// mean-value (mv). Sign convention F = D − W (positive semi-definite).
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    #[command(flatten)]
+    pub mesh: MeshArgs,
+    /// Operator kind.
+    #[arg(long, short)]
+    pub kind: OperatorKind,
+    /// Write the matrix as Matrix Market (coordinate real general, 1-based), readable
+    /// by scipy.io.mmread, in the cleaned mesh's vertex order.
+    #[arg(long, short, value_name = "FILE.mtx")]
+    pub output: Option<PathBuf>,
+    /// Print machine-readable JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// SQL boundary diagonal: zero-row-sum (correct) or printed (the paper's erratum).
+    #[arg(long, default_value = "zero-row-sum", value_parser = ["zero-row-sum", "printed"])]
+    pub sql_diagonal: String,
+    /// Mass matrix of the cotangent operator: voronoi or barycentric.
+    #[arg(long, default_value = "voronoi", value_parser = ["voronoi", "barycentric"])]
+    pub mass: String,
+    /// Largest n for which the full spectrum is computed densely.
+    #[arg(long, default_value_t = 5000)]
+    pub dense_limit: usize,
+}
+
+#[derive(Serialize)]
+struct OperatorJson<'a> {
+    kind: OperatorKind,
+    source: &'a str,
+    #[serde(flatten)]
+    report: &'a PropertyReport,
+    /// For TL and GL: max |λ_TL − λ_GL| over the sorted spectra.
+    same_spectrum_max_difference: Option<f64>,
+}
+
+pub fn options(sql_diagonal: &str, mass: &str) -> OperatorOptions {
+    OperatorOptions {
+        sql_boundary: if sql_diagonal == "printed" {
+            BoundaryDiagonal::AsPrinted
+        } else {
+            BoundaryDiagonal::ZeroRowSum
+        },
+        mass: if mass == "barycentric" {
+            MassKind::Barycentric
+        } else {
+            MassKind::Voronoi
+        },
+    }
+}
+
+pub fn run(args: &Args) -> meshlap::Result<()> {
+    let input = args.mesh.open()?;
+    let opts = options(&args.sql_diagonal, &args.mass);
+    let op = Operator::assemble(args.kind, &input.mesh, &input.topology, &opts)?;
+    if let Some(path) = &args.output {
+        meshlap::io::write_matrix_market(path, op.matrix.as_ref())?;
+    }
+    let popts = PropertyOptions {
+        dense_limit: args.dense_limit,
+        ..Default::default()
+    };
+    let report = analyze(&op.matrix, &popts);
+    // TL and GL are similar: compare the spectra measured on both matrices.
+    let partner = match args.kind {
+        OperatorKind::Tutte => Some(OperatorKind::Graph),
+        OperatorKind::Graph => Some(OperatorKind::Tutte),
+        _ => None,
+    };
+    let same = match (partner, &report.eigenvalues) {
+        (Some(p), Some(ev)) => {
+            let other = Operator::assemble(p, &input.mesh, &input.topology, &opts)?;
+            analyze(&other.matrix, &popts).eigenvalues.map(|ov| {
+                ev.iter().zip(&ov).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max)
+            })
+        }
+        _ => None,
+    };
+    if args.json {
+        return print_json(&OperatorJson {
+            kind: args.kind,
+            source: &input.source,
+            report: &report,
+            same_spectrum_max_difference: same,
+        });
+    }
+    let r = &report;
+    println!("operator        {} on {}", args.kind, input.source);
+    println!("size            n = {}, nnz = {}", r.n, r.nnz);
+    println!("symmetric       {} (max |F − Fᵀ| = {:.3e})", r.symmetric, r.max_asymmetry);
+    match &r.most_negative_weight {
+        Some(w) => println!(
+            "weights         {} negative (most negative {:.6} on ({}, {}))",
+            r.negative_weights, w.weight, w.i, w.j
+        ),
+        None => println!("weights         all nonnegative"),
+    }
+    println!("irreducible     {} ({} pattern components)", r.irreducible, r.pattern_components);
+    println!("row sums        max |Σ_j F_ij| = {:.3e}", r.max_abs_row_sum);
+    println!("column sums     [{:.6}, {:.6}]", r.column_sum_min, r.column_sum_max);
+    let s = &r.smoothing;
+    println!(
+        "H = I − F/k     k = {:.6}: nonnegative {}, row-stochastic {}, doubly stochastic {}, variance diminishing {} (gain {})",
+        s.k, s.nonnegative, s.row_stochastic, s.doubly_stochastic, s.variance_diminishing,
+        opt(s.variance_gain)
+    );
+    println!("spectrum        {}", r.spectrum_method);
+    println!(
+        "eigenvalues     λ_min = {}, λ_max = {}, Gershgorin [{:.6}, {:.6}] holds: {}",
+        opt(r.lambda_min),
+        opt(r.lambda_max),
+        r.gershgorin_min,
+        r.gershgorin_max,
+        r.gershgorin_holds.map_or("n/a".into(), |b| b.to_string())
+    );
+    println!(
+        "zero eigenvalue multiplicity {} (components of the mesh: {})",
+        r.zero_eigenvalue_multiplicity.map_or("n/a".into(), |m| m.to_string()),
+        input.topology.components().1
+    );
+    println!(
+        "PSD             {}",
+        r.positive_semidefinite.map_or("n/a".into(), |b| b.to_string())
+    );
+    if let Some(d) = same {
+        println!("TL/GL spectra   max difference {d:.3e}");
+    }
+    if r.gsml.is_gsml {
+        println!("GSML            yes");
+    } else {
+        println!("GSML            no: fails {}", r.gsml.failing.join(", "));
+    }
+    if let Some(p) = &args.output {
+        println!("wrote           {}", p.display());
+    }
+    Ok(())
+}
