@@ -41,7 +41,9 @@ fn main() {
     let cli = Cli::parse();
     if let Some(t) = cli.threads {
         // A pool can only be built once; ignore a second attempt.
-        let _ = rayon::ThreadPoolBuilder::new().num_threads(t.max(1)).build_global();
+        let _ = rayon::ThreadPoolBuilder::new()
+            .num_threads(t.max(1))
+            .build_global();
     }
     let result = match &cli.command {
         Command::Info(a) => cmd::info::run(a),

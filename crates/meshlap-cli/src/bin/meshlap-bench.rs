@@ -48,7 +48,9 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     out.insert("threads".into(), rayon::current_num_threads().into());
     match task.as_str() {
         "load" => {
-            let (m, t) = time(repeat, || open(&mesh, &OpenOptions::default()).map(|i| i.mesh.n_faces()));
+            let (m, t) = time(repeat, || {
+                open(&mesh, &OpenOptions::default()).map(|i| i.mesh.n_faces())
+            });
             out.insert("load".into(), serde_json::json!({"median": m, "times": t}));
         }
         "operators" => {
@@ -56,14 +58,27 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             out.insert("vertices".into(), input.mesh.n_vertices().into());
             for kind in OperatorKind::ALL {
                 let (m, t) = time(repeat, || {
-                    Operator::assemble(kind, &input.mesh, &input.topology, &OperatorOptions::default())
-                        .map(|o| o.matrix.compute_nnz())
+                    Operator::assemble(
+                        kind,
+                        &input.mesh,
+                        &input.topology,
+                        &OperatorOptions::default(),
+                    )
+                    .map(|o| o.matrix.compute_nnz())
                 });
-                out.insert(kind.name().into(), serde_json::json!({"median": m, "times": t}));
+                out.insert(
+                    kind.name().into(),
+                    serde_json::json!({"median": m, "times": t}),
+                );
             }
             // Connectivity is shared by all operators; time it separately.
-            let (m, t) = time(repeat, || meshlap::mesh::topology::Topology::new(&input.mesh).map(|t| t.n_edges()));
-            out.insert("topology".into(), serde_json::json!({"median": m, "times": t}));
+            let (m, t) = time(repeat, || {
+                meshlap::mesh::topology::Topology::new(&input.mesh).map(|t| t.n_edges())
+            });
+            out.insert(
+                "topology".into(),
+                serde_json::json!({"median": m, "times": t}),
+            );
         }
         "io" => {
             // Write and re-read the (cleaned) mesh as binary PLY and as OBJ.

@@ -61,7 +61,9 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
     }
     println!(
         "dropped {} unreferenced vertices, {} degenerate faces, {} duplicate faces",
-        out.dropped_unreferenced_vertices, out.dropped_degenerate_faces, out.dropped_duplicate_faces
+        out.dropped_unreferenced_vertices,
+        out.dropped_degenerate_faces,
+        out.dropped_duplicate_faces
     );
     if let Some(s) = &out.split {
         println!(

@@ -29,7 +29,10 @@ struct InfoJson<'a> {
 pub fn run(args: &Args) -> meshlap::Result<()> {
     let input = args.mesh.open()?;
     let r = input.report();
-    let polys = input.read_info.as_ref().map_or(0, |i| i.polygons_triangulated);
+    let polys = input
+        .read_info
+        .as_ref()
+        .map_or(0, |i| i.polygons_triangulated);
     if args.json {
         return print_json(&InfoJson {
             source: &input.source,
@@ -42,7 +45,10 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
     println!("vertices        {}", r.vertices);
     println!("faces           {}", r.faces);
     println!("edges           {}", r.edges);
-    println!("boundary        {} edges in {} loops", r.boundary_edges, r.boundary_loops);
+    println!(
+        "boundary        {} edges in {} loops",
+        r.boundary_edges, r.boundary_loops
+    );
     println!("components      {}", r.components);
     println!("euler char.     {}", r.euler_characteristic);
     match r.genus {
@@ -64,11 +70,22 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
     println!("degree hist.    {}", hist.join(" "));
     println!(
         "bounding box    [{:.6}, {:.6}, {:.6}] – [{:.6}, {:.6}, {:.6}]  (diagonal {:.6})",
-        r.bbox_min[0], r.bbox_min[1], r.bbox_min[2], r.bbox_max[0], r.bbox_max[1], r.bbox_max[2],
+        r.bbox_min[0],
+        r.bbox_min[1],
+        r.bbox_min[2],
+        r.bbox_max[0],
+        r.bbox_max[1],
+        r.bbox_max[2],
         r.bbox_diagonal
     );
-    println!("non-manifold    {} edges, {} vertices", r.non_manifold_edges, r.non_manifold_vertices);
-    println!("orientation     {} inconsistently oriented edges", r.inconsistently_oriented_edges);
+    println!(
+        "non-manifold    {} edges, {} vertices",
+        r.non_manifold_edges, r.non_manifold_vertices
+    );
+    println!(
+        "orientation     {} inconsistently oriented edges",
+        r.inconsistently_oriented_edges
+    );
     println!("zero-area faces {}", r.zero_area_faces);
     println!(
         "dropped         {} unreferenced vertices, {} degenerate faces, {} duplicate faces",

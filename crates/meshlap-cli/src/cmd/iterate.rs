@@ -49,21 +49,41 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
     let op = Operator::assemble(args.kind, &input.mesh, &input.topology, &Default::default())?;
     let k = match args.k {
         Some(k) if k > 0.0 && k.is_finite() => k,
-        Some(k) => return Err(meshlap::Error::InvalidArgument(format!("--k must be positive, got {k}"))),
+        Some(k) => {
+            return Err(meshlap::Error::InvalidArgument(format!(
+                "--k must be positive, got {k}"
+            )))
+        }
         None => gershgorin_k(&op.matrix),
     };
-    let (steps, x) = iterate(&op.matrix, k, &input.mesh.positions, &input.topology.degrees(), args.steps);
+    let (steps, x) = iterate(
+        &op.matrix,
+        k,
+        &input.mesh.positions,
+        &input.topology.degrees(),
+        args.steps,
+    );
     if let Some(path) = &args.output {
         let mut m = input.mesh.clone();
         m.positions = x;
         write_mesh(path, &m, &WriteOptions::default())?;
     }
     if args.json {
-        return print_json(&IterateJson { kind: args.kind, k, steps: &steps });
+        return print_json(&IterateJson {
+            kind: args.kind,
+            k,
+            steps: &steps,
+        });
     }
     println!("H = I − F/k with F = {} and k = {k:.6}", args.kind);
-    println!("{:>6}  {:>14}  {:>14}  {:>14}", "step", "variance", "to centroid", "to weighted");
-    for s in steps.iter().filter(|s| s.step % args.every.max(1) == 0 || s.step == args.steps) {
+    println!(
+        "{:>6}  {:>14}  {:>14}  {:>14}",
+        "step", "variance", "to centroid", "to weighted"
+    );
+    for s in steps
+        .iter()
+        .filter(|s| s.step % args.every.max(1) == 0 || s.step == args.steps)
+    {
         println!(
             "{:>6}  {:>14.6e}  {:>14.6e}  {:>14.6e}",
             s.step, s.variance, s.distance_to_centroid, s.distance_to_weighted_centroid

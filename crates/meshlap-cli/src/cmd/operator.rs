@@ -2,7 +2,9 @@
 
 use crate::common::{opt, print_json, MeshArgs};
 use meshlap::analysis::properties::{analyze, PropertyOptions, PropertyReport};
-use meshlap::operator::{cotan::MassKind, sql::BoundaryDiagonal, Operator, OperatorKind, OperatorOptions};
+use meshlap::operator::{
+    cotan::MassKind, sql::BoundaryDiagonal, Operator, OperatorKind, OperatorOptions,
+};
 use serde::Serialize;
 use std::path::PathBuf;
 
@@ -86,7 +88,10 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         (Some(p), Some(ev)) => {
             let other = Operator::assemble(p, &input.mesh, &input.topology, &opts)?;
             analyze(&other.matrix, &popts).eigenvalues.map(|ov| {
-                ev.iter().zip(&ov).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max)
+                ev.iter()
+                    .zip(&ov)
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0, f64::max)
             })
         }
         _ => None,
@@ -102,7 +107,10 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
     let r = &report;
     println!("operator        {} on {}", args.kind, input.source);
     println!("size            n = {}, nnz = {}", r.n, r.nnz);
-    println!("symmetric       {} (max |F − Fᵀ| = {:.3e})", r.symmetric, r.max_asymmetry);
+    println!(
+        "symmetric       {} (max |F − Fᵀ| = {:.3e})",
+        r.symmetric, r.max_asymmetry
+    );
     match &r.most_negative_weight {
         Some(w) => println!(
             "weights         {} negative (most negative {:.6} on ({}, {}))",
@@ -110,9 +118,15 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         ),
         None => println!("weights         all nonnegative"),
     }
-    println!("irreducible     {} ({} pattern components)", r.irreducible, r.pattern_components);
+    println!(
+        "irreducible     {} ({} pattern components)",
+        r.irreducible, r.pattern_components
+    );
     println!("row sums        max |Σ_j F_ij| = {:.3e}", r.max_abs_row_sum);
-    println!("column sums     [{:.6}, {:.6}]", r.column_sum_min, r.column_sum_max);
+    println!(
+        "column sums     [{:.6}, {:.6}]",
+        r.column_sum_min, r.column_sum_max
+    );
     let s = &r.smoothing;
     println!(
         "H = I − F/k     k = {:.6}: nonnegative {}, row-stochastic {}, doubly stochastic {}, variance diminishing {} (gain {})",
@@ -130,12 +144,14 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
     );
     println!(
         "zero eigenvalue multiplicity {} (components of the mesh: {})",
-        r.zero_eigenvalue_multiplicity.map_or("n/a".into(), |m| m.to_string()),
+        r.zero_eigenvalue_multiplicity
+            .map_or("n/a".into(), |m| m.to_string()),
         input.topology.components().1
     );
     println!(
         "PSD             {}",
-        r.positive_semidefinite.map_or("n/a".into(), |b| b.to_string())
+        r.positive_semidefinite
+            .map_or("n/a".into(), |b| b.to_string())
     );
     if let Some(d) = same {
         println!("TL/GL spectra   max difference {d:.3e}");

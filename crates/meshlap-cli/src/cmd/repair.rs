@@ -40,7 +40,10 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         "negative SQL weights: {} before (most negative {:.6}), {} after",
         report.negative_before, report.min_weight_before, report.negative_after
     );
-    println!("flips: {} made, {} tried and rejected", report.flips, report.rejected);
+    println!(
+        "flips: {} made, {} tried and rejected",
+        report.flips, report.rejected
+    );
     for w in report.remaining.iter().take(10) {
         println!("  left: W({}, {}) = {:.6}", w.i, w.j, w.weight);
     }

@@ -10,7 +10,10 @@ pub fn data(name: &str) -> String {
 
 /// Large meshes read from `shared/data/meshes` beside the repository.
 pub fn shared(name: &str) -> String {
-    format!("{}/../../../shared/data/meshes/{name}", env!("CARGO_MANIFEST_DIR"))
+    format!(
+        "{}/../../../shared/data/meshes/{name}",
+        env!("CARGO_MANIFEST_DIR")
+    )
 }
 
 pub fn load(path: &str) -> Input {
@@ -32,7 +35,9 @@ pub fn manifold_meshes() -> Vec<(String, meshlap::TriMesh, meshlap::mesh::topolo
         let mesh = if input.topology.is_manifold() {
             input.mesh
         } else {
-            meshlap::mesh::clean::split_non_manifold(&input.mesh).unwrap().0
+            meshlap::mesh::clean::split_non_manifold(&input.mesh)
+                .unwrap()
+                .0
         };
         let topo = meshlap::mesh::topology::Topology::new(&mesh).unwrap();
         out.push((name.to_string(), mesh, topo));

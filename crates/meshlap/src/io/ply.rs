@@ -1,0 +1,663 @@
+//! Stanford PLY: `ascii`, `binary_little_endian` and `binary_big_endian`.
+//!
+//! - `vertex` element: `x`, `y`, `z` of any scalar type (`char`/`int8`, `uchar`/`uint8`,
+//!   `short`/`int16`, `ushort`/`uint16`, `int`/`int32`, `uint`/`uint32`,
+//!   `float`/`float32`, `double`/`float64`); other properties are skipped.
+//! - `face` element: a list property `vertex_indices` or `vertex_index` with any count
+//!   and index types; polygons are fan-triangulated.
+//! - `tristrips` element: a list `vertex_indices` of triangle strips, `-1` restarting a
+//!   strip; strip triangle `t` is `(s_t, s_{t+1}, s_{t+2})` for even `t` and
+//!   `(s_{t+1}, s_t, s_{t+2})` for odd `t` (alternating winding), and triangles with a
+//!   repeated vertex (used to join strips) are skipped and counted.
+//! - Any other element or property, lists included, is skipped in every encoding.
+//!
+//! Counts from the header are checked against the bytes that remain before anything
+//! is allocated.
+
+use super::text::{parse_err, show};
+use super::{IoError, ReadInfo, WriteOptions};
+use crate::mesh::TriMesh;
+use std::io::Write;
+
+#[derive(Copy, Clone, Debug, PartialEq)]
+enum Scalar {
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    F32,
+    F64,
+}
+
+impl Scalar {
+    fn parse(s: &[u8]) -> Option<Scalar> {
+        Some(match s {
+            b"char" | b"int8" => Scalar::I8,
+            b"uchar" | b"uint8" => Scalar::U8,
+            b"short" | b"int16" => Scalar::I16,
+            b"ushort" | b"uint16" => Scalar::U16,
+            b"int" | b"int32" => Scalar::I32,
+            b"uint" | b"uint32" => Scalar::U32,
+            b"float" | b"float32" => Scalar::F32,
+            b"double" | b"float64" => Scalar::F64,
+            _ => return None,
+        })
+    }
+    fn size(self) -> usize {
+        match self {
+            Scalar::I8 | Scalar::U8 => 1,
+            Scalar::I16 | Scalar::U16 => 2,
+            Scalar::I32 | Scalar::U32 | Scalar::F32 => 4,
+            Scalar::F64 => 8,
+        }
+    }
+    fn is_integer(self) -> bool {
+        !matches!(self, Scalar::F32 | Scalar::F64)
+    }
+}
+
+#[derive(Clone, Debug)]
+enum Kind {
+    Scalar(Scalar),
+    List { count: Scalar, item: Scalar },
+}
+
+#[derive(Clone, Debug)]
+struct Property {
+    name: Vec<u8>,
+    kind: Kind,
+}
+
+#[derive(Clone, Debug)]
+struct Element {
+    name: Vec<u8>,
+    count: usize,
+    props: Vec<Property>,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq)]
+enum Encoding {
+    Ascii,
+    Little,
+    Big,
+}
+
+struct Header {
+    encoding: Encoding,
+    elements: Vec<Element>,
+    data_start: usize,
+    data_line: usize,
+}
+
+fn parse_header(bytes: &[u8], file: &str) -> Result<Header, IoError> {
+    let err = |message: String| IoError::Header {
+        file: file.to_string(),
+        message,
+    };
+    let mut pos = 0usize;
+    let mut line_no = 0usize;
+    let mut encoding = None;
+    let mut elements: Vec<Element> = Vec::new();
+    loop {
+        let rest = &bytes[pos..];
+        let end = rest
+            .iter()
+            .position(|&b| b == b'\n')
+            .ok_or_else(|| err("no end_header".into()))?;
+        let line = rest[..end].strip_suffix(b"\r").unwrap_or(&rest[..end]);
+        pos += end + 1;
+        line_no += 1;
+        let mut t = super::text::tokens(line);
+        let Some(head) = t.next() else { continue };
+        if line_no == 1 {
+            if head != b"ply" {
+                return Err(err("the file does not start with `ply`".into()));
+            }
+            continue;
+        }
+        match head {
+            b"format" => {
+                encoding = Some(match t.next().unwrap_or(b"") {
+                    b"ascii" => Encoding::Ascii,
+                    b"binary_little_endian" => Encoding::Little,
+                    b"binary_big_endian" => Encoding::Big,
+                    other => {
+                        return Err(err(format!(
+                            "line {line_no}: unknown format \"{}\"",
+                            show(other)
+                        )))
+                    }
+                });
+            }
+            b"comment" | b"obj_info" => {}
+            b"element" => {
+                let name = t
+                    .next()
+                    .ok_or_else(|| err(format!("line {line_no}: element without a name")))?;
+                let count_tok = t.next().unwrap_or(b"");
+                let count = super::text::parse_usize(count_tok, file, line_no, "an element count")?;
+                elements.push(Element {
+                    name: name.to_vec(),
+                    count,
+                    props: Vec::new(),
+                });
+            }
+            b"property" => {
+                let el = elements
+                    .last_mut()
+                    .ok_or_else(|| err(format!("line {line_no}: property before any element")))?;
+                let ty = t.next().unwrap_or(b"");
+                let kind = if ty == b"list" {
+                    let c = t.next().unwrap_or(b"");
+                    let i = t.next().unwrap_or(b"");
+                    let count = Scalar::parse(c)
+                        .ok_or_else(|| parse_err(file, line_no, c, "a PLY scalar type"))?;
+                    let item = Scalar::parse(i)
+                        .ok_or_else(|| parse_err(file, line_no, i, "a PLY scalar type"))?;
+                    if !count.is_integer() {
+                        return Err(parse_err(file, line_no, c, "an integer list-count type"));
+                    }
+                    Kind::List { count, item }
+                } else {
+                    Kind::Scalar(
+                        Scalar::parse(ty)
+                            .ok_or_else(|| parse_err(file, line_no, ty, "a PLY scalar type"))?,
+                    )
+                };
+                let name = t
+                    .next()
+                    .ok_or_else(|| err(format!("line {line_no}: property without a name")))?;
+                el.props.push(Property {
+                    name: name.to_vec(),
+                    kind,
+                });
+            }
+            b"end_header" => break,
+            other => {
+                return Err(err(format!(
+                    "line {line_no}: unexpected \"{}\"",
+                    show(other)
+                )))
+            }
+        }
+    }
+    Ok(Header {
+        encoding: encoding.ok_or_else(|| err("no format line".into()))?,
+        elements,
+        data_start: pos,
+        data_line: line_no + 1,
+    })
+}
+
+/// Source of values: binary cursor or ASCII tokens.
+struct Reader<'a> {
+    data: &'a [u8],
+    pos: usize,
+    line: usize,
+    enc: Encoding,
+    file: &'a str,
+}
+
+impl<'a> Reader<'a> {
+    fn remaining(&self) -> usize {
+        self.data.len() - self.pos
+    }
+
+    fn truncated(&self, what: &str) -> IoError {
+        IoError::Truncated {
+            file: self.file.to_string(),
+            what: what.to_string(),
+        }
+    }
+
+    /// Line of the next ASCII token (skips whitespace; no-op for binary data).
+    fn line_of_next(&mut self) -> usize {
+        if self.enc == Encoding::Ascii {
+            let d = self.data;
+            while self.pos < d.len() && d[self.pos].is_ascii_whitespace() {
+                if d[self.pos] == b'\n' {
+                    self.line += 1;
+                }
+                self.pos += 1;
+            }
+        }
+        self.line
+    }
+
+    fn next_token(&mut self) -> Option<&'a [u8]> {
+        let d = self.data;
+        self.line_of_next();
+        let start = self.pos;
+        while self.pos < d.len() && !d[self.pos].is_ascii_whitespace() {
+            self.pos += 1;
+        }
+        (self.pos > start).then(|| &d[start..self.pos])
+    }
+
+    fn value(&mut self, s: Scalar, what: &str) -> Result<f64, IoError> {
+        if self.enc == Encoding::Ascii {
+            let line = self.line_of_next();
+            let tok = self.next_token().ok_or_else(|| self.truncated(what))?;
+            let v = std::str::from_utf8(tok)
+                .ok()
+                .and_then(|x| x.parse::<f64>().ok());
+            return match v {
+                Some(v) if !s.is_integer() || v.fract() == 0.0 => Ok(v),
+                _ => Err(parse_err(
+                    self.file,
+                    line,
+                    tok,
+                    if s.is_integer() {
+                        "an integer"
+                    } else {
+                        "a number"
+                    },
+                )),
+            };
+        }
+        let n = s.size();
+        if self.remaining() < n {
+            return Err(self.truncated(what));
+        }
+        let b = &self.data[self.pos..self.pos + n];
+        self.pos += n;
+        let le = self.enc == Encoding::Little;
+        macro_rules! num {
+            ($t:ty) => {{
+                let arr = b.try_into().unwrap_or([0; std::mem::size_of::<$t>()]);
+                (if le {
+                    <$t>::from_le_bytes(arr)
+                } else {
+                    <$t>::from_be_bytes(arr)
+                }) as f64
+            }};
+        }
+        Ok(match s {
+            Scalar::I8 => b[0] as i8 as f64,
+            Scalar::U8 => b[0] as f64,
+            Scalar::I16 => num!(i16),
+            Scalar::U16 => num!(u16),
+            Scalar::I32 => num!(i32),
+            Scalar::U32 => num!(u32),
+            Scalar::F32 => num!(f32),
+            Scalar::F64 => num!(f64),
+        })
+    }
+
+    /// Reads a list length and checks it against the remaining data.
+    fn list_len(&mut self, count: Scalar, item: Scalar, what: &str) -> Result<usize, IoError> {
+        let line = self.line_of_next();
+        let c = self.value(count, what)?;
+        if c < 0.0 {
+            return Err(parse_err(
+                self.file,
+                line,
+                c.to_string().as_bytes(),
+                "a list length",
+            ));
+        }
+        let c = c as usize;
+        // An ASCII item needs a digit and a separator (the last one may end the file).
+        let fits = if self.enc == Encoding::Ascii {
+            c.saturating_mul(2) <= self.remaining() + 1
+        } else {
+            c.saturating_mul(item.size()) <= self.remaining()
+        };
+        if !fits {
+            return Err(self.truncated(what));
+        }
+        Ok(c)
+    }
+
+    fn skip(&mut self, p: &Property, what: &str) -> Result<(), IoError> {
+        match p.kind {
+            Kind::Scalar(s) => {
+                self.value(s, what)?;
+            }
+            Kind::List { count, item } => {
+                let n = self.list_len(count, item, what)?;
+                if self.enc == Encoding::Ascii {
+                    for _ in 0..n {
+                        self.value(item, what)?;
+                    }
+                } else {
+                    self.pos += n * item.size();
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+fn min_element_bytes(el: &Element, enc: Encoding) -> usize {
+    el.props
+        .iter()
+        .map(|p| match (enc, &p.kind) {
+            (Encoding::Ascii, _) => 2,
+            (_, Kind::Scalar(s)) => s.size(),
+            (_, Kind::List { count, .. }) => count.size(),
+        })
+        .sum()
+}
+
+pub(crate) fn read(bytes: &[u8], file: &str, info: &mut ReadInfo) -> Result<TriMesh, IoError> {
+    let h = parse_header(bytes, file)?;
+    let mut r = Reader {
+        data: bytes,
+        pos: h.data_start,
+        line: h.data_line,
+        enc: h.encoding,
+        file,
+    };
+    let nv = h
+        .elements
+        .iter()
+        .find(|e| e.name == b"vertex")
+        .map_or(0, |e| e.count);
+    let mut positions: Vec<[f64; 3]> = Vec::new();
+    let mut faces: Vec<[u32; 3]> = Vec::new();
+    let mut poly: Vec<u32> = Vec::new();
+    for el in &h.elements {
+        let need = el.count.saturating_mul(min_element_bytes(el, h.encoding));
+        if need > r.remaining() {
+            return Err(IoError::Header {
+                file: file.to_string(),
+                message: format!(
+                    "element `{}` claims {} entries, at least {need} bytes, but only {} remain",
+                    show(&el.name),
+                    el.count,
+                    r.remaining()
+                ),
+            });
+        }
+        let what = format!("element `{}`", show(&el.name));
+        match el.name.as_slice() {
+            b"vertex" => {
+                let find = |n: &[u8]| el.props.iter().position(|p| p.name == n);
+                let idx = [find(b"x"), find(b"y"), find(b"z")];
+                if idx.iter().any(|i| i.is_none()) {
+                    return Err(IoError::Unsupported {
+                        file: file.to_string(),
+                        message: "vertex element without x, y and z".into(),
+                    });
+                }
+                positions.reserve(el.count);
+                for v in 0..el.count {
+                    let mut p = [0.0; 3];
+                    let line = r.line_of_next();
+                    for (k, prop) in el.props.iter().enumerate() {
+                        match (idx.iter().position(|&i| i == Some(k)), &prop.kind) {
+                            (Some(c), Kind::Scalar(s)) => p[c] = r.value(*s, &what)?,
+                            (Some(_), Kind::List { .. }) => {
+                                return Err(IoError::Unsupported {
+                                    file: file.to_string(),
+                                    message: "a list-valued coordinate".into(),
+                                })
+                            }
+                            (None, _) => r.skip(prop, &what)?,
+                        }
+                    }
+                    if !p.iter().all(|c| c.is_finite()) {
+                        return Err(IoError::NonFinite {
+                            file: file.to_string(),
+                            line: if h.encoding == Encoding::Ascii {
+                                line
+                            } else {
+                                0
+                            },
+                            vertex: v,
+                        });
+                    }
+                    positions.push(p);
+                }
+            }
+            b"face" | b"tristrips" => {
+                let strips = el.name == b"tristrips";
+                let li = el.props.iter().position(|p| {
+                    matches!(p.kind, Kind::List { .. })
+                        && (p.name == b"vertex_indices" || (!strips && p.name == b"vertex_index"))
+                });
+                let Some(li) = li else {
+                    return Err(IoError::Unsupported {
+                        file: file.to_string(),
+                        message: format!("{what} has no vertex_indices list"),
+                    });
+                };
+                if !strips {
+                    faces.reserve(el.count);
+                }
+                for _ in 0..el.count {
+                    for (k, prop) in el.props.iter().enumerate() {
+                        if k != li {
+                            r.skip(prop, &what)?;
+                            continue;
+                        }
+                        let Kind::List { count, item } = prop.kind else {
+                            continue;
+                        };
+                        let line = r.line_of_next();
+                        let n = r.list_len(count, item, &what)?;
+                        poly.clear();
+                        for _ in 0..n {
+                            let x = r.value(item, &what)?;
+                            if strips && x == -1.0 {
+                                poly.push(u32::MAX);
+                                continue;
+                            }
+                            if x < 0.0 || x >= nv as f64 {
+                                return Err(IoError::IndexOutOfRange {
+                                    file: file.to_string(),
+                                    line: if h.encoding == Encoding::Ascii {
+                                        line
+                                    } else {
+                                        0
+                                    },
+                                    index: x as i64,
+                                    vertices: nv,
+                                });
+                            }
+                            poly.push(x as u32);
+                        }
+                        if strips {
+                            strip_triangles(&poly, &mut faces, info);
+                        } else {
+                            if n < 3 {
+                                return Err(IoError::Unsupported {
+                                    file: file.to_string(),
+                                    message: format!("a face with {n} vertices"),
+                                });
+                            }
+                            if super::text::fan(&poly, &mut faces) {
+                                info.polygons_triangulated += 1;
+                            }
+                        }
+                    }
+                }
+            }
+            _ => {
+                for _ in 0..el.count {
+                    for prop in &el.props {
+                        r.skip(prop, &what)?;
+                    }
+                }
+            }
+        }
+    }
+    Ok(TriMesh::new(positions, faces))
+}
+
+/// Triangles of one `tristrips` list (`u32::MAX` marks a restart).
+fn strip_triangles(list: &[u32], faces: &mut Vec<[u32; 3]>, info: &mut ReadInfo) {
+    for strip in list.split(|&v| v == u32::MAX) {
+        for t in 0..strip.len().saturating_sub(2) {
+            let (a, b, c) = (strip[t], strip[t + 1], strip[t + 2]);
+            if a == b || b == c || a == c {
+                info.degenerate_strip_triangles_skipped += 1;
+                continue;
+            }
+            faces.push(if t % 2 == 0 { [a, b, c] } else { [b, a, c] });
+            info.triangles_from_strips += 1;
+        }
+    }
+}
+
+pub(crate) fn write(w: &mut dyn Write, mesh: &TriMesh, opts: &WriteOptions) -> std::io::Result<()> {
+    let ascii = opts.ply_ascii;
+    writeln!(w, "ply")?;
+    writeln!(
+        w,
+        "format {} 1.0",
+        if ascii {
+            "ascii"
+        } else {
+            "binary_little_endian"
+        }
+    )?;
+    writeln!(w, "comment written by meshlap")?;
+    writeln!(w, "element vertex {}", mesh.n_vertices())?;
+    for c in ["x", "y", "z"] {
+        writeln!(w, "property double {c}")?;
+    }
+    if let Some((name, _)) = opts.vertex_scalar {
+        writeln!(w, "property double {name}")?;
+    }
+    if opts.vertex_colors.is_some() {
+        for c in ["red", "green", "blue"] {
+            writeln!(w, "property uchar {c}")?;
+        }
+    }
+    writeln!(w, "element face {}", mesh.n_faces())?;
+    writeln!(w, "property list uchar int vertex_indices")?;
+    writeln!(w, "end_header")?;
+    for (v, p) in mesh.positions.iter().enumerate() {
+        let s = opts.vertex_scalar.map(|(_, s)| s[v]);
+        let c = opts.vertex_colors.map(|c| c[v]);
+        if ascii {
+            write!(w, "{:?} {:?} {:?}", p[0], p[1], p[2])?;
+            if let Some(s) = s {
+                write!(w, " {s:?}")?;
+            }
+            if let Some(c) = c {
+                write!(w, " {} {} {}", c[0], c[1], c[2])?;
+            }
+            writeln!(w)?;
+        } else {
+            for x in p {
+                w.write_all(&x.to_le_bytes())?;
+            }
+            if let Some(s) = s {
+                w.write_all(&s.to_le_bytes())?;
+            }
+            if let Some(c) = c {
+                w.write_all(&c)?;
+            }
+        }
+    }
+    for f in &mesh.faces {
+        if ascii {
+            writeln!(w, "3 {} {} {}", f[0], f[1], f[2])?;
+        } else {
+            w.write_all(&[3u8])?;
+            for &i in f {
+                w.write_all(&(i as i32).to_le_bytes())?;
+            }
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::Format;
+
+    fn parse(b: &[u8]) -> Result<(TriMesh, ReadInfo), IoError> {
+        let mut info = ReadInfo::new(Format::Ply);
+        read(b, "t.ply", &mut info).map(|m| (m, info))
+    }
+
+    #[test]
+    fn ascii_with_extra_elements_and_properties() {
+        let src = b"ply\nformat ascii 1.0\ncomment x\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nproperty list uchar int junk\nproperty uchar red\nelement face 1\nproperty uchar flags\nproperty list uchar int vertex_index\nelement edge 1\nproperty int a\nproperty int b\nend_header\n0 0 0 2 7 7 255\n1 0 0 0 0\n1 1 0 1 5 0\n0 1 0 0 0\n9 4 0 1 2 3\n0 1\n";
+        let (m, info) = parse(src).unwrap();
+        assert_eq!(m.n_vertices(), 4);
+        assert_eq!(m.faces, vec![[0, 1, 2], [0, 2, 3]]);
+        assert_eq!(info.polygons_triangulated, 1);
+    }
+
+    fn binary(big: bool, strips: &[i32]) -> Vec<u8> {
+        let mut b = format!(
+            "ply\nformat {} 1.0\nelement vertex 4\nproperty short x\nproperty double y\nproperty float z\nelement tristrips 1\nproperty list int int vertex_indices\nend_header\n",
+            if big { "binary_big_endian" } else { "binary_little_endian" }
+        )
+        .into_bytes();
+        for (x, y, z) in [
+            (0i16, 0.0f64, 0.0f32),
+            (1, 0.0, 0.0),
+            (0, 1.0, 0.0),
+            (1, 1.0, 0.5),
+        ] {
+            if big {
+                b.extend(x.to_be_bytes());
+                b.extend(y.to_be_bytes());
+                b.extend(z.to_be_bytes());
+            } else {
+                b.extend(x.to_le_bytes());
+                b.extend(y.to_le_bytes());
+                b.extend(z.to_le_bytes());
+            }
+        }
+        let n = strips.len() as i32;
+        let push = |b: &mut Vec<u8>, v: i32| {
+            if big {
+                b.extend(v.to_be_bytes())
+            } else {
+                b.extend(v.to_le_bytes())
+            }
+        };
+        push(&mut b, n);
+        for &s in strips {
+            push(&mut b, s);
+        }
+        b
+    }
+
+    #[test]
+    fn binary_tristrips_both_endiannesses() {
+        for big in [false, true] {
+            let (m, info) = parse(&binary(big, &[0, 1, 2, 3, -1, 0, 0, 1, 2])).unwrap();
+            assert_eq!(m.positions[3], [1.0, 1.0, 0.5]);
+            // strip 0 1 2 3: (0,1,2), (2,1,3); strip 0 0 1 2: (0,0,1) skipped, (0,1,2)... flipped
+            assert_eq!(m.faces, vec![[0, 1, 2], [2, 1, 3], [1, 0, 2]]);
+            assert_eq!(info.triangles_from_strips, 3);
+            assert_eq!(info.degenerate_strip_triangles_skipped, 1);
+        }
+    }
+
+    #[test]
+    fn hostile_and_truncated_input() {
+        let full = binary(false, &[0, 1, 2, 3]);
+        for cut in [full.len() - 1, full.len() - 9, 150] {
+            assert!(parse(&full[..cut]).is_err(), "cut {cut}");
+        }
+        let huge = b"ply\nformat binary_little_endian 1.0\nelement vertex 1000000000000\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
+        assert!(matches!(parse(huge), Err(IoError::Header { .. })));
+        // a list claiming 2^31 items
+        let mut b = binary(false, &[]);
+        let k = b.len() - 4;
+        b[k..].copy_from_slice(&i32::MAX.to_le_bytes());
+        assert!(matches!(parse(&b), Err(IoError::Truncated { .. })));
+        assert!(matches!(parse(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n3 0 1 2\n"), Err(IoError::IndexOutOfRange { line: 11, index: 1, .. })));
+        assert!(matches!(parse(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 zz\n"), Err(IoError::Parse { line: 8, .. })));
+        assert!(matches!(
+            parse(b"ply\nformat weird 1.0\nend_header\n"),
+            Err(IoError::Header { .. })
+        ));
+        assert!(matches!(
+            parse(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"),
+            Err(IoError::Header { .. })
+        ));
+    }
+}

@@ -1,0 +1,104 @@
+//! Line and token scanning shared by the text readers (no allocation per line).
+
+use super::IoError;
+
+/// Lines of `bytes` as `(1-based number, content without the line ending)`.
+pub(crate) fn lines(bytes: &[u8]) -> impl Iterator<Item = (usize, &[u8])> {
+    bytes
+        .split(|&b| b == b'\n')
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.strip_suffix(b"\r").unwrap_or(l)))
+}
+
+/// Whitespace-separated tokens of a line.
+pub(crate) fn tokens(line: &[u8]) -> impl Iterator<Item = &[u8]> {
+    line.split(|b| b.is_ascii_whitespace())
+        .filter(|t| !t.is_empty())
+}
+
+/// The token as text for an error message (at most 40 characters).
+pub(crate) fn show(tok: &[u8]) -> String {
+    let s = String::from_utf8_lossy(tok);
+    if s.chars().count() > 40 {
+        format!("{}…", s.chars().take(40).collect::<String>())
+    } else {
+        s.into_owned()
+    }
+}
+
+pub(crate) fn parse_err(file: &str, line: usize, tok: &[u8], what: &'static str) -> IoError {
+    IoError::Parse {
+        file: file.to_string(),
+        line,
+        token: show(tok),
+        what,
+    }
+}
+
+/// Parses a float token (NaN and infinities are accepted here and rejected by the
+/// caller with the vertex's index).
+pub(crate) fn parse_f64(
+    tok: &[u8],
+    file: &str,
+    line: usize,
+    what: &'static str,
+) -> Result<f64, IoError> {
+    std::str::from_utf8(tok)
+        .ok()
+        .and_then(|s| s.parse::<f64>().ok())
+        .ok_or_else(|| parse_err(file, line, tok, what))
+}
+
+/// Parses a signed integer token.
+pub(crate) fn parse_i64(
+    tok: &[u8],
+    file: &str,
+    line: usize,
+    what: &'static str,
+) -> Result<i64, IoError> {
+    std::str::from_utf8(tok)
+        .ok()
+        .and_then(|s| s.parse::<i64>().ok())
+        .ok_or_else(|| parse_err(file, line, tok, what))
+}
+
+/// Parses a non-negative count token.
+pub(crate) fn parse_usize(
+    tok: &[u8],
+    file: &str,
+    line: usize,
+    what: &'static str,
+) -> Result<usize, IoError> {
+    std::str::from_utf8(tok)
+        .ok()
+        .and_then(|s| s.parse::<usize>().ok())
+        .ok_or_else(|| parse_err(file, line, tok, what))
+}
+
+/// Fan-triangulates a polygon given as indices into `out`; returns whether it had more
+/// than three corners.
+pub(crate) fn fan(poly: &[u32], out: &mut Vec<[u32; 3]>) -> bool {
+    for k in 1..poly.len().saturating_sub(1) {
+        out.push([poly[0], poly[k], poly[k + 1]]);
+    }
+    poly.len() > 3
+}
+
+/// Checks that every position is finite; `line_of(v)` gives the line for the message.
+pub(crate) fn check_finite(
+    positions: &[[f64; 3]],
+    file: &str,
+    line_of: impl Fn(usize) -> usize,
+) -> Result<(), IoError> {
+    match positions
+        .iter()
+        .position(|p| !p.iter().all(|c| c.is_finite()))
+    {
+        Some(v) => Err(IoError::NonFinite {
+            file: file.to_string(),
+            line: line_of(v),
+            vertex: v,
+        }),
+        None => Ok(()),
+    }
+}
