@@ -1,0 +1,269 @@
+//! End-to-end tests of the `meshlap` binary.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn meshlap(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_meshlap"))
+        .args(args)
+        .output()
+        .expect("run meshlap")
+}
+
+fn data(name: &str) -> String {
+    format!("{}/../../tests/data/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+fn json(out: &Output) -> serde_json::Value {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("valid JSON")
+}
+
+/// Exit code 1 and exactly one line on stderr.
+fn assert_one_line_error(out: &Output, needle: &str) {
+    assert_eq!(out.status.code(), Some(1), "{out:?}");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.starts_with("meshlap: error: "), "{err}");
+    assert!(err.contains(needle), "{err} should mention {needle}");
+}
+
+fn dir_is_empty(p: &Path) -> bool {
+    std::fs::read_dir(p).unwrap().next().is_none()
+}
+
+#[test]
+fn info_json_has_the_documented_keys() {
+    let v = json(&meshlap(&["info", "builtin:grid:4", "--json"]));
+    for key in [
+        "vertices",
+        "faces",
+        "edges",
+        "boundary_edges",
+        "boundary_loops",
+        "components",
+        "euler_characteristic",
+        "non_manifold_edges",
+        "non_manifold_vertices",
+        "dropped_unreferenced_vertices",
+        "dropped_degenerate_faces",
+        "dropped_duplicate_faces",
+    ] {
+        assert!(v.get(key).is_some(), "missing {key}");
+    }
+    assert_eq!(v["vertices"], 25);
+    assert_eq!(v["boundary_loops"], 1);
+    assert_eq!(v["euler_characteristic"], 1);
+    let text = meshlap(&["info", &data("suzanne.obj")]);
+    assert!(String::from_utf8_lossy(&text.stdout).contains("468 polygons"));
+}
+
+#[test]
+fn bad_input_gives_one_line_and_exit_1() {
+    assert_one_line_error(
+        &meshlap(&["info", "/no/such/mesh.obj"]),
+        "/no/such/mesh.obj",
+    );
+    assert_one_line_error(&meshlap(&["info", "mesh.xyz"]), "unknown mesh format");
+    assert_one_line_error(&meshlap(&["info", "builtin:nope"]), "unknown built-in mesh");
+    assert_one_line_error(
+        &meshlap(&["info", &data("malformed/bad_coordinate.obj")]),
+        ":3: cannot parse \"1.0x\"",
+    );
+    assert_one_line_error(
+        &meshlap(&["operator", &data("beetle.obj"), "--kind", "sql"]),
+        "non-manifold",
+    );
+}
+
+#[test]
+fn usage_errors_exit_2() {
+    assert_eq!(meshlap(&[]).status.code(), Some(2));
+    assert_eq!(meshlap(&["info"]).status.code(), Some(2));
+    assert_eq!(
+        meshlap(&["operator", "builtin:cube:2", "--kind", "nope"])
+            .status
+            .code(),
+        Some(2)
+    );
+    assert_eq!(
+        meshlap(&["info", "builtin:cube:2", "--bogus"])
+            .status
+            .code(),
+        Some(2)
+    );
+}
+
+#[test]
+fn help_on_every_command() {
+    for cmd in [
+        "info",
+        "convert",
+        "clean",
+        "operator",
+        "iterate",
+        "repair-sql",
+    ] {
+        let out = meshlap(&[cmd, "--help"]);
+        assert!(out.status.success(), "{cmd}");
+        assert!(out.stdout.len() > 200, "{cmd} help too short");
+    }
+}
+
+#[test]
+fn failures_leave_no_output_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out.obj");
+    let o = meshlap(&[
+        "convert",
+        &data("malformed/truncated.ply"),
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(dir_is_empty(dir.path()));
+    let o = meshlap(&[
+        "convert",
+        "builtin:cube:2",
+        dir.path().join("out.xyz").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(dir_is_empty(dir.path()));
+    let o = meshlap(&[
+        "operator",
+        &data("beetle.obj"),
+        "--kind",
+        "sql",
+        "-o",
+        dir.path().join("s.mtx").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(dir_is_empty(dir.path()));
+}
+
+#[test]
+fn convert_and_clean_round_trip() {
+    let dir = tempfile::tempdir().unwrap();
+    let ply: PathBuf = dir.path().join("cow.ply");
+    assert!(
+        meshlap(&["convert", &data("cow.obj"), ply.to_str().unwrap()])
+            .status
+            .success()
+    );
+    let v = json(&meshlap(&["info", ply.to_str().unwrap(), "--json"]));
+    assert_eq!(
+        (v["vertices"].as_u64(), v["faces"].as_u64()),
+        (Some(2903), Some(5804))
+    );
+    let fixed = dir.path().join("beetle.obj");
+    let c = json(&meshlap(&[
+        "clean",
+        &data("beetle.obj"),
+        fixed.to_str().unwrap(),
+        "--split-nonmanifold",
+        "--json",
+    ]));
+    assert_eq!(c["non_manifold_edges"], 0);
+    assert_eq!(c["split"]["non_manifold_edges_before"], 47);
+    // the split beetle is accepted by the SQL
+    assert!(
+        meshlap(&["operator", fixed.to_str().unwrap(), "--kind", "sql"])
+            .status
+            .success()
+    );
+}
+
+#[test]
+fn operator_report_and_matrix_market() {
+    let dir = tempfile::tempdir().unwrap();
+    let mtx = dir.path().join("k.mtx");
+    let v = json(&meshlap(&[
+        "operator",
+        "builtin:icosahedron",
+        "--kind",
+        "kl",
+        "--json",
+        "-o",
+        mtx.to_str().unwrap(),
+    ]));
+    for key in [
+        "symmetric",
+        "negative_weights",
+        "max_abs_row_sum",
+        "gsml",
+        "lambda_min",
+        "lambda_max",
+        "gershgorin_max",
+    ] {
+        assert!(v.get(key).is_some(), "missing {key}");
+    }
+    assert_eq!(v["symmetric"], true);
+    assert_eq!(v["gsml"]["is_gsml"], true);
+    assert!((v["lambda_max"].as_f64().unwrap() - (5.0 + 5f64.sqrt())).abs() < 1e-9);
+    let text = std::fs::read_to_string(&mtx).unwrap();
+    assert!(text.starts_with("%%MatrixMarket matrix coordinate real general"));
+    assert!(text.contains("\n12 12 72\n"));
+    let gl = json(&meshlap(&[
+        "operator",
+        "builtin:cube:3",
+        "--kind",
+        "gl",
+        "--json",
+    ]));
+    assert_eq!(gl["gsml"]["is_gsml"], false);
+    assert_eq!(gl["gsml"]["failing"][0], "zero row sum");
+    assert!(gl["same_spectrum_max_difference"].as_f64().unwrap() < 1e-9);
+    let printed = json(&meshlap(&[
+        "operator",
+        &data("teapot.obj"),
+        "--kind",
+        "sql",
+        "--sql-diagonal",
+        "printed",
+        "--json",
+        "--dense-limit",
+        "0",
+    ]));
+    assert!((printed["max_abs_row_sum"].as_f64().unwrap() - 0.73).abs() < 0.01);
+}
+
+#[test]
+fn repair_and_iterate() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("cow.ply");
+    let r = json(&meshlap(&[
+        "repair-sql",
+        &data("cow.obj"),
+        "-o",
+        out.to_str().unwrap(),
+        "--json",
+    ]));
+    assert_eq!(r["negative_before"], 7);
+    assert_eq!(r["negative_after"], 0);
+    let s = json(&meshlap(&[
+        "operator",
+        out.to_str().unwrap(),
+        "--kind",
+        "sql",
+        "--json",
+        "--dense-limit",
+        "0",
+    ]));
+    assert_eq!(s["negative_weights"], 0);
+    let it = json(&meshlap(&[
+        "iterate",
+        "builtin:cube:3",
+        "--kind",
+        "tl",
+        "--steps",
+        "300",
+        "--json",
+    ]));
+    let steps = it["steps"].as_array().unwrap();
+    assert_eq!(steps.len(), 301);
+    let last = &steps[300];
+    assert!(last["distance_to_weighted_centroid"].as_f64().unwrap() < 1e-6);
+}
