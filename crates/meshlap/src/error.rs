@@ -18,6 +18,9 @@ pub enum Error {
     /// A linear solve failed.
     #[error(transparent)]
     Solve(#[from] crate::solve::SolveError),
+    /// A filter failed.
+    #[error(transparent)]
+    Filter(#[from] crate::filter::FilterError),
     /// A spectral computation failed.
     #[error(transparent)]
     Spectral(#[from] crate::spectral::SpectralError),

@@ -25,6 +25,7 @@
 
 pub mod analysis;
 pub mod error;
+pub mod filter;
 pub mod input;
 pub mod io;
 pub mod mesh;
