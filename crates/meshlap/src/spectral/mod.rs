@@ -27,7 +27,7 @@ pub enum SpectralError {
     #[error("the operator is empty or not square")]
     Empty,
     /// Too many vertices for a dense eigendecomposition.
-    #[error("n = {n} vertices exceeds the dense eigensolver's limit of {limit}; partition the mesh or ask for a partial spectrum")]
+    #[error("n = {n} vertices exceeds the dense eigensolver's limit of {limit}")]
     TooLarge {
         /// Vertices.
         n: usize,
