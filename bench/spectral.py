@@ -48,7 +48,7 @@ def write_off(path, V, F):
     with open(path, "w") as f:
         f.write(f"OFF\n{len(V)} {len(F)} 0\n")
         for v in V:
-            f.write(f"{v[0]!r} {v[1]!r} {v[2]!r}\n")
+            f.write(f"{float(v[0])!r} {float(v[1])!r} {float(v[2])!r}\n")
         for t in F:
             f.write(f"3 {t[0]} {t[1]} {t[2]}\n")
 
