@@ -150,8 +150,8 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         .filter(|c| c.0 < count)
         .map(|c| c.1.min(count - c.0))
         .collect();
-    let max_residual = basis.max_residual(&op.matrix, op.mass.as_deref());
-    let orthonormality_error = basis.orthonormality_error();
+    let max_residual = basis.max_residual_first(&op.matrix, op.mass.as_deref(), count);
+    let orthonormality_error = basis.orthonormality_error_first(count);
     if args.json {
         return print_json(&SpectrumJson {
             source: &input.source,

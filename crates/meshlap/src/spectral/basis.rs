@@ -394,12 +394,17 @@ impl EigenBasis {
     }
 
     /// `max_j ‖F e_j − λ_j e_j‖₂ / ‖e_j‖₂` for `F = M⁻¹f` (pass the matrix and mass
-    /// the basis was computed from).
+    /// the basis was computed from). O(nnz·k).
     pub fn max_residual(&self, f: &SparseMatrix, mass: Option<&[f64]>) -> f64 {
+        self.max_residual_first(f, mass, self.len())
+    }
+
+    /// [`Self::max_residual`] over the first `k` basis vectors only.
+    pub fn max_residual_first(&self, f: &SparseMatrix, mass: Option<&[f64]>, k: usize) -> f64 {
         let n = self.n();
         let mut worst = 0.0f64;
         let mut y = vec![0.0; n];
-        for j in 0..self.len() {
+        for j in 0..k.min(self.len()) {
             let e = self.vectors.col(j);
             y.iter_mut().for_each(|v| *v = 0.0);
             for c in 0..n {
@@ -428,10 +433,15 @@ impl EigenBasis {
     /// an exactly orthonormal basis in its inner product); `None` for the general
     /// path, whose basis is not orthogonal. O(n·k²).
     pub fn orthonormality_error(&self) -> Option<f64> {
+        self.orthonormality_error_first(self.len())
+    }
+
+    /// [`Self::orthonormality_error`] among the first `k` basis vectors only, O(n·k²).
+    pub fn orthonormality_error_first(&self, k: usize) -> Option<f64> {
         if self.path == EigenPath::General {
             return None;
         }
-        let mut b = self.vectors.clone();
+        let mut b = self.vectors.as_ref().subcols(0, k.min(self.len())).to_owned();
         for j in 0..b.ncols() {
             let g = self.coefficient_scale[j].sqrt();
             for i in 0..b.nrows() {
