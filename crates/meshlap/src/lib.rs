@@ -18,6 +18,7 @@
 //! - [`analysis`]: matrix-theoretic properties (symmetry, stochasticity, GSML status,
 //!   eigenvalue bounds), smoothing iterations and SQL negative-weight repair.
 //! - [`solve`]: CG, PCG, BiCG, BiCGSTAB and direct solvers for implicit fairing.
+//! - [`experiment`]: the paper's experiments as functions returning tables and charts.
 //! - [`plot`]: PNG line charts for the experiments.
 //! - [`render`]: software rendering of meshes to PNG (the paper's figures).
 //! - [`spectral`]: eigenvalue-decomposition (ED) transforms, partial spectra, partitioning.
@@ -27,6 +28,7 @@
 
 pub mod analysis;
 pub mod error;
+pub mod experiment;
 pub mod filter;
 pub mod input;
 pub mod io;
