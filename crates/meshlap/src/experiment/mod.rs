@@ -137,7 +137,7 @@ impl Table {
 pub fn sig(v: Option<f64>, digits: usize) -> String {
     match v {
         None => "n/a".into(),
-        Some(x) if x == 0.0 => "0".into(),
+        Some(0.0) => "0".into(),
         Some(x) if !x.is_finite() => format!("{x}"),
         Some(x) => {
             let a = x.abs();
