@@ -39,6 +39,7 @@ enum Command {
     Project(cmd::project::Args),
     Compaction(cmd::compaction::Args),
     Experiment(cmd::experiment::Args),
+    Render(cmd::render::Args),
 }
 
 fn main() {
@@ -60,6 +61,7 @@ fn main() {
         Command::Project(a) => cmd::project::run(a),
         Command::Compaction(a) => cmd::compaction::run(a),
         Command::Experiment(a) => cmd::experiment::run(a),
+        Command::Render(a) => cmd::render::run(a),
     };
     if let Err(e) = result {
         let msg = e.to_string().replace('\n', " ");

@@ -8,5 +8,6 @@ pub mod info;
 pub mod iterate;
 pub mod operator;
 pub mod project;
+pub mod render;
 pub mod repair;
 pub mod spectrum;
