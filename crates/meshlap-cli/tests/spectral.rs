@@ -212,7 +212,9 @@ fn experiment_eigen_cost_writes_its_tables() {
     ]));
     let cost = v["cost"].as_array().unwrap();
     assert_eq!(cost.len(), 2 * 6);
-    assert!(cost.iter().all(|r| r["eigen_seconds"].as_f64().unwrap() >= 0.0));
+    assert!(cost
+        .iter()
+        .all(|r| r["eigen_seconds"].as_f64().unwrap() >= 0.0));
     assert_eq!(v["compaction_order"].as_array().unwrap().len(), 4);
     for f in ["eigen_cost.md", "compaction.md", "eigen_cost.json"] {
         assert!(out.join(f).exists(), "{f}");

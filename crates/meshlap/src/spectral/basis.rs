@@ -441,7 +441,11 @@ impl EigenBasis {
         if self.path == EigenPath::General {
             return None;
         }
-        let mut b = self.vectors.as_ref().subcols(0, k.min(self.len())).to_owned();
+        let mut b = self
+            .vectors
+            .as_ref()
+            .subcols(0, k.min(self.len()))
+            .to_owned();
         for j in 0..b.ncols() {
             let g = self.coefficient_scale[j].sqrt();
             for i in 0..b.nrows() {
