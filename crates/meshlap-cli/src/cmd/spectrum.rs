@@ -178,13 +178,14 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
     );
     println!("{:>6}  {:>22}  {:>5}", "j", "eigenvalue", "mult");
     for &(start, k) in basis.clusters() {
-        for j in start..(start + k).min(count) {
+        let end = (start + k).min(count);
+        for (j, lam) in eigenvalues.iter().enumerate().take(end).skip(start) {
             let mult = if j == start {
                 k.to_string()
             } else {
                 String::new()
             };
-            println!("{:>6}  {:>22.15e}  {:>5}", j, eigenvalues[j], mult);
+            println!("{j:>6}  {lam:>22.15e}  {mult:>5}");
         }
     }
     Ok(())

@@ -120,7 +120,7 @@ pub fn cost(
     sizes: &[usize],
     repeat: usize,
     mut progress: impl FnMut(&str),
-) -> Result<(Vec<CostRow>, Table, Vec<(String, Chart)>), ExperimentError> {
+) -> Result<(Vec<CostRow>, Table, NamedCharts), ExperimentError> {
     let mut rows = Vec::new();
     for input in inputs {
         for &size in sizes {
@@ -300,21 +300,16 @@ pub struct CompactionRow {
 /// Per model, operators from best to worst mean efficiency.
 pub type CompactionOrder = Vec<(String, Vec<String>)>;
 
+/// Charts keyed by the mesh or model they show.
+pub type NamedCharts = Vec<(String, Chart)>;
+
 /// §4.9 energy compaction of the centred positions for every model and operator.
 /// Returns the rows, the order per model, a table and one chart per model (residual
 /// energy 1 − η(m), log scale, against m up to n/4).
 pub fn compaction(
     models: &[CompactionModel],
     mut progress: impl FnMut(&str),
-) -> Result<
-    (
-        Vec<CompactionRow>,
-        CompactionOrder,
-        Table,
-        Vec<(String, Chart)>,
-    ),
-    ExperimentError,
-> {
+) -> Result<(Vec<CompactionRow>, CompactionOrder, Table, NamedCharts), ExperimentError> {
     let mut rows = Vec::new();
     for model in models {
         let x = centre(positions_to_mat(&model.input.mesh.positions).as_ref());
