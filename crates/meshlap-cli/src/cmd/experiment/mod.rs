@@ -3,6 +3,7 @@
 
 pub mod claims;
 pub mod eigen_cost;
+pub mod figures;
 
 use clap::Subcommand;
 
@@ -18,11 +19,13 @@ pub struct Args {
 pub enum Experiment {
     Claims(claims::Args),
     EigenCost(eigen_cost::Args),
+    Figures(figures::Args),
 }
 
 pub fn run(args: &Args) -> meshlap::Result<()> {
     match &args.command {
         Experiment::Claims(a) => claims::run(a),
         Experiment::EigenCost(a) => eigen_cost::run(a),
+        Experiment::Figures(a) => figures::run(a),
     }
 }
