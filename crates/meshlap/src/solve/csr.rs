@@ -242,6 +242,17 @@ impl CsrMatrix {
         }
     }
 
+    /// `diag(s)·A` (row i scaled by `s[i]`).
+    pub fn scale_rows(&self, s: &[f64]) -> CsrMatrix {
+        let mut out = self.clone();
+        for i in 0..self.nrows {
+            for p in self.row_ptr[i]..self.row_ptr[i + 1] {
+                out.val[p] *= s[i];
+            }
+        }
+        out
+    }
+
     /// Linear combination `a·A + b·B` of two matrices of equal shape.
     pub fn add(&self, a: f64, other: &CsrMatrix, b: f64) -> CsrMatrix {
         let mut row_ptr = vec![0usize; self.nrows + 1];
