@@ -6,3 +6,4 @@ pub mod info;
 pub mod iterate;
 pub mod operator;
 pub mod repair;
+pub mod smooth;
