@@ -24,6 +24,9 @@ pub enum Error {
     /// A spectral computation failed.
     #[error(transparent)]
     Spectral(#[from] crate::spectral::SpectralError),
+    /// Rendering a chart failed.
+    #[error(transparent)]
+    Plot(#[from] crate::plot::PlotError),
     /// Writing an output file failed.
     #[error("cannot write {path}: {source}")]
     Write {

@@ -18,6 +18,7 @@
 //! - [`analysis`]: matrix-theoretic properties (symmetry, stochasticity, GSML status,
 //!   eigenvalue bounds), smoothing iterations and SQL negative-weight repair.
 //! - [`solve`]: CG, PCG, BiCG, BiCGSTAB and direct solvers for implicit fairing.
+//! - [`plot`]: PNG line charts for the experiments.
 //! - [`spectral`]: eigenvalue-decomposition (ED) transforms, partial spectra, partitioning.
 
 // Index loops over vertices read like the formulas they implement.
@@ -30,6 +31,7 @@ pub mod input;
 pub mod io;
 pub mod mesh;
 pub mod operator;
+pub mod plot;
 pub mod solve;
 pub mod spectral;
 
