@@ -36,6 +36,7 @@ enum Command {
     Iterate(cmd::iterate::Args),
     RepairSql(cmd::repair::Args),
     Smooth(cmd::smooth::Args),
+    Experiment(cmd::experiment::Args),
 }
 
 fn main() {
@@ -54,6 +55,7 @@ fn main() {
         Command::Iterate(a) => cmd::iterate::run(a),
         Command::RepairSql(a) => cmd::repair::run(a),
         Command::Smooth(a) => cmd::smooth::run(a),
+        Command::Experiment(a) => cmd::experiment::run(a),
     };
     if let Err(e) = result {
         let msg = e.to_string().replace('\n', " ");

@@ -7,3 +7,4 @@ pub mod iterate;
 pub mod operator;
 pub mod repair;
 pub mod smooth;
+pub mod experiment;
