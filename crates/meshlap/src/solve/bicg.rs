@@ -284,4 +284,64 @@ mod tests {
         );
         assert!(mb / mc < 3.0 && mc / mb < 3.0, "BiCG {mb} vs CG {mc}");
     }
+
+    fn diagonal(values: &[f64]) -> SparseOperator {
+        let trip: Vec<_> = values
+            .iter()
+            .enumerate()
+            .map(|(i, &v)| faer::sparse::Triplet::new(i, i, v))
+            .collect();
+        let n = values.len();
+        SparseOperator::new(
+            &crate::SparseMatrix::try_new_from_triplets(n, n, &trip).unwrap(),
+            true,
+        )
+    }
+
+    #[test]
+    fn plateau_is_detected_on_an_ill_conditioned_system_and_not_on_a_well_conditioned_one() {
+        // Eigenvalues spread over 1..1e6: the residual stalls for many iterations.
+        let n = 400;
+        let spread: Vec<f64> = (0..n)
+            .map(|i| 10f64.powf(6.0 * i as f64 / (n - 1) as f64))
+            .collect();
+        let p = Params {
+            stopping: Stopping::Strong,
+            tolerance: 1e-8,
+            ..Default::default()
+        };
+        let b = vec![1.0; n];
+        let mut x = vec![0.0; n];
+        let info = bicg(&diagonal(&spread), &b, &mut x, 1, &p, Preconditioner::None).unwrap();
+        let at = info.plateau_at[0].expect("a plateau on an ill-conditioned system");
+        let h = &info.history[0];
+        assert!(h[at] > 0.99 * h[at - p.plateau_window], "{at}: {h:?}");
+        // Eigenvalues in [1, 2]: steady convergence, no plateau.
+        let easy: Vec<f64> = (0..n).map(|i| 1.0 + i as f64 / n as f64).collect();
+        let mut x = vec![0.0; n];
+        let info = bicg(&diagonal(&easy), &b, &mut x, 1, &p, Preconditioner::None).unwrap();
+        assert_eq!(info.plateau_at, vec![None]);
+    }
+
+    #[test]
+    fn iteration_cap_is_no_convergence() {
+        let (m, tl, ..) = irregular(3);
+        let a = shifted_system(&tl, None, 100.0);
+        let op = SparseOperator::from_csr(a.clone(), Some(CsrMatrixT::of(&a)));
+        let b = flat(&m);
+        let mut x = vec![0.0; b.len()];
+        let p = Params {
+            max_iterations: 3,
+            stopping: Stopping::Strong,
+            tolerance: 1e-14,
+            ..Default::default()
+        };
+        match bicg(&op, &b, &mut x, 3, &p, Preconditioner::None) {
+            Err(SolveError::NoConvergence { info }) => {
+                assert_eq!(info.iterations, vec![3, 3, 3]);
+                assert!(info.residuals.iter().all(|&r| r > 1e-14));
+            }
+            other => panic!("{other:?}"),
+        }
+    }
 }
