@@ -208,16 +208,16 @@ fn solvers(
         });
         let info = last.expect("ran");
         let its = *info.iterations.iter().max().unwrap_or(&1);
-        // Memory traffic per iteration (bytes read + written), n×3 f64 blocks of 24n
-        // bytes: CG = one matrix pass + q = Ap (read p, write q) + x, r update (read
-        // x, r, p, q; write x, r) + p update (read r, p; write p) = matrix + 11 blocks.
-        // BiCG = two matrix passes (A and Aᵀ) + z, z̃ (read r, r̃; write z, z̃ — skipped
-        // without preconditioner: 0) + p, p̃ update (read z, z̃, p, p̃; write p, p̃) +
-        // products (read p, p̃; write q, q̃) + update x, r, r̃ (read x, p, r, q, r̃, q̃;
-        // write x, r, r̃) = 2 matrices + 6 + 4 + 9 = 2 matrices + 19 blocks.
+        // Memory traffic per iteration (bytes read + written) in n×3 f64 blocks of 24n
+        // bytes, for the passes the solvers make. CG: q = Ap fused with pᵀq (matrix,
+        // read p, write q: 2) + x, r update (read x, r, p, q; write x, r: 6) + p update
+        // (read r, p; write p: 3) = matrix + 11 blocks. BiCG: p, p̃ update (read r, r̃,
+        // p, p̃; write p, p̃: 6) + q = Ap fused with p̃ᵀq (matrix; read p, p̃; write q: 3)
+        // + q̃ = Aᵀp̃ (matrix; read p̃, write q̃: 2) + x, r, r̃ update (read x, p, r, q,
+        // r̃, q̃; write x, r, r̃: 9) = 2 matrices + 20 blocks.
         let block = 24.0 * n as f64;
         let traffic = if kind_bicg {
-            2.0 * a.bytes() as f64 + 19.0 * block
+            2.0 * a.bytes() as f64 + 20.0 * block
         } else {
             a.bytes() as f64 + 11.0 * block
         };
