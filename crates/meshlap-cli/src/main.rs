@@ -37,6 +37,7 @@ enum Command {
     RepairSql(cmd::repair::Args),
     Smooth(cmd::smooth::Args),
     Experiment(cmd::experiment::Args),
+    Render(cmd::render::Args),
 }
 
 fn main() {
@@ -56,6 +57,7 @@ fn main() {
         Command::RepairSql(a) => cmd::repair::run(a),
         Command::Smooth(a) => cmd::smooth::run(a),
         Command::Experiment(a) => cmd::experiment::run(a),
+        Command::Render(a) => cmd::render::run(a),
     };
     if let Err(e) = result {
         let msg = e.to_string().replace('\n', " ");

@@ -361,4 +361,40 @@ fn experiment_fairing_writes_tables_and_plots() {
     assert!(md.contains("| cow | 2903 |"), "{md}");
     let e = meshlap(&["experiment", "fairing", "builtin:icosphere:1", "--lambda", "0", "--out", d]);
     assert_one_line_error(&e, "--lambda");
+fn render_writes_a_png_and_refuses_bad_sizes_without_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("m.png");
+    let out = meshlap(&[
+        "render",
+        "builtin:torus:16:8",
+        "-o",
+        png.to_str().unwrap(),
+        "--width",
+        "120",
+        "--height",
+        "90",
+        "--azimuth",
+        "-30",
+        "--colour",
+        "degree",
+    ]);
+    assert!(out.status.success(), "{out:?}");
+    let bytes = std::fs::read(&png).unwrap();
+    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+    // IHDR width and height, big-endian
+    assert_eq!(u32::from_be_bytes(bytes[16..20].try_into().unwrap()), 120);
+    assert_eq!(u32::from_be_bytes(bytes[20..24].try_into().unwrap()), 90);
+
+    let empty = tempfile::tempdir().unwrap();
+    let bad = empty.path().join("bad.png");
+    let out = meshlap(&[
+        "render",
+        "builtin:tetrahedron",
+        "-o",
+        bad.to_str().unwrap(),
+        "--width",
+        "3",
+    ]);
+    assert_one_line_error(&out, "size");
+    assert!(dir_is_empty(empty.path()));
 }

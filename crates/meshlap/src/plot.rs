@@ -133,7 +133,8 @@ const PALETTE: [(u8, u8, u8); 10] = [
     (23, 190, 207),
 ];
 
-fn register_fonts() {
+/// Registers the embedded font under the family name `sans-serif` (idempotent).
+pub(crate) fn register_fonts() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         let bytes: &'static [u8] = epaint_default_fonts::UBUNTU_LIGHT;

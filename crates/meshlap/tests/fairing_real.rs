@@ -21,7 +21,9 @@ fn strong() -> Params {
 fn solve(f: &SparseMatrix, kind: SolverKind, b: &[f64], p: &Params) -> (Vec<f64>, usize) {
     let s = ImplicitSolver::new(f, 30.0, kind).unwrap_or_else(|e| panic!("{kind}: {e}"));
     let mut x = b.to_vec();
-    let info = s.solve(b, &mut x, p).unwrap_or_else(|e| panic!("{kind}: {e}"));
+    let info = s
+        .solve(b, &mut x, p)
+        .unwrap_or_else(|e| panic!("{kind}: {e}"));
     if !kind.is_direct() && p.stopping == Stopping::Strong {
         assert!(
             info.residuals.iter().all(|&r| r < 1e-9),

@@ -166,7 +166,10 @@ fn solvers(
             ("tl", bicg_tl.system_matrix()),
             ("tl_sym", cg_tl.system_matrix()),
         ] {
-            meshlap::io::write_matrix_market(&dir.join(format!("{name}.mtx")), m.to_csc().as_ref())?;
+            meshlap::io::write_matrix_market(
+                &dir.join(format!("{name}.mtx")),
+                m.to_csc().as_ref(),
+            )?;
         }
         let bm = faer::Mat::from_fn(n, 3, |i, c| b[3 * i + c]);
         meshlap::io::write_npy(&dir.join("b.npy"), bm.as_ref())?;

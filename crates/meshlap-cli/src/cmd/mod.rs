@@ -2,9 +2,10 @@
 
 pub mod clean;
 pub mod convert;
+pub mod experiment;
 pub mod info;
 pub mod iterate;
 pub mod operator;
+pub mod render;
 pub mod repair;
 pub mod smooth;
-pub mod experiment;

@@ -249,7 +249,12 @@ fn print_text(args: &Args, name: FilterName, solver: Option<SolverKind>, r: &Fil
                 .collect::<Vec<_>>()
                 .join(", ")
         );
-        if let Some(p) = r.solves.iter().flat_map(|i| i.plateau_at.iter().flatten()).min() {
+        if let Some(p) = r
+            .solves
+            .iter()
+            .flat_map(|i| i.plateau_at.iter().flatten())
+            .min()
+        {
             println!("BiCG plateau first seen at iteration {p}");
         }
         println!("solve time: {:.4} s", r.solve_seconds);

@@ -110,9 +110,7 @@ mod tests {
                 let gamma = evd.S()[idx];
                 // a different eigenvector in each column
                 let cols = [idx, (idx + 7) % n, (idx + 31) % n];
-                let mut x: Vec<f64> = (0..n)
-                    .flat_map(|i| cols.map(|c| evd.U()[(i, c)]))
-                    .collect();
+                let mut x: Vec<f64> = (0..n).flat_map(|i| cols.map(|c| evd.U()[(i, c)])).collect();
                 let x0 = x.clone();
                 butterworth(&f, &mut x, order, pb).unwrap();
                 for (c, &col) in cols.iter().enumerate() {

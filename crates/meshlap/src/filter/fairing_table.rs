@@ -143,21 +143,75 @@ pub struct PaperRow {
 
 /// The paper's Table 1 (seconds on its 2003 machine, [iterations]).
 pub const PAPER_TABLE1: [PaperRow; 7] = [
-    PaperRow { model: "cow", vertices: "3K", cg_30: (0.56, 15), cg_tl_30: (1.38, 37), bicg_30: (0.99, 15), cg_100: 24, bicg_100: 30 },
-    PaperRow { model: "horse", vertices: "20K", cg_30: (0.97, 15), cg_tl_30: (2.21, 34), bicg_30: (1.81, 15), cg_100: 28, bicg_100: 30 },
-    PaperRow { model: "cube", vertices: "25K", cg_30: (1.04, 12), cg_tl_30: (1.78, 21), bicg_30: (1.33, 9), cg_100: 17, bicg_100: 17 },
-    PaperRow { model: "bunny", vertices: "36K", cg_30: (1.67, 14), cg_tl_30: (3.66, 31), bicg_30: (3.75, 18), cg_100: 24, bicg_100: 28 },
-    PaperRow { model: "teeth", vertices: "116K", cg_30: (4.60, 12), cg_tl_30: (12.65, 31), bicg_30: (9.94, 14), cg_100: 21, bicg_100: 24 },
-    PaperRow { model: "igea", vertices: "134K", cg_30: (4.91, 11), cg_tl_30: (13.07, 29), bicg_30: (9.18, 12), cg_100: 16, bicg_100: 14 },
-    PaperRow { model: "isis", vertices: "187K", cg_30: (9.03, 15), cg_tl_30: (23.56, 33), bicg_30: (11.27, 10), cg_100: 22, bicg_100: 18 },
+    PaperRow {
+        model: "cow",
+        vertices: "3K",
+        cg_30: (0.56, 15),
+        cg_tl_30: (1.38, 37),
+        bicg_30: (0.99, 15),
+        cg_100: 24,
+        bicg_100: 30,
+    },
+    PaperRow {
+        model: "horse",
+        vertices: "20K",
+        cg_30: (0.97, 15),
+        cg_tl_30: (2.21, 34),
+        bicg_30: (1.81, 15),
+        cg_100: 28,
+        bicg_100: 30,
+    },
+    PaperRow {
+        model: "cube",
+        vertices: "25K",
+        cg_30: (1.04, 12),
+        cg_tl_30: (1.78, 21),
+        bicg_30: (1.33, 9),
+        cg_100: 17,
+        bicg_100: 17,
+    },
+    PaperRow {
+        model: "bunny",
+        vertices: "36K",
+        cg_30: (1.67, 14),
+        cg_tl_30: (3.66, 31),
+        bicg_30: (3.75, 18),
+        cg_100: 24,
+        bicg_100: 28,
+    },
+    PaperRow {
+        model: "teeth",
+        vertices: "116K",
+        cg_30: (4.60, 12),
+        cg_tl_30: (12.65, 31),
+        bicg_30: (9.94, 14),
+        cg_100: 21,
+        bicg_100: 24,
+    },
+    PaperRow {
+        model: "igea",
+        vertices: "134K",
+        cg_30: (4.91, 11),
+        cg_tl_30: (13.07, 29),
+        bicg_30: (9.18, 12),
+        cg_100: 16,
+        bicg_100: 14,
+    },
+    PaperRow {
+        model: "isis",
+        vertices: "187K",
+        cg_30: (9.03, 15),
+        cg_tl_30: (23.56, 33),
+        bicg_30: (11.27, 10),
+        cg_100: 22,
+        bicg_100: 18,
+    },
 ];
 
 /// The paper's row for a mesh name (matched on the name containing the model's).
 pub fn paper_row(name: &str) -> Option<PaperRow> {
     let lower = name.to_ascii_lowercase();
-    PAPER_TABLE1
-        .into_iter()
-        .find(|r| lower.contains(r.model))
+    PAPER_TABLE1.into_iter().find(|r| lower.contains(r.model))
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -466,7 +520,10 @@ pub fn convergence_chart(t: &FairingTable, lambda: f64) -> Chart {
         })
         .collect();
     Chart {
-        title: format!("{} (n = {}), λ = {lambda}: implicit fairing convergence", t.name, t.n),
+        title: format!(
+            "{} (n = {}), λ = {lambda}: implicit fairing convergence",
+            t.name, t.n
+        ),
         x_label: "iteration".into(),
         y_label: "relative residual ||Bx - b|| / ||b|| (max over x, y, z)".into(),
         y_scale: Scale::Log,

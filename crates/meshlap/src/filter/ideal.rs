@@ -47,7 +47,12 @@ pub fn ideal_lowpass(f: &SparseMatrix, x: &[f64], passband: f64) -> Result<Vec<f
     let evd = d
         .self_adjoint_eigen(faer::Side::Lower)
         .map_err(|e| FilterError::Spectrum(format!("eigendecomposition failed: {e:?}")))?;
-    let kept = evd.S().column_vector().iter().filter(|&&g| g <= passband).count();
+    let kept = evd
+        .S()
+        .column_vector()
+        .iter()
+        .filter(|&&g| g <= passband)
+        .count();
     // Eigenvalues come ascending: the kept ones are the first `kept` columns.
     let u = evd.U().subcols(0, kept);
     let xs = Mat::from_fn(n, 3, |i, c| r[i] * x[3 * i + c]);

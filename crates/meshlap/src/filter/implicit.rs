@@ -145,7 +145,9 @@ pub fn symmetrizer(f: &SparseMatrix) -> Option<Vec<f64>> {
         let c = count as f64 / sum;
         s.iter_mut().for_each(|v| *v *= c);
     }
-    if s.iter().all(|v| (v - v.round()).abs() <= 1e-9 * v.abs() && v.round() >= 1.0) {
+    if s.iter()
+        .all(|v| (v - v.round()).abs() <= 1e-9 * v.abs() && v.round() >= 1.0)
+    {
         s.iter_mut().for_each(|v| *v = v.round());
     }
     Some(s)
@@ -467,7 +469,9 @@ mod tests {
         let (_, t) = setup();
         let tl = tutte(&t).unwrap();
         for kind in [SolverKind::Cg, SolverKind::Pcg, SolverKind::Cholesky] {
-            let e = ImplicitSolver::new(&tl, 1.0, kind).err().expect("must fail");
+            let e = ImplicitSolver::new(&tl, 1.0, kind)
+                .err()
+                .expect("must fail");
             assert!(e.to_string().contains("symmetric"), "{e}");
         }
         assert!(ImplicitSolver::new(&tl, -1.0, SolverKind::Lu).is_err());

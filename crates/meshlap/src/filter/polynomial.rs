@@ -90,9 +90,7 @@ mod tests {
         let mu = taubin_mu(lambda, k_pb).unwrap();
         for idx in [0, 5, n / 2, n - 1] {
             let g = evd.S()[idx];
-            let u: Vec<f64> = (0..n)
-                .flat_map(|i| [evd.U()[(i, idx)], 0.0, 0.0])
-                .collect();
+            let u: Vec<f64> = (0..n).flat_map(|i| [evd.U()[(i, idx)], 0.0, 0.0]).collect();
             let mut x = u.clone();
             explicit(&a, &mut x, lambda, 4);
             let h = explicit_response(lambda, 4, g);
@@ -132,7 +130,11 @@ mod tests {
         let mu = taubin_mu(lambda, k_pb).unwrap();
         // Pass-band = where the response drops to 1/2; give Laplacian smoothing the
         // same one with the same number of operator applications.
-        let g_half = half_point(|g| taubin_response(lambda, mu, pairs, g), k_pb, 1.0 / lambda);
+        let g_half = half_point(
+            |g| taubin_response(lambda, mu, pairs, g),
+            k_pb,
+            1.0 / lambda,
+        );
         let steps = 2 * pairs;
         let lambda_l = (1.0 - 0.5f64.powf(1.0 / steps as f64)) / g_half;
         assert!((explicit_response(lambda_l, steps, g_half) - 0.5).abs() < 1e-9);

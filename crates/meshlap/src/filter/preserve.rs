@@ -82,8 +82,7 @@ pub fn rescale(input: &TriMesh, out: &mut [[f64; 3]], how: Preserve) {
         Preserve::BBox => {
             let after = TriMesh::new(out.to_vec(), vec![]);
             let (d0, d1) = (input.bbox_diagonal(), after.bbox_diagonal());
-            if let (Some((l0, h0)), Some((l1, h1))) = (input.bounding_box(), after.bounding_box())
-            {
+            if let (Some((l0, h0)), Some((l1, h1))) = (input.bounding_box(), after.bounding_box()) {
                 let s = if d1 > 0.0 { d0 / d1 } else { 1.0 };
                 for p in out.iter_mut() {
                     for k in 0..3 {
@@ -108,7 +107,11 @@ mod tests {
         let v = volume(&m.positions, &m.faces).abs();
         let bb = m.bounding_box().unwrap();
         let side = bb.1[0] - bb.0[0];
-        assert!((v - side * side * side).abs() < 1e-12, "{v} vs {}", side.powi(3));
+        assert!(
+            (v - side * side * side).abs() < 1e-12,
+            "{v} vs {}",
+            side.powi(3)
+        );
         let shrunk: Vec<[f64; 3]> = m
             .positions
             .iter()
