@@ -277,15 +277,32 @@ fn smooth_json_reports_iterations_per_column_and_writes_the_mesh() {
     for (args, direct) in [
         (vec!["--implicit", "-k", "sql", "--solver", "cg"], false),
         (vec!["--implicit", "-k", "tl", "--solver", "bicg"], false),
-        (vec!["--filter", "implicit", "-k", "tl", "--solver", "cg-sym", "--stop", "strong"], false),
+        (
+            vec![
+                "--filter", "implicit", "-k", "tl", "--solver", "cg-sym", "--stop", "strong",
+            ],
+            false,
+        ),
         (vec!["-k", "sql", "--solver", "cholesky"], true),
     ] {
-        let mut a = vec!["smooth", "builtin:icosphere:3", "-o", o, "--json", "--lambda", "10"];
+        let mut a = vec![
+            "smooth",
+            "builtin:icosphere:3",
+            "-o",
+            o,
+            "--json",
+            "--lambda",
+            "10",
+        ];
         a.extend(args.iter());
         let v = json(&meshlap(&a));
         let its = v["iterations"].as_array().unwrap();
         assert_eq!(its.len(), 3, "{args:?}");
-        assert_eq!(its.iter().all(|i| i.as_u64().unwrap() > 0), !direct, "{args:?}");
+        assert_eq!(
+            its.iter().all(|i| i.as_u64().unwrap() > 0),
+            !direct,
+            "{args:?}"
+        );
         assert_eq!(v["residuals"].as_array().unwrap().len(), 3);
         assert!(v["solve_seconds"].as_f64().unwrap() >= 0.0);
         // the sphere shrinks under implicit fairing
@@ -296,7 +313,14 @@ fn smooth_json_reports_iterations_per_column_and_writes_the_mesh() {
         vec!["--filter", "explicit"],
         vec!["--filter", "taubin", "--preserve", "volume"],
         vec!["--filter", "butterworth", "--passband", "0.2", "-k", "kl"],
-        vec!["--filter", "ideal", "--passband", "0.5", "--preserve", "bbox"],
+        vec![
+            "--filter",
+            "ideal",
+            "--passband",
+            "0.5",
+            "--preserve",
+            "bbox",
+        ],
     ] {
         let mut a = vec!["smooth", "builtin:icosphere:2", "-o", o, "--json"];
         a.extend(f.iter());
@@ -311,21 +335,64 @@ fn smooth_errors_are_one_line() {
     let out = dir.path().join("x.obj");
     let o = out.to_str().unwrap();
     // CG on the non-symmetric Tutte Laplacian would solve the wrong system
-    let e = meshlap(&["smooth", "builtin:icosphere:2", "-o", o, "-k", "tl", "--solver", "cg"]);
+    let e = meshlap(&[
+        "smooth",
+        "builtin:icosphere:2",
+        "-o",
+        o,
+        "-k",
+        "tl",
+        "--solver",
+        "cg",
+    ]);
     assert_one_line_error(&e, "symmetric");
-    let e = meshlap(&["smooth", "builtin:icosphere:2", "-o", o, "--filter", "butterworth"]);
+    let e = meshlap(&[
+        "smooth",
+        "builtin:icosphere:2",
+        "-o",
+        o,
+        "--filter",
+        "butterworth",
+    ]);
     assert_one_line_error(&e, "--passband");
     let e = meshlap(&["smooth", "builtin:icosphere:2", "-o", o, "--lambda=-3"]);
     assert_one_line_error(&e, "λ");
     let e = meshlap(&[
-        "smooth", "builtin:icosphere:2", "-o", o, "--filter", "ideal", "--passband", "1",
-        "--dense-limit", "10",
+        "smooth",
+        "builtin:icosphere:2",
+        "-o",
+        o,
+        "--filter",
+        "ideal",
+        "--passband",
+        "1",
+        "--dense-limit",
+        "10",
     ]);
     assert_one_line_error(&e, "limit");
-    let e = meshlap(&["smooth", "builtin:icosphere:2", "-o", o, "--max-iterations", "1", "--stop", "strong", "--tol", "1e-12"]);
+    let e = meshlap(&[
+        "smooth",
+        "builtin:icosphere:2",
+        "-o",
+        o,
+        "--max-iterations",
+        "1",
+        "--stop",
+        "strong",
+        "--tol",
+        "1e-12",
+    ]);
     assert_one_line_error(&e, "no convergence");
     assert!(dir_is_empty(dir.path()));
-    let e = meshlap(&["smooth", "builtin:icosphere:2", "-o", o, "--implicit", "--filter", "taubin"]);
+    let e = meshlap(&[
+        "smooth",
+        "builtin:icosphere:2",
+        "-o",
+        o,
+        "--implicit",
+        "--filter",
+        "taubin",
+    ]);
     assert_eq!(e.status.code(), Some(2));
 }
 
@@ -334,8 +401,17 @@ fn experiment_fairing_writes_tables_and_plots() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path().to_str().unwrap();
     let v = json(&meshlap(&[
-        "experiment", "fairing", "builtin:icosphere:3", &data("cow.obj"), "--lambda", "30",
-        "--repeat", "1", "--out", d, "--json",
+        "experiment",
+        "fairing",
+        "builtin:icosphere:3",
+        &data("cow.obj"),
+        "--lambda",
+        "30",
+        "--repeat",
+        "1",
+        "--out",
+        d,
+        "--json",
     ]));
     let tables = v["tables"].as_array().unwrap();
     assert_eq!(tables.len(), 2);
@@ -359,8 +435,19 @@ fn experiment_fairing_writes_tables_and_plots() {
     }
     let md = std::fs::read_to_string(dir.path().join("table1.md")).unwrap();
     assert!(md.contains("| cow | 2903 |"), "{md}");
-    let e = meshlap(&["experiment", "fairing", "builtin:icosphere:1", "--lambda", "0", "--out", d]);
+    let e = meshlap(&[
+        "experiment",
+        "fairing",
+        "builtin:icosphere:1",
+        "--lambda",
+        "0",
+        "--out",
+        d,
+    ]);
     assert_one_line_error(&e, "--lambda");
+}
+
+#[test]
 fn render_writes_a_png_and_refuses_bad_sizes_without_output() {
     let dir = tempfile::tempdir().unwrap();
     let png = dir.path().join("m.png");
