@@ -425,7 +425,8 @@ fn experiment_fairing_writes_tables_and_plots() {
         }
     }
     for f in [
-        "table1.md",
+        "table1-lambda30.md",
+        "table1-lambda30.csv",
         "table1.json",
         "convergence-icosphere-3-lambda30.png",
         "convergence-cow-lambda30.png",
@@ -433,8 +434,8 @@ fn experiment_fairing_writes_tables_and_plots() {
         let p = dir.path().join(f);
         assert!(std::fs::metadata(&p).unwrap().len() > 100, "{f}");
     }
-    let md = std::fs::read_to_string(dir.path().join("table1.md")).unwrap();
-    assert!(md.contains("| cow | 2903 |"), "{md}");
+    let md = std::fs::read_to_string(dir.path().join("table1-lambda30.md")).unwrap();
+    assert!(md.contains("| cow         | 2903 |"), "{md}");
     let e = meshlap(&[
         "experiment",
         "fairing",

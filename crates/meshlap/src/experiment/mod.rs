@@ -7,8 +7,10 @@
 //!   real meshes (Zhang 2004, §2.2–2.5 and §3), the SQL boundary-diagonal erratum, the
 //!   SQL negative-weight repair (§3.7), and the smoothing limits (§2.2: the TL converges
 //!   to the valence-weighted centroid, a doubly stochastic H to the centroid).
+//! - [`fairing`]: §4.10, Table 1 — CG on the SQL vs BiCG on the TL for implicit fairing.
 
 pub mod claims;
+pub mod fairing;
 
 use serde::Serialize;
 use std::path::{Path, PathBuf};

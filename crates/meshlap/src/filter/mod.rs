@@ -11,11 +11,10 @@
 //! | [`Filter::Butterworth`] | `1 / (1 + (γ/γ_PB)^{2s})` | [`butterworth`] | Zhang & Fiume 2003 |
 //! | [`Filter::Ideal`] | `[γ ≤ γ_PB]` through the dense ED transform | [`ideal`] | Zhang 2004 §2.6 |
 //!
-//! [`apply`] runs one of them on a mesh and rescales afterwards ([`preserve`]);
-//! [`fairing_table`] reproduces the paper's Table 1 (CG vs BiCG for implicit fairing).
+//! [`apply`] runs one of them on a mesh and rescales afterwards ([`preserve`]); the
+//! paper's Table 1 (CG vs BiCG for implicit fairing) is [`crate::experiment::fairing`].
 
 pub mod butterworth;
-pub mod fairing_table;
 pub mod ideal;
 pub mod implicit;
 pub mod polynomial;

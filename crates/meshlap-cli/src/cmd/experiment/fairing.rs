@@ -1,9 +1,8 @@
 //! `meshlap experiment fairing`.
 
 use crate::common::print_json;
-use meshlap::filter::fairing_table::{
-    convergence_chart, fairing_table, markdown, FairingOptions, FairingTable,
-};
+use meshlap::experiment::fairing::{fairing_table, write_outputs, FairingOptions};
+use meshlap::experiment::Outputs;
 use meshlap::input::{open, OpenOptions};
 use meshlap::solve::{Params, Stopping};
 use serde::Serialize;
@@ -17,8 +16,9 @@ use std::path::{Path, PathBuf};
 /// result's error against the direct (sparse Cholesky) solution — so BiCG stopping on
 /// a residual plateau shows — and the paper's own figures for its models.
 ///
-/// Writes DIR/table1.md, DIR/table1.json and one convergence plot per mesh and λ,
-/// DIR/convergence-MESH-lambdaL.png (relative residual per iteration). The SQL's
+/// Writes DIR/table1-lambdaL.md and .csv per λ, DIR/table1.json and one convergence
+/// plot per mesh and λ, DIR/convergence-MESH-lambdaL.png (relative residual per
+/// iteration). The SQL's
 /// negative weights are counted; --repair-sql removes them by edge swaps first (the
 /// CG (SQL) rows then run on the swapped connectivity); a solver failure (e.g. an
 /// indefinite SQL system) is reported in the table, not hidden.
@@ -51,13 +51,12 @@ pub struct Args {
 }
 
 #[derive(Serialize)]
-struct Output<'a> {
+struct Settings<'a> {
     lambdas: &'a [f64],
     stop: Stopping,
     tolerance: f64,
     threads: usize,
-    tables: &'a [FairingTable],
-    files: Vec<String>,
+    repeat: usize,
 }
 
 fn mesh_name(spec: &str) -> String {
@@ -92,16 +91,12 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         repeat: args.repeat.max(1),
         repair_sql: args.repair_sql,
     };
-    std::fs::create_dir_all(&args.out).map_err(|source| meshlap::Error::Write {
-        path: args.out.clone(),
-        source,
-    })?;
+    let mut out = Outputs::new(&args.out)?;
     let bar = indicatif::ProgressBar::new((args.meshes.len() * args.lambda.len() * 4) as u64);
     if !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
         bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
     }
     let mut tables = Vec::new();
-    let mut files = Vec::new();
     for spec in &args.meshes {
         let name = mesh_name(spec);
         bar.set_message(format!("{name}: loading"));
@@ -112,44 +107,53 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
                 bar.inc(1);
             }
         };
-        let t = fairing_table(&name, &input.mesh, &input.topology, &opts, &progress)?;
-        for &l in &args.lambda {
-            let path = args.out.join(format!("convergence-{name}-lambda{l}.png"));
-            convergence_chart(&t, l).write_png(&path)?;
-            files.push(path.display().to_string());
-        }
-        tables.push(t);
+        tables.push(fairing_table(
+            &name,
+            &input.mesh,
+            &input.topology,
+            &opts,
+            &progress,
+        )?);
     }
     bar.finish_and_clear();
-    let md = format!(
-        "Implicit fairing, Zhang 2004 Table 1 ({} criterion, ε = {}, {} threads)\n{}",
-        args.stop,
-        args.tol,
-        rayon::current_num_threads(),
-        markdown(&tables, &args.lambda)
-    );
-    let md_path = args.out.join("table1.md");
-    let json_path = args.out.join("table1.json");
-    files.push(md_path.display().to_string());
-    files.push(json_path.display().to_string());
-    let out = Output {
+    let settings = Settings {
         lambdas: &args.lambda,
         stop: stopping,
         tolerance: args.tol,
         threads: rayon::current_num_threads(),
-        tables: &tables,
-        files,
+        repeat: opts.repeat,
     };
-    let json = serde_json::to_string_pretty(&out)
-        .map_err(|e| bad(format!("cannot serialise the tables: {e}")))?;
-    meshlap::io::write_atomic(&md_path, |w| w.write_all(md.as_bytes()))?;
-    meshlap::io::write_atomic(&json_path, |w| w.write_all(json.as_bytes()))?;
+    let tabs = write_outputs(&mut out, &tables, &args.lambda, &settings)?;
     if args.json {
-        return print_json(&out);
+        #[derive(Serialize)]
+        struct Json<'a> {
+            #[serde(flatten)]
+            settings: Settings<'a>,
+            tables: &'a [meshlap::experiment::fairing::FairingTable],
+            files: Vec<String>,
+        }
+        return print_json(&Json {
+            settings,
+            tables: &tables,
+            files: out
+                .written()
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect(),
+        });
     }
-    print!("{md}");
-    for f in &out.files {
-        println!("wrote {f}");
+    println!(
+        "weak criterion: {}, ε = {}, {} threads, median of {} solves\n",
+        args.stop,
+        args.tol,
+        rayon::current_num_threads(),
+        opts.repeat
+    );
+    for t in &tabs {
+        println!("{}", t.to_markdown());
+    }
+    for f in out.written() {
+        println!("wrote {}", f.display());
     }
     Ok(())
 }

@@ -23,8 +23,9 @@
 //! the median of [`FairingOptions::repeat`] runs, each from the initial guess x⁰ = b.
 //! Operators use the sign `F = D − W`.
 
-use super::implicit::{symmetrizer, ImplicitSolver, SolverKind};
+use super::{sig, ExperimentError, Outputs, Table};
 use crate::analysis::repair::{repair_sql, RepairOptions};
+use crate::filter::implicit::{symmetrizer, ImplicitSolver, SolverKind};
 use crate::mesh::{topology::Topology, TriMesh};
 use crate::operator::{sql::sql, tutte::tutte};
 use crate::plot::{Chart, Scale, Series};
@@ -378,17 +379,13 @@ pub fn fairing_table(
     Ok(table)
 }
 
-fn cell(r: Option<&Run>, with_time: bool) -> String {
+fn cell(r: Option<&Run>) -> String {
     match r {
         None => "–".into(),
         Some(r) if r.failure.is_some() && r.iterations.is_empty() => "failed".into(),
         Some(r) => {
             let it = r.iterations.iter().max().copied().unwrap_or(0);
-            let mut s = if with_time {
-                format!("{:.4} [{it}]", r.seconds)
-            } else {
-                format!("[{it}]")
-            };
+            let mut s = format!("{:.4} [{it}]", r.seconds);
             if r.failure.is_some() {
                 s.push_str(" (no conv.)");
             }
@@ -397,104 +394,124 @@ fn cell(r: Option<&Run>, with_time: bool) -> String {
     }
 }
 
-fn err_cell(r: Option<&Run>) -> String {
-    match r.and_then(|r| r.error) {
-        Some(e) => format!("{e:.1e}"),
-        None => "–".into(),
-    }
-}
-
 fn find(t: &FairingTable, m: Method, l: f64) -> Option<&Run> {
     t.runs.iter().find(|r| r.method == m && r.lambda == l)
 }
 
-/// Markdown: our Table 1 (seconds [max iterations over the columns]) with each
-/// result's error against the direct solution, and the paper's figures beside it.
-pub fn markdown(tables: &[FairingTable], lambdas: &[f64]) -> String {
-    let mut out = String::new();
-    for &l in lambdas {
-        out.push_str(&format!(
-            "\n#### λ = {l}: seconds [iterations] and error vs the direct solution (max vertex distance / bbox diagonal)\n\n"
-        ));
-        out.push_str("| mesh | n | CG (SQL) | err | CG (TL) | err | BiCG (TL) | err | BiCG plateau at | paper CG | paper CG (TL) | paper BiCG |\n");
-        out.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
-        for t in tables {
-            let (cs, ct, bi) = (
-                find(t, Method::CgSql, l),
-                find(t, Method::CgTl, l),
-                find(t, Method::BicgTl, l),
-            );
-            let plateau = bi
-                .and_then(|r| r.plateau_at.iter().flatten().min().copied())
-                .map_or("none".to_string(), |p| p.to_string());
-            let paper = |f: &dyn Fn(&PaperRow) -> String| t.paper.as_ref().map_or("–".into(), f);
-            let (p1, p2, p3) = if l == 30.0 {
-                (
-                    paper(&|p| format!("{} [{}]", p.cg_30.0, p.cg_30.1)),
-                    paper(&|p| format!("{} [{}]", p.cg_tl_30.0, p.cg_tl_30.1)),
-                    paper(&|p| format!("{} [{}]", p.bicg_30.0, p.bicg_30.1)),
-                )
-            } else if l == 100.0 {
-                (
-                    paper(&|p| format!("[{}]", p.cg_100)),
-                    "–".into(),
-                    paper(&|p| format!("[{}]", p.bicg_100)),
-                )
-            } else {
-                ("–".into(), "–".into(), "–".into())
-            };
-            out.push_str(&format!(
-                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
-                t.name,
-                t.n,
-                cell(cs, true),
-                err_cell(cs),
-                cell(ct, true),
-                err_cell(ct),
-                cell(bi, true),
-                err_cell(bi),
-                plateau,
-                p1,
-                p2,
-                p3
-            ));
-        }
-    }
-    let notes: Vec<String> = tables
+/// One [`Table`] per λ: our seconds [max iterations over the columns] with each
+/// result's error against the direct solution, the first BiCG plateau and the paper's
+/// figures; notes list negative SQL weights and failures.
+pub fn tables(results: &[FairingTable], lambdas: &[f64]) -> Vec<Table> {
+    lambdas
         .iter()
-        .flat_map(|t| {
-            let mut v = vec![];
-            if t.sql_negative_weights > 0 {
-                v.push(match (t.sql_repair_flips, t.sql_negative_after_repair) {
-                    (Some(f), Some(a)) => format!(
-                        "{}: {} negative SQL weights, repaired by {f} edge swaps ({a} left)",
-                        t.name, t.sql_negative_weights
-                    ),
-                    _ => format!(
-                        "{}: {} negative SQL weights (not repaired)",
-                        t.name, t.sql_negative_weights
-                    ),
-                });
+        .map(|&l| {
+            let mut table = Table::new(
+                format!("Implicit fairing, λ = {l}: seconds [iterations]; err = max vertex distance to the direct solution / bbox diagonal"),
+                &[
+                    "mesh", "n", "CG (SQL)", "err", "CG (TL)", "err", "BiCG (TL)", "err",
+                    "BiCG plateau at", "paper CG", "paper CG (TL)", "paper BiCG",
+                ],
+            );
+            for t in results {
+                let (cs, ct, bi) = (
+                    find(t, Method::CgSql, l),
+                    find(t, Method::CgTl, l),
+                    find(t, Method::BicgTl, l),
+                );
+                let err = |r: Option<&Run>| sig(r.and_then(|r| r.error), 2);
+                let plateau = bi
+                    .and_then(|r| r.plateau_at.iter().flatten().min().copied())
+                    .map_or("none".to_string(), |p| p.to_string());
+                let paper = |f: &dyn Fn(&PaperRow) -> String| t.paper.as_ref().map_or("–".into(), f);
+                let (p1, p2, p3) = if l == 30.0 {
+                    (
+                        paper(&|p| format!("{} [{}]", p.cg_30.0, p.cg_30.1)),
+                        paper(&|p| format!("{} [{}]", p.cg_tl_30.0, p.cg_tl_30.1)),
+                        paper(&|p| format!("{} [{}]", p.bicg_30.0, p.bicg_30.1)),
+                    )
+                } else if l == 100.0 {
+                    (
+                        paper(&|p| format!("[{}]", p.cg_100)),
+                        "–".into(),
+                        paper(&|p| format!("[{}]", p.bicg_100)),
+                    )
+                } else {
+                    ("–".into(), "–".into(), "–".into())
+                };
+                table.push(vec![
+                    t.name.clone(),
+                    t.n.to_string(),
+                    cell(cs),
+                    err(cs),
+                    cell(ct),
+                    err(ct),
+                    cell(bi),
+                    err(bi),
+                    plateau,
+                    p1,
+                    p2,
+                    p3,
+                ]);
+                if t.sql_negative_weights > 0 {
+                    table.notes.push(match (t.sql_repair_flips, t.sql_negative_after_repair) {
+                        (Some(f), Some(a)) => format!(
+                            "{}: {} negative SQL weights, repaired by {f} edge swaps ({a} left)",
+                            t.name, t.sql_negative_weights
+                        ),
+                        _ => format!(
+                            "{}: {} negative SQL weights (not repaired)",
+                            t.name, t.sql_negative_weights
+                        ),
+                    });
+                }
+                for r in t.runs.iter().filter(|r| r.failure.is_some() && r.lambda == l) {
+                    table.notes.push(format!(
+                        "{} {}: {}",
+                        t.name,
+                        r.method.label(),
+                        r.failure.as_deref().unwrap_or("")
+                    ));
+                }
             }
-            for r in t.runs.iter().filter(|r| r.failure.is_some()) {
-                v.push(format!(
-                    "{} λ = {} {}: {}",
-                    t.name,
-                    r.lambda,
-                    r.method.label(),
-                    r.failure.as_deref().unwrap_or("")
-                ));
-            }
-            v
+            table
         })
-        .collect();
-    if !notes.is_empty() {
-        out.push('\n');
-        for n in notes {
-            out.push_str(&format!("- {n}\n"));
+        .collect()
+}
+
+/// Writes `table1-lambdaL.md`/`.csv` per λ, `table1.json` (`extra` and the results)
+/// and `convergence-MESH-lambdaL.png` per mesh and λ.
+pub fn write_outputs<T: Serialize>(
+    out: &mut Outputs,
+    results: &[FairingTable],
+    lambdas: &[f64],
+    extra: &T,
+) -> Result<Vec<Table>, ExperimentError> {
+    #[derive(Serialize)]
+    struct Json<'a, T: Serialize> {
+        #[serde(flatten)]
+        extra: &'a T,
+        tables: &'a [FairingTable],
+    }
+    let tabs = tables(results, lambdas);
+    for (t, l) in tabs.iter().zip(lambdas) {
+        out.table(&format!("table1-lambda{l}"), t)?;
+    }
+    for r in results {
+        for &l in lambdas {
+            out.chart(
+                &format!("convergence-{}-lambda{l}.png", r.name),
+                &convergence_chart(r, l),
+            )?;
         }
     }
-    out
+    out.json(
+        "table1.json",
+        &Json {
+            extra,
+            tables: results,
+        },
+    )?;
+    Ok(tabs)
 }
 
 /// Convergence chart of one mesh at one λ: relative residual per iteration of each
@@ -558,8 +575,13 @@ mod tests {
             assert!(e < 1e-3 && e > 0.0, "{:?}: {e}", r.method);
             assert_eq!(r.history.len(), 3);
         }
-        let md = markdown(&[tab.clone()], &[30.0]);
-        assert!(md.contains("| icosphere | 642 |"), "{md}");
+        let tabs = tables(std::slice::from_ref(&tab), &[30.0]);
+        assert_eq!(tabs.len(), 1);
+        assert_eq!(
+            tabs[0].rows[0][..2],
+            ["icosphere".to_string(), "642".to_string()]
+        );
+        assert_eq!(tabs[0].rows[0].len(), tabs[0].header.len());
         let chart = convergence_chart(&tab, 30.0);
         assert_eq!(chart.series.len(), 3);
         assert!(chart.render_rgb().is_ok());
