@@ -159,7 +159,7 @@ enum Prepared {
     CgSym { op: SparseOperator, s: Vec<f64> },
     Bicgstab(SparseMatrix),
     Cholesky(SparseOperator, CholeskySolver),
-    Lu(SparseOperator, LuSolver),
+    Lu(SparseOperator, Box<LuSolver>),
 }
 
 /// Reusable solver of `(I + λF) x = b` (see the module documentation).
@@ -266,7 +266,7 @@ impl ImplicitSolver {
                         l.refactor(&csc)?;
                         l
                     }
-                    _ => LuSolver::new(&csc)?,
+                    _ => Box::new(LuSolver::new(&csc)?),
                 };
                 Prepared::Lu(SparseOperator::from_csr(b, None), lu)
             }
