@@ -593,4 +593,24 @@ mod tests {
         assert_eq!(paper_row("Igea").unwrap().bicg_100, 14);
         assert!(paper_row("teapot").is_none());
     }
+
+    #[test]
+    fn repair_option_removes_the_cow_sql_negative_weights_first() {
+        let path = format!("{}/../../tests/data/cow.obj", env!("CARGO_MANIFEST_DIR"));
+        let input = crate::input::open(&path, &Default::default()).unwrap();
+        let opts = FairingOptions {
+            lambdas: vec![30.0],
+            repeat: 1,
+            repair_sql: true,
+            ..Default::default()
+        };
+        let tab = fairing_table("cow", &input.mesh, &input.topology, &opts, &|_| {}).unwrap();
+        assert_eq!(tab.sql_negative_weights, 7);
+        assert!(tab.sql_repair_flips.unwrap() > 0);
+        assert!(tab.sql_negative_after_repair.unwrap() < 7);
+        assert!(tab.runs.iter().all(|r| r.failure.is_none()));
+        assert_eq!(tab.paper.unwrap().cg_30, (0.56, 15));
+        let notes = &tables(&[tab], &[30.0])[0].notes;
+        assert!(notes[0].contains("repaired by"), "{notes:?}");
+    }
 }
