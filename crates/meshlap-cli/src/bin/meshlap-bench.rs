@@ -1,10 +1,12 @@
 //! `meshlap-bench TASK MESH [--repeat N]`: times library calls for the side-by-side
 //! scripts in `bench/` and prints JSON with the median and all timings (seconds).
 //! Tasks: `load` (read + clean + connectivity), `operators` (assemble each operator),
-//! `io` (write and re-read as PLY and OBJ), `solvers` (implicit-fairing solves of
-//! `(I + λS)`, `(I + λT)`, `(D + λK)` with CG/BiCG/Cholesky, a streaming-copy bandwidth
-//! measurement and the memory-traffic bound per iteration; `--export DIR` writes the
-//! matrices and right-hand side for the scipy side).
+//! `io` (write and re-read as PLY and OBJ), `spectrum` (dense eigenbases: KL and SQL
+//! by the symmetric solver, the TL through its GL similarity and by the general
+//! eigensolver plus LU), `solvers` (implicit-fairing solves of `(I + λS)`,
+//! `(I + λT)`, `(D + λK)` with CG/BiCG/Cholesky, a streaming-copy bandwidth measurement
+//! and the memory-traffic bound per iteration; `--lambda L`, and `--export DIR` writes
+//! the matrices and right-hand side for the scipy side).
 
 use meshlap::input::{open, OpenOptions};
 use meshlap::operator::{Operator, OperatorKind, OperatorOptions};
@@ -40,7 +42,7 @@ fn main() {
 
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let usage = "usage: meshlap-bench load|operators|io|solvers MESH [--repeat N] [--lambda L] [--export DIR]";
+    let usage = "usage: meshlap-bench load|operators|io|spectrum|solvers MESH [--repeat N] [--general] [--lambda L] [--export DIR]";
     let task = args.first().ok_or(usage)?.clone();
     let mesh = args.get(1).ok_or(usage)?.clone();
     let repeat = match args.iter().position(|a| a == "--repeat") {
@@ -115,6 +117,34 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                 .map(|p| args.get(p + 1).map(std::path::PathBuf::from).ok_or(usage))
                 .transpose()?;
             solvers(&mesh, lambda, repeat, export.as_deref(), &mut out)?;
+        }
+        "spectrum" => {
+            use meshlap::spectral::{BasisOptions, EigenBasis, EigenPath};
+            let input = open(&mesh, &OpenOptions::default())?;
+            out.insert("vertices".into(), input.mesh.n_vertices().into());
+            let general = args.iter().any(|a| a == "--general");
+            let mut cases = vec![
+                ("kirchhoff", OperatorKind::Kirchhoff, EigenPath::Auto),
+                ("sql", OperatorKind::Sql, EigenPath::Auto),
+                ("tutte", OperatorKind::Tutte, EigenPath::Auto),
+            ];
+            if general {
+                cases.push(("tutte-general", OperatorKind::Tutte, EigenPath::General));
+            }
+            for (name, kind, path) in cases {
+                let op = Operator::assemble(
+                    kind,
+                    &input.mesh,
+                    &input.topology,
+                    &OperatorOptions::default(),
+                )?;
+                let opts = BasisOptions {
+                    path,
+                    ..Default::default()
+                };
+                let (m, t) = time(repeat, || EigenBasis::compute(&op, &opts).map(|b| b.len()));
+                out.insert(name.into(), serde_json::json!({"median": m, "times": t}));
+            }
         }
         _ => return Err(usage.into()),
     }

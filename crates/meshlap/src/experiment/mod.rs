@@ -7,9 +7,12 @@
 //!   real meshes (Zhang 2004, §2.2–2.5 and §3), the SQL boundary-diagonal erratum, the
 //!   SQL negative-weight repair (§3.7), and the smoothing limits (§2.2: the TL converges
 //!   to the valence-weighted centroid, a doubly stochastic H to the centroid).
+//! - [`eigen_cost`]: §4.9 — the cost of the ED-transform per operator (Fig. 3) and the
+//!   energy compaction of SSTL, SQL, TL, KL on smooth and sharp models.
 //! - [`fairing`]: §4.10, Table 1 — CG on the SQL vs BiCG on the TL for implicit fairing.
 
 pub mod claims;
+pub mod eigen_cost;
 pub mod fairing;
 
 use serde::Serialize;

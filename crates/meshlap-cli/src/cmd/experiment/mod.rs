@@ -1,22 +1,28 @@
-//! `meshlap experiment VARIANT ...`: reproduce the paper's experiments, one file per
-//! variant.
+//! `meshlap experiment …`: reproductions of the paper's experiments, one file per
+//! experiment (siblings add their own variants here).
 
+pub mod eigen_cost;
 pub mod fairing;
 
-/// Reproduce an experiment of Zhang (2004): tables (Markdown and JSON) and plots (PNG).
+use clap::Subcommand;
+
+/// Reproduce the paper's experiments and write tables (Markdown, JSON) and plots.
 #[derive(clap::Args, Debug)]
 pub struct Args {
     #[command(subcommand)]
-    pub variant: Variant,
+    pub command: Experiment,
 }
 
-#[derive(clap::Subcommand, Debug)]
-pub enum Variant {
+/// The experiments.
+#[derive(Subcommand, Debug)]
+pub enum Experiment {
+    EigenCost(eigen_cost::Args),
     Fairing(fairing::Args),
 }
 
 pub fn run(args: &Args) -> meshlap::Result<()> {
-    match &args.variant {
-        Variant::Fairing(a) => fairing::run(a),
+    match &args.command {
+        Experiment::EigenCost(a) => eigen_cost::run(a),
+        Experiment::Fairing(a) => fairing::run(a),
     }
 }
