@@ -10,4 +10,5 @@ pub mod operator;
 pub mod project;
 pub mod render;
 pub mod repair;
+pub mod smooth;
 pub mod spectrum;
