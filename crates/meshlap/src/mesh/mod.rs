@@ -167,6 +167,14 @@ pub enum MeshError {
         /// Why not.
         reason: &'static str,
     },
+    /// More faces than the connectivity's 31-bit half-edge ids can address.
+    #[error("the mesh has {faces} faces; at most {max} are supported")]
+    TooManyFaces {
+        /// Faces in the mesh.
+        faces: usize,
+        /// The limit.
+        max: usize,
+    },
     /// Invalid parameters for a generated mesh.
     #[error("invalid built-in mesh: {0}")]
     Builtin(String),
