@@ -5,6 +5,7 @@
 
 pub mod builtin;
 pub mod clean;
+pub mod edit;
 pub mod topology;
 
 use std::fmt;
@@ -164,6 +165,14 @@ pub enum MeshError {
         a: u32,
         /// Second endpoint.
         b: u32,
+        /// Why not.
+        reason: &'static str,
+    },
+    /// A vertex split is not possible.
+    #[error("cannot split vertex {vertex}: {reason}")]
+    IllegalSplit {
+        /// The vertex.
+        vertex: u32,
         /// Why not.
         reason: &'static str,
     },
