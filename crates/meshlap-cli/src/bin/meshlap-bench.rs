@@ -1,7 +1,9 @@
 //! `meshlap-bench TASK MESH [--repeat N]`: times library calls for the side-by-side
 //! scripts in `bench/` and prints JSON with the median and all timings (seconds).
 //! Tasks: `load` (read + clean + connectivity), `operators` (assemble each operator),
-//! `io` (write and re-read as PLY and OBJ).
+//! `topology` (connectivity only), `io` (write and re-read as PLY and OBJ),
+//! `read` (parse a file only), `write MESH OUT` (write one file), `dump MESH DIR` (every
+//! operator as `DIR/KIND.mtx`, for entry-by-entry comparison with the peers).
 
 use meshlap::input::{open, OpenOptions};
 use meshlap::operator::{Operator, OperatorKind, OperatorOptions};
@@ -37,7 +39,8 @@ fn main() {
 
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let usage = "usage: meshlap-bench load|operators|io MESH [--repeat N]";
+    let usage = "usage: meshlap-bench load|operators|topology|io|read MESH [--repeat N] | \
+                 dump MESH DIR | write MESH OUT [--repeat N]";
     let task = args.first().ok_or(usage)?.clone();
     let mesh = args.get(1).ok_or(usage)?.clone();
     let repeat = match args.iter().position(|a| a == "--repeat") {
@@ -78,6 +81,61 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             out.insert(
                 "topology".into(),
                 serde_json::json!({"median": m, "times": t}),
+            );
+        }
+        "topology" => {
+            // Connectivity alone (read and cleaning excluded).
+            let input = open(&mesh, &OpenOptions::default())?;
+            out.insert("vertices".into(), input.mesh.n_vertices().into());
+            let (m, t) = time(repeat, || {
+                meshlap::mesh::topology::Topology::new(&input.mesh).map(|t| t.n_edges())
+            });
+            out.insert(
+                "topology".into(),
+                serde_json::json!({"median": m, "times": t}),
+            );
+        }
+        "dump" => {
+            // Every operator as Matrix Market, for the scripts to compare entries.
+            let dir = args.get(2).ok_or(usage)?;
+            let input = open(&mesh, &OpenOptions::default())?;
+            for kind in OperatorKind::ALL {
+                let op = Operator::assemble(
+                    kind,
+                    &input.mesh,
+                    &input.topology,
+                    &OperatorOptions::default(),
+                )?;
+                let path = std::path::Path::new(dir).join(format!("{}.mtx", kind.name()));
+                meshlap::io::write_matrix_market(&path, op.matrix.as_ref())?;
+            }
+            out.insert("vertices".into(), input.mesh.n_vertices().into());
+        }
+        "write" => {
+            // Write MESH (cleaned) to OUT (format from the extension); one process per
+            // format, so the peak memory measured outside is this step's alone.
+            let dest = std::path::PathBuf::from(args.get(2).ok_or(usage)?);
+            let input = open(&mesh, &OpenOptions::default())?;
+            let (w, _) = time(repeat, || {
+                meshlap::io::write_mesh(&dest, &input.mesh, &Default::default()).map(|_| ())
+            });
+            let bytes = std::fs::metadata(&dest)?.len() as f64;
+            out.insert("vertices".into(), input.mesh.n_vertices().into());
+            out.insert(
+                "write".into(),
+                serde_json::json!({"median": w, "bytes": bytes, "mb_s": bytes / w / 1e6}),
+            );
+        }
+        "read" => {
+            // Parse MESH (a file) into a mesh, without cleaning or connectivity.
+            let path = std::path::PathBuf::from(&mesh);
+            let bytes = std::fs::metadata(&path)?.len() as f64;
+            let (r, _) = time(repeat, || {
+                meshlap::io::read_mesh(&path, None).map(|l| l.mesh.n_faces())
+            });
+            out.insert(
+                "read".into(),
+                serde_json::json!({"median": r, "bytes": bytes, "mb_s": bytes / r / 1e6}),
             );
         }
         "io" => {
