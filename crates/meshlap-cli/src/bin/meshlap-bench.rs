@@ -39,7 +39,7 @@ fn main() {
 
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let usage = "usage: meshlap-bench load|operators|topology|io|read MESH [--repeat N] | \
+    let usage = "usage: meshlap-bench load|operators|topology|io|read MESH [--repeat N] [--kind K] | \
                  dump MESH DIR | write MESH OUT [--repeat N]";
     let task = args.first().ok_or(usage)?.clone();
     let mesh = args.get(1).ok_or(usage)?.clone();
@@ -59,7 +59,16 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         "operators" => {
             let input = open(&mesh, &OpenOptions::default())?;
             out.insert("vertices".into(), input.mesh.n_vertices().into());
+            // `--kind NAME` restricts the task to one operator (and skips topology),
+            // so that a script can interleave our timings with a peer's.
+            let only: Option<OperatorKind> = match args.iter().position(|a| a == "--kind") {
+                Some(p) => Some(args.get(p + 1).ok_or(usage)?.parse()?),
+                None => None,
+            };
             for kind in OperatorKind::ALL {
+                if only.is_some_and(|k| k != kind) {
+                    continue;
+                }
                 let (m, t) = time(repeat, || {
                     Operator::assemble(
                         kind,
@@ -73,6 +82,10 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                     kind.name().into(),
                     serde_json::json!({"median": m, "times": t}),
                 );
+            }
+            if only.is_some() {
+                println!("{}", serde_json::to_string(&out)?);
+                return Ok(());
             }
             // Connectivity is shared by all operators; time it separately.
             let (m, t) = time(repeat, || {

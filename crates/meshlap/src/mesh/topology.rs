@@ -276,9 +276,8 @@ impl Topology {
                     }
                     incident2 += c;
                 }
-                let (start, _) = self.fan_start(v as u32);
-                let swept = self.walk_fan(v as u32, start).count() as u32;
-                2 * swept == incident2
+                let (_, _, swept) = self.fan_sweep(v as u32);
+                2 * swept as u32 == incident2
             })
             .collect()
     }
@@ -326,26 +325,42 @@ impl Topology {
     }
 
     /// A half-edge at `v` from which [`Self::walk_fan`] sweeps `v`'s whole fan when
-    /// `v` is manifold (an end of the fan on the boundary), and whether the fan is
-    /// closed.
-    fn fan_start(&self, v: u32) -> (u32, bool) {
+    /// `v` is manifold (an end of the fan on the boundary), whether the fan is closed,
+    /// and the number of faces that walk sweeps. One walk suffices unless the walk from
+    /// `vertex_out` (a boundary half-edge when `v` has an outgoing one) stops at a
+    /// boundary midway, which needs inconsistent orientation.
+    fn fan_sweep(&self, v: u32) -> (u32, bool, usize) {
         let h = self.vertex_out[v as usize];
-        if self.twin[h as usize] == INVALID {
-            return (h, false); // at a boundary end already
-        }
-        let mut last = h;
-        let mut closed = true;
-        for e in self.walk_fan(v, h) {
-            last = e;
-            if self.twin[e as usize] == INVALID {
-                closed = false;
+        if self.inconsistent_edges == 0 {
+            // Consistent orientation: rotate by twin(prev(·)) from the outgoing
+            // (boundary, if any) half-edge, touching only `twin`.
+            let (mut cur, mut count) = (h, 0usize);
+            let limit = self.faces.len() + 1;
+            loop {
+                count += 1;
+                let t = self.twin[self.prev(cur) as usize];
+                if t == INVALID || count > limit {
+                    return (h, false, count);
+                }
+                if t == h {
+                    return (h, true, count);
+                }
+                cur = t;
             }
         }
-        if closed {
-            (h, true)
-        } else {
-            (last, false)
+        let mut count = 0usize;
+        let mut last = h;
+        for e in self.walk_fan(v, h) {
+            last = e;
+            count += 1;
         }
+        if self.twin[h as usize] == INVALID {
+            return (h, false, count); // started at a boundary end
+        }
+        if self.twin[last as usize] != INVALID {
+            return (h, true, count); // came back to the start face
+        }
+        (last, false, self.walk_fan(v, last).count())
     }
 
     /// Number of vertices.
@@ -497,7 +512,7 @@ impl Topology {
         if !self.vertex_manifold[v.idx()] || self.vertex_out[v.idx()] == INVALID {
             return None;
         }
-        let (start, closed) = self.fan_start(v.0);
+        let (start, closed, _) = self.fan_sweep(v.0);
         let mut ring: Vec<u32> = Vec::with_capacity(self.degree(v));
         ring.push(self.across(start, v.0));
         ring.extend(self.walk_fan(v.0, start).map(|e| self.across(e, v.0)));
