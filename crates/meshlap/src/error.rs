@@ -24,6 +24,15 @@ pub enum Error {
     /// A spectral computation failed.
     #[error(transparent)]
     Spectral(#[from] crate::spectral::SpectralError),
+    /// Rendering a chart failed.
+    #[error(transparent)]
+    Plot(#[from] crate::plot::PlotError),
+    /// Rendering a mesh picture failed.
+    #[error(transparent)]
+    Render(#[from] crate::render::RenderError),
+    /// An experiment failed.
+    #[error(transparent)]
+    Experiment(#[from] crate::experiment::ExperimentError),
     /// Writing an output file failed.
     #[error("cannot write {path}: {source}")]
     Write {
