@@ -271,15 +271,15 @@ fn ply_with_scalar_and_colours() {
         );
         assert_eq!(read_mesh(&p, None).unwrap().mesh, m);
         // The values themselves, vertex by vertex: x y z quality red green blue.
-        let body_at = text
-            .windows(11)
-            .position(|w| w == b"end_header\n")
-            .unwrap()
-            + 11;
+        let body_at = text.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
         let body = &text[body_at..];
         for v in 0..6 {
             let (q, rgb) = if ascii {
-                let line = String::from_utf8_lossy(body).lines().nth(v).unwrap().to_string();
+                let line = String::from_utf8_lossy(body)
+                    .lines()
+                    .nth(v)
+                    .unwrap()
+                    .to_string();
                 let t: Vec<&str> = line.split_whitespace().collect();
                 assert_eq!(t.len(), 7, "{line}");
                 let rgb: Vec<u8> = t[4..].iter().map(|x| x.parse().unwrap()).collect();

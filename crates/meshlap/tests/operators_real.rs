@@ -156,7 +156,10 @@ fn vertex_split_finishes_what_constrained_swapping_leaves_on_the_cow() {
     let (fixed, both) = repair_sql(&input.mesh, &opts(RepairMethod::SwapSplit)).unwrap();
     assert_eq!(both.negative_after, 0, "{both:?}");
     assert!(both.splits > 0);
-    assert_eq!(fixed.n_vertices(), input.mesh.n_vertices() + both.vertices_added);
+    assert_eq!(
+        fixed.n_vertices(),
+        input.mesh.n_vertices() + both.vertices_added
+    );
     let t = meshlap::mesh::topology::Topology::new(&fixed).unwrap();
     assert_eq!(t.non_manifold_edges().count(), 0);
     assert_eq!(t.inconsistently_oriented_edges(), 0);

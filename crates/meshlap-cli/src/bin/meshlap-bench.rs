@@ -39,7 +39,8 @@ fn main() {
 
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let usage = "usage: meshlap-bench load|operators|topology|io|read MESH [--repeat N] [--kind K] | \
+    let usage =
+        "usage: meshlap-bench load|operators|topology|io|read MESH [--repeat N] [--kind K] | \
                  dump MESH DIR | write MESH OUT [--repeat N]";
     let task = args.first().ok_or(usage)?.clone();
     let mesh = args.get(1).ok_or(usage)?.clone();

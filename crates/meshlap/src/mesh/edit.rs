@@ -252,7 +252,10 @@ impl EditMesh {
     }
     fn edit_vertex_faces(&mut self, v: u32, f: impl FnOnce(&mut Vec<u32>)) {
         if self.journal.is_some() {
-            self.log(Change::VertexFaces(v, self.vertex_faces[v as usize].clone()));
+            self.log(Change::VertexFaces(
+                v,
+                self.vertex_faces[v as usize].clone(),
+            ));
         }
         f(&mut self.vertex_faces[v as usize]);
     }
@@ -582,14 +585,18 @@ mod tests {
     #[test]
     fn interior_split_keeps_a_manifold_and_the_euler_characteristic() {
         let mut m = EditMesh::new(&builtin::icosphere(1).unwrap()).unwrap();
-        let v = (0..m.n_vertices() as u32).find(|&v| m.degree(v) == 6).unwrap();
+        let v = (0..m.n_vertices() as u32)
+            .find(|&v| m.degree(v) == 6)
+            .unwrap();
         let fan = m.fan(v).unwrap();
         assert!(fan.closed && fan.ring.len() == 6);
         let (a, b) = (fan.ring[1], fan.ring[4]);
         let (da, db) = (m.degree(a), m.degree(b));
         let chi = euler(&m);
         let p = m.positions()[v as usize];
-        let w = m.split_vertex(v, 1, 4, p, [p[0] * 1.01, p[1], p[2]]).unwrap();
+        let w = m
+            .split_vertex(v, 1, 4, p, [p[0] * 1.01, p[1], p[2]])
+            .unwrap();
         assert_eq!(w as usize, m.n_vertices() - 1);
         assert_consistent(&m);
         assert_eq!(euler(&m), chi);

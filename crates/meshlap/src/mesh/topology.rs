@@ -173,7 +173,9 @@ impl Topology {
         let he_of = |x: u64| (x & HALF_EDGE) as u32;
         let mut twin = vec![INVALID; nh];
         let mut he_edge = vec![0u32; nh];
-        let span = nh.div_ceil(rayon::current_num_threads().max(1)).max(1 << 16);
+        let span = nh
+            .div_ceil(rayon::current_num_threads().max(1))
+            .max(1 << 16);
         twin.par_chunks_mut(span)
             .zip(he_edge.par_chunks_mut(span))
             .enumerate()
@@ -224,8 +226,9 @@ impl Topology {
                 adj_edge[p] = e as u32;
             }
         }
-        debug_assert!((0..n).all(|v| adj[adj_offsets[v] as usize..adj_offsets[v + 1] as usize]
-            .is_sorted()));
+        debug_assert!(
+            (0..n).all(|v| adj[adj_offsets[v] as usize..adj_offsets[v + 1] as usize].is_sorted())
+        );
         // One outgoing half-edge per vertex, preferring a boundary one so that rotation
         // from it sweeps the whole fan.
         let mut vertex_out = vec![INVALID; n];
@@ -848,7 +851,11 @@ mod tests {
                 let b = (a + rng.gen_range(1..4)) % n as u32;
                 let c = (a + rng.gen_range(4..7)) % n as u32;
                 if a != b && b != c && a != c {
-                    faces.push(if rng.gen_bool(0.5) { [a, b, c] } else { [a, c, b] });
+                    faces.push(if rng.gen_bool(0.5) {
+                        [a, b, c]
+                    } else {
+                        [a, c, b]
+                    });
                 }
             }
             let t = Topology::from_faces(n, &faces).unwrap();
@@ -885,15 +892,15 @@ mod tests {
             for v in 0..n as u32 {
                 let nb: BTreeSet<u32> = naive
                     .keys()
-                    .filter_map(|&(a, b)| {
-                        (a == v).then_some(b).or_else(|| (b == v).then_some(a))
-                    })
+                    .filter_map(|&(a, b)| (a == v).then_some(b).or_else(|| (b == v).then_some(a)))
                     .collect();
                 let nb: Vec<u32> = nb.into_iter().collect();
                 assert_eq!(t.neighbors(VertexId(v)), &nb[..]);
                 // Manifold vertex: no edge with > 2 faces and its faces are connected
                 // through its edges (flood fill over the faces at v).
-                let at_v: Vec<usize> = (0..faces.len()).filter(|&f| faces[f].contains(&v)).collect();
+                let at_v: Vec<usize> = (0..faces.len())
+                    .filter(|&f| faces[f].contains(&v))
+                    .collect();
                 let nm_edge = nb.iter().any(|&u| naive[&(v.min(u), v.max(u))].len() > 2);
                 let mut seen = vec![false; at_v.len()];
                 if !at_v.is_empty() {

@@ -20,9 +20,17 @@ pub fn sstl(topo: &Topology) -> Result<SparseMatrix, OperatorError> {
             // T_ki·T_kj in the same order, so J is symmetric bit for bit.
             let nb = topo.neighbors(VertexId(j as u32));
             let split = nb.partition_point(|&k| (k as usize) < j);
-            out.extend(nb[..split].iter().map(|&k| (k as usize, -1.0 / d[k as usize])));
+            out.extend(
+                nb[..split]
+                    .iter()
+                    .map(|&k| (k as usize, -1.0 / d[k as usize])),
+            );
             out.push((j, 1.0));
-            out.extend(nb[split..].iter().map(|&k| (k as usize, -1.0 / d[k as usize])));
+            out.extend(
+                nb[split..]
+                    .iter()
+                    .map(|&k| (k as usize, -1.0 / d[k as usize])),
+            );
         },
         |k, out| assemble::one_ring_column(topo, k, 1.0, |_| -1.0 / d[k], out),
     ))
