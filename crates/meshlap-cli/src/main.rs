@@ -35,6 +35,10 @@ enum Command {
     Operator(cmd::operator::Args),
     Iterate(cmd::iterate::Args),
     RepairSql(cmd::repair::Args),
+    Spectrum(cmd::spectrum::Args),
+    Project(cmd::project::Args),
+    Compaction(cmd::compaction::Args),
+    Experiment(cmd::experiment::Args),
     Render(cmd::render::Args),
 }
 
@@ -53,6 +57,10 @@ fn main() {
         Command::Operator(a) => cmd::operator::run(a),
         Command::Iterate(a) => cmd::iterate::run(a),
         Command::RepairSql(a) => cmd::repair::run(a),
+        Command::Spectrum(a) => cmd::spectrum::run(a),
+        Command::Project(a) => cmd::project::run(a),
+        Command::Compaction(a) => cmd::compaction::run(a),
+        Command::Experiment(a) => cmd::experiment::run(a),
         Command::Render(a) => cmd::render::run(a),
     };
     if let Err(e) = result {

@@ -3,7 +3,9 @@
 //! Tasks: `load` (read + clean + connectivity), `operators` (assemble each operator),
 //! `topology` (connectivity only), `io` (write and re-read as PLY and OBJ),
 //! `read` (parse a file only), `write MESH OUT` (write one file), `dump MESH DIR` (every
-//! operator as `DIR/KIND.mtx`, for entry-by-entry comparison with the peers).
+//! operator as `DIR/KIND.mtx`, for entry-by-entry comparison with the peers),
+//! `spectrum` (dense eigenbases: KL and SQL by the symmetric solver, the TL through its
+//! GL similarity and by the general eigensolver plus LU).
 
 use meshlap::input::{open, OpenOptions};
 use meshlap::operator::{Operator, OperatorKind, OperatorOptions};
@@ -39,9 +41,8 @@ fn main() {
 
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let usage =
-        "usage: meshlap-bench load|operators|topology|io|read MESH [--repeat N] [--kind K] | \
-                 dump MESH DIR | write MESH OUT [--repeat N]";
+    let usage = "usage: meshlap-bench load|operators|topology|io|read|spectrum MESH \
+                 [--repeat N] [--kind K] [--general] | dump MESH DIR | write MESH OUT [--repeat N]";
     let task = args.first().ok_or(usage)?.clone();
     let mesh = args.get(1).ok_or(usage)?.clone();
     let repeat = match args.iter().position(|a| a == "--repeat") {
@@ -171,6 +172,34 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                     serde_json::json!({"write": w, "read": r, "bytes": bytes,
                         "write_mb_s": bytes / w / 1e6, "read_mb_s": bytes / r / 1e6}),
                 );
+            }
+        }
+        "spectrum" => {
+            use meshlap::spectral::{BasisOptions, EigenBasis, EigenPath};
+            let input = open(&mesh, &OpenOptions::default())?;
+            out.insert("vertices".into(), input.mesh.n_vertices().into());
+            let general = args.iter().any(|a| a == "--general");
+            let mut cases = vec![
+                ("kirchhoff", OperatorKind::Kirchhoff, EigenPath::Auto),
+                ("sql", OperatorKind::Sql, EigenPath::Auto),
+                ("tutte", OperatorKind::Tutte, EigenPath::Auto),
+            ];
+            if general {
+                cases.push(("tutte-general", OperatorKind::Tutte, EigenPath::General));
+            }
+            for (name, kind, path) in cases {
+                let op = Operator::assemble(
+                    kind,
+                    &input.mesh,
+                    &input.topology,
+                    &OperatorOptions::default(),
+                )?;
+                let opts = BasisOptions {
+                    path,
+                    ..Default::default()
+                };
+                let (m, t) = time(repeat, || EigenBasis::compute(&op, &opts).map(|b| b.len()));
+                out.insert(name.into(), serde_json::json!({"median": m, "times": t}));
             }
         }
         _ => return Err(usage.into()),
