@@ -4,11 +4,14 @@ Run: bench/.venv/bin/python bench/operators.py [MESH]   (default: igea.ply)
 Both sides use BENCH_THREADS threads (default 2). Prints medians and ratios.
 """
 import sys
+import tempfile
+from pathlib import Path
 
 import numpy as np
+import scipy.io
 import scipy.sparse as sp
 
-from common import MESHES, THREADS, limit_threads, load_vf, meshlap_bench, table, timeit
+from common import MESHES, THREADS, build, limit_threads, load_vf, meshlap_bench, table, timeit
 
 
 def adjacency(F, n):
@@ -59,17 +62,41 @@ def sstl(F, n):
     return (T.T @ T).tocsr()
 
 
+def check_same_matrices(path, V, F, n):
+    """Every peer builds the same matrix as meshlap: max |entry difference| per
+    operator (igl.cotmatrix is -L: libigl's sign convention is the negative of ours)."""
+    import igl
+    peers = {
+        "kirchhoff": kirchhoff(F, n),
+        "tutte": tutte(F, n),
+        "sql": sql(F, n),
+        "sstl": sstl(F, n),
+        "cotan": -igl.cotmatrix(V, F),
+    }
+    diffs = {}
+    with tempfile.TemporaryDirectory() as d:
+        meshlap_bench("dump", path, d)
+        for name, peer in peers.items():
+            ours = sp.csr_matrix(scipy.io.mmread(str(Path(d) / f"{name}.mtx")))
+            diff = abs(ours - peer.tocsr())
+            scale = abs(peer).max()
+            diffs[name] = (diff.max() if diff.nnz else 0.0, scale, ours.nnz, peer.nnz)
+    return diffs
+
+
 def main():
     import igl
     path = sys.argv[1] if len(sys.argv) > 1 else str(MESHES / "igea.ply")
     V, F = load_vf(path)
     n = len(V)
-    ours = meshlap_bench("operators", path, "--repeat", 7)
+    build()
+    diffs = check_same_matrices(path, V, F, n)
+    print(f"same matrices? max |meshlap - peer| per operator on {Path(path).name}:")
+    for name, (d, scale, nnz_ours, nnz_peer) in diffs.items():
+        print(f"  {name:10s} {d:.2e} (max |entry| {scale:.3g}; nnz {nnz_ours} vs {nnz_peer})")
+        assert d <= 1e-12 * max(scale, 1.0), f"{name}: meshlap and the peer differ by {d}"
     rows = []
     with limit_threads():
-        # sanity: the scipy SQL has zero row sums like ours
-        S = sql(F, n)
-        assert abs(S.sum(axis=1)).max() < 1e-10
         peers = {
             "kirchhoff": lambda: kirchhoff(F, n),
             "tutte": lambda: tutte(F, n),
@@ -77,11 +104,14 @@ def main():
             "sstl": lambda: sstl(F, n),
             "cotan": lambda: igl.cotmatrix(V, F),
         }
+        # The machine may be shared: time our side and the peer back to back per
+        # operator, so that both see the same load.
         for name, fn in peers.items():
+            t_ours = meshlap_bench("operators", path, "--repeat", 7, "--kind", name)[name]["median"]
             t_peer = timeit(fn, repeat=5)
-            t_ours = ours[name]["median"]
             peer = "igl.cotmatrix" if name == "cotan" else "scipy (vectorised)"
             rows.append([name, peer, f"{t_peer * 1e3:.1f}", f"{t_ours * 1e3:.2f}", f"{t_peer / t_ours:.1f}x"])
+    ours = meshlap_bench("operators", path, "--repeat", 7)
     for name in ["graph", "tutte2", "sdl", "mean-value", "topology"]:
         rows.append([name, "-", "-", f"{ours[name]['median'] * 1e3:.2f}", "-"])
     print(f"mesh {path}: n = {n}, threads = {THREADS}")

@@ -449,6 +449,55 @@ fn experiment_fairing_writes_tables_and_plots() {
 }
 
 #[test]
+fn repair_sql_vertex_split_method() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("cow.obj");
+    let run = |method: &str| {
+        json(&meshlap(&[
+            "repair-sql",
+            &data("cow.obj"),
+            "-o",
+            out.to_str().unwrap(),
+            "--method",
+            method,
+            "--max-dihedral",
+            "30",
+            "--json",
+        ]))
+    };
+    let swap = run("swap");
+    assert_eq!(swap["method"], "swap");
+    assert!(swap["negative_after"].as_u64().unwrap() > 0);
+    let both = run("swap-split");
+    assert_eq!(both["method"], "swap-split");
+    assert_eq!(both["negative_after"], 0);
+    let added = both["vertices_added"].as_u64().unwrap();
+    assert!(added > 0 && both["splits"].as_u64().unwrap() == added);
+    let info = json(&meshlap(&["info", out.to_str().unwrap(), "--json"]));
+    assert_eq!(info["vertices"].as_u64().unwrap(), 2903 + added);
+    assert_eq!(info["non_manifold_edges"], 0);
+    let s = json(&meshlap(&[
+        "operator",
+        out.to_str().unwrap(),
+        "--kind",
+        "sql",
+        "--json",
+        "--dense-limit",
+        "0",
+    ]));
+    assert_eq!(s["negative_weights"], 0);
+    let bad = meshlap(&[
+        "repair-sql",
+        &data("cow.obj"),
+        "-o",
+        "x.obj",
+        "--method",
+        "nope",
+    ]);
+    assert_eq!(bad.status.code(), Some(2));
+}
+
+#[test]
 fn render_writes_a_png_and_refuses_bad_sizes_without_output() {
     let dir = tempfile::tempdir().unwrap();
     let png = dir.path().join("m.png");

@@ -270,6 +270,28 @@ fn ply_with_scalar_and_colours() {
             header.contains("property double quality") && header.contains("property uchar red")
         );
         assert_eq!(read_mesh(&p, None).unwrap().mesh, m);
+        // The values themselves, vertex by vertex: x y z quality red green blue.
+        let body_at = text.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
+        let body = &text[body_at..];
+        for v in 0..6 {
+            let (q, rgb) = if ascii {
+                let line = String::from_utf8_lossy(body)
+                    .lines()
+                    .nth(v)
+                    .unwrap()
+                    .to_string();
+                let t: Vec<&str> = line.split_whitespace().collect();
+                assert_eq!(t.len(), 7, "{line}");
+                let rgb: Vec<u8> = t[4..].iter().map(|x| x.parse().unwrap()).collect();
+                (t[3].parse::<f64>().unwrap(), [rgb[0], rgb[1], rgb[2]])
+            } else {
+                let rec = &body[v * 35..(v + 1) * 35];
+                let q = f64::from_le_bytes(rec[24..32].try_into().unwrap());
+                (q, [rec[32], rec[33], rec[34]])
+            };
+            assert_eq!(q, s[v], "{ascii} vertex {v}");
+            assert_eq!(rgb, c[v], "{ascii} vertex {v}");
+        }
     }
     let bad = WriteOptions {
         vertex_scalar: Some(("q", &s[..3])),

@@ -1,12 +1,14 @@
 //! `meshlap-bench TASK MESH [--repeat N]`: times library calls for the side-by-side
 //! scripts in `bench/` and prints JSON with the median and all timings (seconds).
 //! Tasks: `load` (read + clean + connectivity), `operators` (assemble each operator),
-//! `io` (write and re-read as PLY and OBJ), `spectrum` (dense eigenbases: KL and SQL
-//! by the symmetric solver, the TL through its GL similarity and by the general
-//! eigensolver plus LU), `solvers` (implicit-fairing solves of `(I + λS)`,
-//! `(I + λT)`, `(D + λK)` with CG/BiCG/Cholesky, a streaming-copy bandwidth measurement
-//! and the memory-traffic bound per iteration; `--lambda L`, and `--export DIR` writes
-//! the matrices and right-hand side for the scipy side).
+//! `topology` (connectivity only), `io` (write and re-read as PLY and OBJ),
+//! `read` (parse a file only), `write MESH OUT` (write one file), `dump MESH DIR` (every
+//! operator as `DIR/KIND.mtx`, for entry-by-entry comparison with the peers),
+//! `spectrum` (dense eigenbases: KL and SQL by the symmetric solver, the TL through its
+//! GL similarity and by the general eigensolver plus LU), `solvers` (implicit-fairing
+//! solves of `(I + λS)`, `(I + λT)`, `(D + λK)` with CG/BiCG/Cholesky, a streaming-copy
+//! bandwidth measurement and the memory-traffic bound per iteration; `--lambda L`, and
+//! `--export DIR` writes the matrices and right-hand side for the scipy side).
 
 use meshlap::input::{open, OpenOptions};
 use meshlap::operator::{Operator, OperatorKind, OperatorOptions};
@@ -42,7 +44,9 @@ fn main() {
 
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let usage = "usage: meshlap-bench load|operators|io|spectrum|solvers MESH [--repeat N] [--general] [--lambda L] [--export DIR]";
+    let usage = "usage: meshlap-bench load|operators|topology|io|read|spectrum|solvers MESH \
+                 [--repeat N] [--kind K] [--general] [--lambda L] [--export DIR] \
+                 | dump MESH DIR | write MESH OUT [--repeat N]";
     let task = args.first().ok_or(usage)?.clone();
     let mesh = args.get(1).ok_or(usage)?.clone();
     let repeat = match args.iter().position(|a| a == "--repeat") {
@@ -61,7 +65,16 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         "operators" => {
             let input = open(&mesh, &OpenOptions::default())?;
             out.insert("vertices".into(), input.mesh.n_vertices().into());
+            // `--kind NAME` restricts the task to one operator (and skips topology),
+            // so that a script can interleave our timings with a peer's.
+            let only: Option<OperatorKind> = match args.iter().position(|a| a == "--kind") {
+                Some(p) => Some(args.get(p + 1).ok_or(usage)?.parse()?),
+                None => None,
+            };
             for kind in OperatorKind::ALL {
+                if only.is_some_and(|k| k != kind) {
+                    continue;
+                }
                 let (m, t) = time(repeat, || {
                     Operator::assemble(
                         kind,
@@ -76,6 +89,10 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                     serde_json::json!({"median": m, "times": t}),
                 );
             }
+            if only.is_some() {
+                println!("{}", serde_json::to_string(&out)?);
+                return Ok(());
+            }
             // Connectivity is shared by all operators; time it separately.
             let (m, t) = time(repeat, || {
                 meshlap::mesh::topology::Topology::new(&input.mesh).map(|t| t.n_edges())
@@ -83,6 +100,61 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             out.insert(
                 "topology".into(),
                 serde_json::json!({"median": m, "times": t}),
+            );
+        }
+        "topology" => {
+            // Connectivity alone (read and cleaning excluded).
+            let input = open(&mesh, &OpenOptions::default())?;
+            out.insert("vertices".into(), input.mesh.n_vertices().into());
+            let (m, t) = time(repeat, || {
+                meshlap::mesh::topology::Topology::new(&input.mesh).map(|t| t.n_edges())
+            });
+            out.insert(
+                "topology".into(),
+                serde_json::json!({"median": m, "times": t}),
+            );
+        }
+        "dump" => {
+            // Every operator as Matrix Market, for the scripts to compare entries.
+            let dir = args.get(2).ok_or(usage)?;
+            let input = open(&mesh, &OpenOptions::default())?;
+            for kind in OperatorKind::ALL {
+                let op = Operator::assemble(
+                    kind,
+                    &input.mesh,
+                    &input.topology,
+                    &OperatorOptions::default(),
+                )?;
+                let path = std::path::Path::new(dir).join(format!("{}.mtx", kind.name()));
+                meshlap::io::write_matrix_market(&path, op.matrix.as_ref())?;
+            }
+            out.insert("vertices".into(), input.mesh.n_vertices().into());
+        }
+        "write" => {
+            // Write MESH (cleaned) to OUT (format from the extension); one process per
+            // format, so the peak memory measured outside is this step's alone.
+            let dest = std::path::PathBuf::from(args.get(2).ok_or(usage)?);
+            let input = open(&mesh, &OpenOptions::default())?;
+            let (w, _) = time(repeat, || {
+                meshlap::io::write_mesh(&dest, &input.mesh, &Default::default()).map(|_| ())
+            });
+            let bytes = std::fs::metadata(&dest)?.len() as f64;
+            out.insert("vertices".into(), input.mesh.n_vertices().into());
+            out.insert(
+                "write".into(),
+                serde_json::json!({"median": w, "bytes": bytes, "mb_s": bytes / w / 1e6}),
+            );
+        }
+        "read" => {
+            // Parse MESH (a file) into a mesh, without cleaning or connectivity.
+            let path = std::path::PathBuf::from(&mesh);
+            let bytes = std::fs::metadata(&path)?.len() as f64;
+            let (r, _) = time(repeat, || {
+                meshlap::io::read_mesh(&path, None).map(|l| l.mesh.n_faces())
+            });
+            out.insert(
+                "read".into(),
+                serde_json::json!({"median": r, "bytes": bytes, "mb_s": bytes / r / 1e6}),
             );
         }
         "io" => {

@@ -12,7 +12,10 @@ use serde::Serialize;
 pub struct Args {
     #[command(flatten)]
     pub mesh: MeshArgs,
-    /// Print machine-readable JSON instead of text.
+    /// Print machine-readable JSON instead of text (keys include vertices, faces,
+    /// edges, boundary_edges, boundary_loops, components, euler_characteristic,
+    /// non_manifold_edges, non_manifold_vertices, dropped_unreferenced_vertices,
+    /// dropped_degenerate_faces, dropped_duplicate_faces).
     #[arg(long)]
     pub json: bool,
 }

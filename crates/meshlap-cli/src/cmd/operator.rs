@@ -20,14 +20,28 @@ use std::path::PathBuf;
 pub struct Args {
     #[command(flatten)]
     pub mesh: MeshArgs,
-    /// Operator kind.
-    #[arg(long, short)]
+    /// Operator kind (d_i = vertex degree, A = adjacency, N(i) = one-ring):
+    ///   kirchhoff, kl   K = diag(d) − A (graph Laplacian, symmetric)
+    ///   tutte, tl       T = I − D⁻¹A (uniform "umbrella" Laplacian, row-normalised)
+    ///   graph, gl       G = I − D^{-1/2} A D^{-1/2} (normalized graph Laplacian)
+    ///   sql             Zhang's symmetric quasi-Laplacian S = D − W,
+    ///                   W_ij = 1/d_i + 1/d_j − (1/d_k + 1/d_l)/2 (k, l opposite ij)
+    ///   sstl            second-order symmetric Tutte Laplacian J = TᵀT (two-ring)
+    ///   tutte2, t2      T² (non-symmetric, for comparison)
+    ///   sdl             scale-dependent Laplacian (inverse edge lengths, row-normalised)
+    ///   cotan           cotangent Laplace–Beltrami stiffness (Pinkall–Polthier,
+    ///                   Desbrun et al.) with a lumped mass matrix (--mass)
+    ///   mean-value, mv  Floater's mean-value weights, row-normalised
+    #[arg(long, short, verbatim_doc_comment)]
     pub kind: OperatorKind,
     /// Write the matrix as Matrix Market (coordinate real general, 1-based), readable
     /// by scipy.io.mmread, in the cleaned mesh's vertex order.
     #[arg(long, short, value_name = "FILE.mtx")]
     pub output: Option<PathBuf>,
-    /// Print machine-readable JSON.
+    /// Print machine-readable JSON: every field of the report, including symmetric,
+    /// negative_weights, max_abs_row_sum, gsml, lambda_min, lambda_max,
+    /// gershgorin_max, zero_eigenvalue_multiplicity and, for TL and GL,
+    /// same_spectrum_max_difference.
     #[arg(long)]
     pub json: bool,
     /// SQL boundary diagonal: zero-row-sum (correct) or printed (the paper's erratum).

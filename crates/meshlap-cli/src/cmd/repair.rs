@@ -1,34 +1,62 @@
 //! `meshlap repair-sql`.
 
 use crate::common::{print_json, MeshArgs};
-use meshlap::analysis::repair::{repair_sql, RepairOptions};
+use meshlap::analysis::repair::{repair_sql, RepairMethod, RepairOptions};
 use meshlap::io::{write_mesh, WriteOptions};
 use std::path::PathBuf;
 
 /// Remove the negative weights of the symmetric quasi-Laplacian (SQL) by greedy edge
 /// swapping (Zhang 2004 §3.7): repeatedly flip the edge with the most negative weight
-/// when the flip is legal and raises the smallest weight around it. Reports the counts
-/// before and after, the flips made and the weights left.
+/// when the flip is legal and raises the smallest weight around it. With `--method
+/// split` or `swap-split`, split a high-degree endpoint instead (the progressive-mesh
+/// vertex split the paper names as the alternative; new vertices are appended).
+/// Reports the counts before and after, the flips and splits made and the weights left.
+///
+/// A negative weight W_ij = 1/d_i + 1/d_j − (1/d_k + 1/d_l)/2 (k, l opposite the edge)
+/// appears where i and j have much higher degrees than k and l; such weights keep the
+/// SQL from being a GSML and its smoothing matrix from being doubly stochastic.
 #[derive(clap::Args, Debug)]
 pub struct Args {
     #[command(flatten)]
     pub mesh: MeshArgs,
-    /// Output mesh with the flipped connectivity.
+    /// Output mesh with the edited connectivity (written atomically).
     #[arg(long, short)]
     pub output: PathBuf,
     /// Refuse flips whose two new triangles meet at more than this angle (degrees)
     /// between their normals, or that fold over.
     #[arg(long, value_name = "DEGREES")]
     pub max_dihedral: Option<f64>,
-    /// Print machine-readable JSON.
+    /// swap: greedy edge swapping (vertices unchanged); split: vertex splits only;
+    /// swap-split: swap, and split an endpoint where no swap of the edge helps.
+    #[arg(long, value_enum, default_value_t = MethodArg::Swap)]
+    pub method: MethodArg,
+    /// Print machine-readable JSON (keys: method, negative_before, min_weight_before,
+    /// flips, splits, vertices_added, rejected, negative_after, min_weight_after,
+    /// remaining).
     #[arg(long)]
     pub json: bool,
+}
+
+/// `--method` values.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub enum MethodArg {
+    /// Greedy edge swapping.
+    Swap,
+    /// Vertex splits.
+    Split,
+    /// Swapping, then vertex splits where swapping cannot help.
+    SwapSplit,
 }
 
 pub fn run(args: &Args) -> meshlap::Result<()> {
     let input = args.mesh.open()?;
     let opts = RepairOptions {
         max_dihedral_degrees: args.max_dihedral,
+        method: match args.method {
+            MethodArg::Swap => RepairMethod::Swap,
+            MethodArg::Split => RepairMethod::Split,
+            MethodArg::SwapSplit => RepairMethod::SwapSplit,
+        },
         ..Default::default()
     };
     let (mesh, report) = repair_sql(&input.mesh, &opts)?;
@@ -41,8 +69,8 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         report.negative_before, report.min_weight_before, report.negative_after
     );
     println!(
-        "flips: {} made, {} tried and rejected",
-        report.flips, report.rejected
+        "edits: {} flips, {} vertex splits ({} vertices added); {} times no edit helped",
+        report.flips, report.splits, report.vertices_added, report.rejected
     );
     for w in report.remaining.iter().take(10) {
         println!("  left: W({}, {}) = {:.6}", w.i, w.j, w.weight);

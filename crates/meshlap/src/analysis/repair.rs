@@ -1,29 +1,56 @@
-//! Removal of the SQL's negative weights by greedy edge swapping (Zhang 2004 §3.7).
+//! Removal of the SQL's negative weights (Zhang 2004 §3.7): greedy edge swapping and
+//! the vertex split the paper names as the alternative.
 //!
-//! A negative SQL weight `W_ij < 0` on an interior edge (i, j) with opposite vertices
-//! k, l means the degrees of i, j are small compared with those of k, l; swapping the
-//! edge to (k, l) lowers `d_i, d_j` and raises `d_k, d_l`. The greedy loop repeatedly
-//! takes the edge with the most negative weight (a priority queue with lazy deletion)
-//! and flips it when
+//! A negative SQL weight `W_ij = 1/d_i + 1/d_j − (1/d_k + 1/d_l)/2 < 0` on an edge
+//! (i, j) with opposite vertices k, l means the degrees of i, j are large compared with
+//! those of k, l. The greedy loop repeatedly takes the edge with the most negative
+//! weight (a priority queue with lazy deletion) and
 //!
-//! 1. the flip is legal: interior manifold edge, `k ≠ l`, no edge k–l yet (so the mesh
-//!    stays a manifold without duplicate faces), and, if a dihedral threshold is set,
-//!    the two new triangles are non-degenerate, keep the old orientation and meet at
-//!    a dihedral angle (between normals) at most the threshold;
-//! 2. the flip helps: the smallest weight among all edges whose weight the flip
-//!    changes (the edges of the faces around i, j, k, l) strictly increases.
+//! 1. **swaps** it to (k, l) (lowering `d_i, d_j`, raising `d_k, d_l`) when the flip is
+//!    legal (interior manifold edge, consistently oriented faces, `k ≠ l`, no edge k–l
+//!    yet, so the mesh stays a manifold without duplicate faces; and, if a dihedral
+//!    threshold is set, the two new triangles are non-degenerate, keep the old
+//!    orientation and meet at a dihedral angle (between normals) at most the
+//!    threshold) and helps: the smallest weight among all edges whose weight the flip
+//!    changes (the edges of the faces around i, j, k, l) strictly increases;
+//! 2. otherwise, with [`RepairMethod::Split`] or [`RepairMethod::SwapSplit`],
+//!    **splits** the higher-degree endpoint (then the other) with a progressive-mesh
+//!    vertex split ([`crate::mesh::edit::EditMesh::split_vertex`], Hoppe 1996): its
+//!    fan is halved (every rotation of the cut is tried, inside; every inner cut
+//!    neighbour, on the boundary), the two halves' centres move a third of the way
+//!    towards their ring parts' centroids, and the cut that most raises the smallest
+//!    affected weight is kept (only if it strictly raises it, and, when a threshold is
+//!    set, passes a geometric check: non-degenerate faces, no face turned by 90° or
+//!    more from the old fan's normal, the new faces' dihedral angles within the
+//!    threshold). A vertex split needs a manifold fan: non-manifold vertices (such as
+//!    the teapot's poles) are not split.
 //!
-//! Only the affected weights are recomputed. Rule 2 makes the sorted vector of all
-//! weights grow lexicographically with every accepted flip, so the loop terminates. It
-//! stops when no weight is negative or no legal flip helps; the weights left are
-//! reported. Degrees and weights use the SQL definition of [`crate::operator::sql`].
+//! Only the affected weights are recomputed. For swaps, rule 1 makes the sorted vector
+//! of all weights grow lexicographically with every accepted flip, so swapping alone
+//! terminates; splits add vertices, so the number of edits is also capped
+//! ([`RepairOptions::max_edits`]). The loop stops when no weight is negative or no
+//! edit helps; the weights left are reported. Neither heuristic is guaranteed to
+//! remove every negative weight (the paper says as much). Degrees and weights use the
+//! SQL definition of [`crate::operator::sql`].
 
-use crate::mesh::{topology::Topology, MeshError, TriMesh};
+use crate::mesh::edit::{EditMesh, NONE};
+use crate::mesh::{MeshError, TriMesh};
 use serde::Serialize;
 use std::cmp::Ordering;
-use std::collections::{BinaryHeap, HashSet};
+use std::collections::BinaryHeap;
 
-const NONE: u32 = u32::MAX;
+/// How [`repair_sql`] removes negative weights.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RepairMethod {
+    /// Greedy edge swapping only (the paper's main heuristic).
+    #[default]
+    Swap,
+    /// Vertex splits only (the paper's alternative).
+    Split,
+    /// Edge swapping, and a vertex split where no swap of the edge helps.
+    SwapSplit,
+}
 
 /// Options of [`repair_sql`].
 #[derive(Clone, Copy, Debug)]
@@ -31,15 +58,18 @@ pub struct RepairOptions {
     /// Largest angle (degrees) allowed between the normals of the two triangles a
     /// flip creates; `None` disables the geometric check.
     pub max_dihedral_degrees: Option<f64>,
-    /// Upper bound on the number of flips.
-    pub max_flips: usize,
+    /// Swapping, splitting or both.
+    pub method: RepairMethod,
+    /// Upper bound on the number of edits (flips plus splits).
+    pub max_edits: usize,
 }
 
 impl Default for RepairOptions {
     fn default() -> Self {
         Self {
             max_dihedral_degrees: None,
-            max_flips: 1_000_000,
+            method: RepairMethod::Swap,
+            max_edits: 1_000_000,
         }
     }
 }
@@ -58,13 +88,19 @@ pub struct RemainingWeight {
 /// What [`repair_sql`] did.
 #[derive(Clone, Debug, Serialize)]
 pub struct RepairReport {
+    /// The method used.
+    pub method: RepairMethod,
     /// Negative weights (edges) before.
     pub negative_before: usize,
     /// Most negative weight before.
     pub min_weight_before: f64,
     /// Edge flips performed.
     pub flips: usize,
-    /// Flips tried and rejected (illegal or not helping).
+    /// Vertex splits performed.
+    pub splits: usize,
+    /// Vertices added by the splits (appended after the input's vertices).
+    pub vertices_added: usize,
+    /// Negative edges for which no legal edit helped (counted each time one is tried).
     pub rejected: usize,
     /// Negative weights after.
     pub negative_after: usize,
@@ -72,17 +108,6 @@ pub struct RepairReport {
     pub min_weight_after: f64,
     /// The negative weights left, most negative first.
     pub remaining: Vec<RemainingWeight>,
-}
-
-/// Mutable manifold half-edge mesh for flipping (half-edge `3f + c` as in
-/// [`Topology`]).
-struct FlipMesh<'a> {
-    positions: &'a [[f64; 3]],
-    faces: Vec<[u32; 3]>,
-    twin: Vec<u32>,
-    degree: Vec<u32>,
-    vertex_faces: Vec<Vec<u32>>,
-    edges: HashSet<(u32, u32)>,
 }
 
 #[derive(PartialEq)]
@@ -112,231 +137,263 @@ fn key(a: u32, b: u32) -> (u32, u32) {
     (a.min(b), a.max(b))
 }
 
-impl<'a> FlipMesh<'a> {
-    fn new(mesh: &'a TriMesh) -> Result<Self, MeshError> {
-        let topo = Topology::new(mesh)?;
-        if let Some(e) = topo.non_manifold_edges().next() {
-            let [a, b] = topo.edge(e);
-            return Err(MeshError::NonManifoldEdge {
-                a,
-                b,
-                faces: topo.edge_face_count(e),
-            });
-        }
-        let mut vertex_faces = vec![Vec::new(); mesh.n_vertices()];
-        for (f, t) in mesh.faces.iter().enumerate() {
-            for &v in t {
-                vertex_faces[v as usize].push(f as u32);
-            }
-        }
-        Ok(FlipMesh {
-            positions: &mesh.positions,
-            faces: mesh.faces.clone(),
-            twin: (0..3 * mesh.n_faces() as u32)
-                .map(|h| topo.twin(h))
-                .collect(),
-            degree: topo.degrees(),
-            vertex_faces,
-            edges: topo.edges().iter().map(|&[a, b]| (a, b)).collect(),
-        })
-    }
+fn inv_d(m: &EditMesh, v: u32) -> f64 {
+    1.0 / m.degree(v) as f64
+}
 
-    fn from(&self, h: u32) -> u32 {
-        self.faces[h as usize / 3][h as usize % 3]
-    }
-    fn to(&self, h: u32) -> u32 {
-        self.faces[h as usize / 3][(h as usize + 1) % 3]
-    }
-    fn opposite(&self, h: u32) -> u32 {
-        self.faces[h as usize / 3][(h as usize + 2) % 3]
-    }
-    fn inv_d(&self, v: u32) -> f64 {
-        1.0 / self.degree[v as usize] as f64
-    }
-
-    /// SQL weight of the edge of half-edge `h`.
-    fn weight(&self, h: u32) -> f64 {
-        let base = self.inv_d(self.from(h)) + self.inv_d(self.to(h));
-        let t = self.twin[h as usize];
-        if t == NONE {
-            base - self.inv_d(self.opposite(h))
-        } else {
-            base - 0.5 * (self.inv_d(self.opposite(h)) + self.inv_d(self.opposite(t)))
-        }
-    }
-
-    /// Canonical half-edges of every edge of the faces around `verts`.
-    fn region(&self, verts: &[u32]) -> Vec<u32> {
-        let mut hs: Vec<u32> = verts
-            .iter()
-            .flat_map(|&v| self.vertex_faces[v as usize].iter())
-            .flat_map(|&f| (0..3).map(move |c| 3 * f + c))
-            .map(|h| {
-                let t = self.twin[h as usize];
-                if t != NONE && t < h {
-                    t
-                } else {
-                    h
-                }
-            })
-            .collect();
-        hs.sort_unstable();
-        hs.dedup();
-        hs
-    }
-
-    fn region_min(&self, verts: &[u32]) -> f64 {
-        self.region(verts)
-            .into_iter()
-            .map(|h| self.weight(h))
-            .fold(f64::INFINITY, f64::min)
-    }
-
-    fn legal(&self, h: u32, max_dihedral: Option<f64>) -> bool {
-        let g = self.twin[h as usize];
-        if g == NONE {
-            return false;
-        }
-        let (k, l) = (self.opposite(h), self.opposite(g));
-        if k == l || self.edges.contains(&key(k, l)) {
-            return false;
-        }
-        let Some(max_deg) = max_dihedral else {
-            return true;
-        };
-        let (i, j) = (self.from(h), self.to(h));
-        let p = |v: u32| self.positions[v as usize];
-        let normal = |a: u32, b: u32, c: u32| {
-            let (pa, pb, pc) = (p(a), p(b), p(c));
-            let u = [pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]];
-            let w = [pc[0] - pa[0], pc[1] - pa[1], pc[2] - pa[2]];
-            [
-                u[1] * w[2] - u[2] * w[1],
-                u[2] * w[0] - u[0] * w[2],
-                u[0] * w[1] - u[1] * w[0],
-            ]
-        };
-        let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-        let (n1, n2) = (normal(k, i, l), normal(l, j, k));
-        let old = {
-            let (a, b) = (normal(i, j, k), normal(j, i, l));
-            [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-        };
-        let (l1, l2) = (dot(n1, n1).sqrt(), dot(n2, n2).sqrt());
-        if l1 == 0.0 || l2 == 0.0 || dot(n1, old) <= 0.0 || dot(n2, old) <= 0.0 {
-            return false;
-        }
-        let cos = (dot(n1, n2) / (l1 * l2)).clamp(-1.0, 1.0);
-        cos.acos().to_degrees() <= max_deg
-    }
-
-    /// Flips the edge of `h` = (i→j) in face (i, j, k), twin in (j, i, l), into faces
-    /// (k, i, l) and (l, j, k). Returns the new diagonal's half-edge (l→k).
-    fn flip(&mut self, h: u32) -> u32 {
-        let g = self.twin[h as usize];
-        let (f1, f2) = (h / 3, g / 3);
-        let (i, j, k, l) = (self.from(h), self.to(h), self.opposite(h), self.opposite(g));
-        let next = |x: u32| if x % 3 == 2 { x - 2 } else { x + 1 };
-        let prev = |x: u32| if x % 3 == 0 { x + 2 } else { x - 1 };
-        // Outer twins: j→k, k→i (face 1), i→l, l→j (face 2).
-        let t_jk = self.twin[next(h) as usize];
-        let t_ki = self.twin[prev(h) as usize];
-        let t_il = self.twin[next(g) as usize];
-        let t_lj = self.twin[prev(g) as usize];
-        self.faces[f1 as usize] = [k, i, l];
-        self.faces[f2 as usize] = [l, j, k];
-        let link = |tw: &mut Vec<u32>, a: u32, b: u32| {
-            tw[a as usize] = b;
-            if b != NONE {
-                tw[b as usize] = a;
-            }
-        };
-        link(&mut self.twin, 3 * f1, t_ki);
-        link(&mut self.twin, 3 * f1 + 1, t_il);
-        link(&mut self.twin, 3 * f2, t_lj);
-        link(&mut self.twin, 3 * f2 + 1, t_jk);
-        link(&mut self.twin, 3 * f1 + 2, 3 * f2 + 2);
-        self.edges.remove(&key(i, j));
-        self.edges.insert(key(k, l));
-        self.degree[i as usize] -= 1;
-        self.degree[j as usize] -= 1;
-        self.degree[k as usize] += 1;
-        self.degree[l as usize] += 1;
-        self.vertex_faces[i as usize].retain(|&f| f != f2);
-        self.vertex_faces[j as usize].retain(|&f| f != f1);
-        self.vertex_faces[k as usize].push(f2);
-        self.vertex_faces[l as usize].push(f1);
-        3 * f1 + 2
-    }
-
-    fn negative_weights(&self) -> Vec<RemainingWeight> {
-        let mut out: Vec<RemainingWeight> = (0..self.twin.len() as u32)
-            .filter(|&h| {
-                let t = self.twin[h as usize];
-                t == NONE || h < t
-            })
-            .filter_map(|h| {
-                let w = self.weight(h);
-                (w < 0.0).then(|| RemainingWeight {
-                    i: self.from(h),
-                    j: self.to(h),
-                    weight: w,
-                })
-            })
-            .collect();
-        out.sort_by(|a, b| a.weight.total_cmp(&b.weight));
-        out
+/// SQL weight of the edge of half-edge `h` (Zhang 2004 §3.7; boundary edges use the
+/// one opposite vertex).
+fn weight(m: &EditMesh, h: u32) -> f64 {
+    let base = inv_d(m, m.from(h)) + inv_d(m, m.to(h));
+    let t = m.twin(h);
+    if t == NONE {
+        base - inv_d(m, m.opposite(h))
+    } else {
+        base - 0.5 * (inv_d(m, m.opposite(h)) + inv_d(m, m.opposite(t)))
     }
 }
 
-/// Removes negative SQL weights by greedy edge swapping; returns the flipped mesh
-/// (same vertices, same number of faces) and a report. Refuses non-manifold edges.
+/// Canonical half-edges (the smaller of a twin pair) of every edge of the faces
+/// around `verts`: all the edges whose SQL weight depends on the degrees of `verts`.
+fn region(m: &EditMesh, verts: &[u32]) -> Vec<u32> {
+    let mut hs: Vec<u32> = verts
+        .iter()
+        .flat_map(|&v| m.vertex_faces(v).iter())
+        .flat_map(|&f| (0..3).map(move |c| 3 * f + c))
+        .map(|h| {
+            let t = m.twin(h);
+            if t != NONE && t < h {
+                t
+            } else {
+                h
+            }
+        })
+        .collect();
+    hs.sort_unstable();
+    hs.dedup();
+    hs
+}
+
+fn region_min(m: &EditMesh, verts: &[u32]) -> f64 {
+    region(m, verts)
+        .into_iter()
+        .map(|h| weight(m, h))
+        .fold(f64::INFINITY, f64::min)
+}
+
+type P = [f64; 3];
+fn sub(a: P, b: P) -> P {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn cross(u: P, w: P) -> P {
+    [
+        u[1] * w[2] - u[2] * w[1],
+        u[2] * w[0] - u[0] * w[2],
+        u[0] * w[1] - u[1] * w[0],
+    ]
+}
+fn dot(a: P, b: P) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+fn face_normal(m: &EditMesh, t: [u32; 3]) -> P {
+    let p = |v: u32| m.positions()[v as usize];
+    cross(sub(p(t[1]), p(t[0])), sub(p(t[2]), p(t[0])))
+}
+fn angle_deg(a: P, b: P) -> f64 {
+    let (la, lb) = (dot(a, a).sqrt(), dot(b, b).sqrt());
+    (dot(a, b) / (la * lb)).clamp(-1.0, 1.0).acos().to_degrees()
+}
+
+/// Geometric check of a flip of `h` (before flipping): the two new triangles are
+/// non-degenerate, keep the old orientation and meet at most at `max_deg`.
+fn flip_geometry_ok(m: &EditMesh, h: u32, max_deg: f64) -> bool {
+    let g = m.twin(h);
+    let (i, j, k, l) = (m.from(h), m.to(h), m.opposite(h), m.opposite(g));
+    let (n1, n2) = (face_normal(m, [k, i, l]), face_normal(m, [l, j, k]));
+    let o1 = face_normal(m, [i, j, k]);
+    let o2 = face_normal(m, [j, i, l]);
+    let old = [o1[0] + o2[0], o1[1] + o2[1], o1[2] + o2[2]];
+    if dot(n1, n1) == 0.0 || dot(n2, n2) == 0.0 || dot(n1, old) <= 0.0 || dot(n2, old) <= 0.0 {
+        return false;
+    }
+    angle_deg(n1, n2) <= max_deg
+}
+
+/// Geometric check after a split of `v` into `v`, `w` that added `new_faces`: every
+/// face around them is non-degenerate and turns less than 90° from the old fan's
+/// normal `old`, and each new face meets its neighbours at most at `max_deg`.
+fn split_geometry_ok(m: &EditMesh, v: u32, w: u32, new_faces: usize, old: P, max_deg: f64) -> bool {
+    for &f in m.vertex_faces(v).iter().chain(m.vertex_faces(w)) {
+        let n = face_normal(m, m.faces()[f as usize]);
+        if dot(n, n) == 0.0 || dot(n, old) <= 0.0 {
+            return false;
+        }
+    }
+    (m.n_faces() - new_faces..m.n_faces()).all(|f| {
+        let n = face_normal(m, m.faces()[f]);
+        (0..3).all(|c| {
+            let t = m.twin(3 * f as u32 + c);
+            t == NONE || angle_deg(n, face_normal(m, m.faces()[t as usize / 3])) <= max_deg
+        })
+    })
+}
+
+/// Tries to raise the smallest weight around edge (i, j) by splitting i or j
+/// (the higher degree first). Candidate cuts halve the fan at every rotation (inside)
+/// or at every inner neighbour (on the boundary); the best one that strictly raises
+/// the smallest weight of the affected region is kept. Returns the new vertex.
+fn try_split(m: &mut EditMesh, i: u32, j: u32, max_dihedral: Option<f64>) -> Option<u32> {
+    let mut ends = [i, j];
+    if m.degree(j) > m.degree(i) {
+        ends.swap(0, 1);
+    }
+    let mut best: Option<(f64, u32, usize, usize, P, P)> = None;
+    for v in ends {
+        let Some(fan) = m.fan(v) else { continue };
+        let nf = fan.out.len();
+        let cuts: Vec<(usize, usize)> = if fan.closed {
+            if nf < 6 {
+                continue; // v and v' would be left with degree < 4
+            }
+            (0..nf).map(|s| (s, (s + nf / 2) % nf)).collect()
+        } else {
+            if nf < 4 {
+                continue;
+            }
+            (2..nf - 1).map(|t| (0, t)).collect()
+        };
+        let p = m.positions()[v as usize];
+        let old_normal = fan.out.iter().fold([0.0; 3], |acc, &h| {
+            let n = face_normal(m, m.faces()[h as usize / 3]);
+            [acc[0] + n[0], acc[1] + n[1], acc[2] + n[2]]
+        });
+        for (first, last) in cuts {
+            // v and v' move a third of the way towards the centroids of their parts
+            // of the ring (a progressive-mesh vertex split without stored positions).
+            let part = |from: usize, to: usize| -> P {
+                let mut c = [0.0; 3];
+                let mut k = 0.0;
+                let mut a = from;
+                loop {
+                    let q = m.positions()[fan.ring[a] as usize];
+                    c = [c[0] + q[0], c[1] + q[1], c[2] + q[2]];
+                    k += 1.0;
+                    if a == to {
+                        break;
+                    }
+                    a = (a + 1) % fan.ring.len();
+                }
+                let c = [c[0] / k, c[1] / k, c[2] / k];
+                [
+                    p[0] + (c[0] - p[0]) / 3.0,
+                    p[1] + (c[1] - p[1]) / 3.0,
+                    p[2] + (c[2] - p[2]) / 3.0,
+                ]
+            };
+            let (pv, pw) = if fan.closed {
+                (part(first, last), part(last, first))
+            } else {
+                (part(0, last), part(last, fan.ring.len() - 1))
+            };
+            let (a, b) = (fan.ring[first], fan.ring[last]);
+            let before = region_min(m, &[v, a, b]);
+            m.checkpoint();
+            let Ok(w) = m.split_vertex(v, first, last, pv, pw) else {
+                m.rollback();
+                continue;
+            };
+            let added = if fan.closed { 2 } else { 1 };
+            let ok_geometry =
+                max_dihedral.is_none_or(|d| split_geometry_ok(m, v, w, added, old_normal, d));
+            let after = region_min(m, &[v, w, a, b]);
+            m.rollback();
+            if ok_geometry && after > before && best.as_ref().is_none_or(|b| after > b.0) {
+                best = Some((after, v, first, last, pv, pw));
+            }
+        }
+        if best.is_some() {
+            break;
+        }
+    }
+    let (_, v, first, last, pv, pw) = best?;
+    m.split_vertex(v, first, last, pv, pw).ok()
+}
+
+/// Removes negative SQL weights by greedy edge swapping and/or vertex splitting;
+/// returns the edited mesh and a report. Swapping keeps the vertices and the face
+/// count; each vertex split appends one vertex (at the end, so earlier indices are
+/// unchanged) and two faces (one on the boundary). Refuses non-manifold edges.
 pub fn repair_sql(
     mesh: &TriMesh,
     opts: &RepairOptions,
 ) -> Result<(TriMesh, RepairReport), MeshError> {
-    let mut fm = FlipMesh::new(mesh)?;
-    let before = fm.negative_weights();
+    let mut fm = EditMesh::new(mesh)?;
+    let before = negative_weights(&fm);
     let mut heap: BinaryHeap<Entry> = before
         .iter()
-        .map(|r| {
-            let h = canonical_he(&fm, r.i, r.j);
-            Entry {
+        .filter_map(|r| {
+            let h = canonical(&fm, fm.half_edge(r.i, r.j)?);
+            Some(Entry {
                 weight: r.weight,
                 he: h,
                 a: r.i,
                 b: r.j,
-            }
+            })
         })
         .collect();
-    let (mut flips, mut rejected) = (0usize, 0usize);
+    let (mut flips, mut splits, mut rejected) = (0usize, 0usize, 0usize);
+    let swap = opts.method != RepairMethod::Split;
+    let split = opts.method != RepairMethod::Swap;
     while let Some(e) = heap.pop() {
-        if flips >= opts.max_flips {
+        if flips + splits >= opts.max_edits {
             break;
         }
         // Lazy deletion: the entry is stale if the half-edge no longer joins a–b or
         // its weight changed.
         let h = e.he;
-        if key(fm.from(h), fm.to(h)) != key(e.a, e.b) || fm.weight(h) != e.weight {
+        if h >= fm.n_half_edges()
+            || key(fm.from(h), fm.to(h)) != key(e.a, e.b)
+            || weight(&fm, h) != e.weight
+        {
             continue;
         }
-        if !fm.legal(h, opts.max_dihedral_degrees) {
+        let mut touched: Option<Vec<u32>> = None;
+        if swap
+            && fm.can_flip(h).is_ok()
+            && opts
+                .max_dihedral_degrees
+                .is_none_or(|d| flip_geometry_ok(&fm, h, d))
+        {
+            let g = fm.twin(h);
+            let verts = [fm.from(h), fm.to(h), fm.opposite(h), fm.opposite(g)];
+            let min_before = region_min(&fm, &verts);
+            fm.checkpoint();
+            fm.flip(h)?;
+            if region_min(&fm, &verts) > min_before {
+                fm.commit();
+                flips += 1;
+                touched = Some(verts.to_vec());
+            } else {
+                fm.rollback();
+            }
+        }
+        if touched.is_none() && split {
+            let (i, j) = (fm.from(h), fm.to(h));
+            if let Some(w) = try_split(&mut fm, i, j, opts.max_dihedral_degrees) {
+                splits += 1;
+                let mut verts: Vec<u32> = vec![i, j, w];
+                for &f in fm.vertex_faces(w) {
+                    verts.extend(fm.faces()[f as usize]);
+                }
+                touched = Some(verts);
+            }
+        }
+        let Some(verts) = touched else {
             rejected += 1;
             continue;
-        }
-        let g = fm.twin[h as usize];
-        let verts = [fm.from(h), fm.to(h), fm.opposite(h), fm.opposite(g)];
-        let min_before = fm.region_min(&verts);
-        let diag = fm.flip(h);
-        let min_after = fm.region_min(&verts);
-        if min_after <= min_before {
-            fm.flip(diag);
-            rejected += 1;
-            continue;
-        }
-        flips += 1;
-        for hh in fm.region(&verts) {
-            let w = fm.weight(hh);
+        };
+        for hh in region(&fm, &verts) {
+            let w = weight(&fm, hh);
             if w < 0.0 {
                 heap.push(Entry {
                     weight: w,
@@ -347,36 +404,54 @@ pub fn repair_sql(
             }
         }
     }
-    let remaining = fm.negative_weights();
+    let remaining = negative_weights(&fm);
     let report = RepairReport {
+        method: opts.method,
         negative_before: before.len(),
         min_weight_before: before.first().map_or(0.0, |r| r.weight),
         flips,
+        splits,
+        vertices_added: fm.n_vertices() - mesh.n_vertices(),
         rejected,
         negative_after: remaining.len(),
         min_weight_after: remaining.first().map_or(0.0, |r| r.weight),
         remaining,
     };
-    Ok((TriMesh::new(mesh.positions.clone(), fm.faces), report))
+    Ok((fm.into_mesh(), report))
 }
 
-fn canonical_he(fm: &FlipMesh<'_>, a: u32, b: u32) -> u32 {
-    for &f in &fm.vertex_faces[a as usize] {
-        for c in 0..3 {
-            let h = 3 * f + c;
-            if key(fm.from(h), fm.to(h)) == key(a, b) {
-                let t = fm.twin[h as usize];
-                return if t != NONE && t < h { t } else { h };
-            }
-        }
+fn canonical(m: &EditMesh, h: u32) -> u32 {
+    let t = m.twin(h);
+    if t != NONE && t < h {
+        t
+    } else {
+        h
     }
-    NONE
+}
+
+fn negative_weights(m: &EditMesh) -> Vec<RemainingWeight> {
+    let mut out: Vec<RemainingWeight> = (0..m.n_half_edges())
+        .filter(|&h| {
+            let t = m.twin(h);
+            t == NONE || h < t
+        })
+        .filter_map(|h| {
+            let w = weight(m, h);
+            (w < 0.0).then(|| RemainingWeight {
+                i: m.from(h),
+                j: m.to(h),
+                weight: w,
+            })
+        })
+        .collect();
+    out.sort_by(|a, b| a.weight.total_cmp(&b.weight));
+    out
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::builtin;
+    use crate::mesh::{builtin, topology::Topology};
     use crate::operator::sql::{sql_diagonal, sql_edge_weights, BoundaryDiagonal};
 
     fn negatives(m: &TriMesh) -> usize {
@@ -447,6 +522,34 @@ mod tests {
                 .map(|&e| w[e as usize])
                 .sum();
             assert!((s - diag[v]).abs() < 1e-13);
+        }
+    }
+
+    #[test]
+    fn vertex_splits_remove_negative_weights_and_keep_a_manifold() {
+        let m = high_degree_mesh();
+        let before = negatives(&m);
+        let t = Topology::new(&m).unwrap();
+        let chi = |t: &Topology| t.n_vertices() as i64 - t.n_edges() as i64 + t.n_faces() as i64;
+        for method in [RepairMethod::Split, RepairMethod::SwapSplit] {
+            let opts = RepairOptions {
+                method,
+                ..Default::default()
+            };
+            let (fixed, r) = repair_sql(&m, &opts).unwrap();
+            assert_eq!(r.negative_before, before);
+            assert_eq!(r.negative_after, negatives(&fixed), "{method:?}");
+            assert!(r.negative_after < before, "{method:?}: {r:?}");
+            assert_eq!(r.vertices_added, fixed.n_vertices() - m.n_vertices());
+            assert_eq!(r.vertices_added, r.splits);
+            assert_eq!(fixed.n_faces(), m.n_faces() + 2 * r.splits);
+            if method == RepairMethod::Split {
+                assert!(r.splits > 0 && r.flips == 0);
+            }
+            let tf = Topology::new(&fixed).unwrap();
+            assert!(tf.is_manifold() && tf.boundary_edges().count() == 0);
+            assert_eq!(tf.inconsistently_oriented_edges(), 0);
+            assert_eq!(chi(&tf), chi(&t));
         }
     }
 

@@ -76,9 +76,11 @@ pub fn clean(mesh: &TriMesh, opts: &CleanOptions) -> Result<(TriMesh, CleanRepor
             .collect();
         report.dropped_duplicate_faces = before - faces.len();
     }
-    let mut positions = mesh.positions.clone();
     let mut map: Vec<Option<u32>> = (0..n as u32).map(Some).collect();
-    if opts.drop_unreferenced_vertices {
+    let mut positions = Vec::new();
+    if !opts.drop_unreferenced_vertices {
+        positions = mesh.positions.clone();
+    } else {
         let mut used = vec![false; n];
         for f in &faces {
             for &v in f {
@@ -86,7 +88,7 @@ pub fn clean(mesh: &TriMesh, opts: &CleanOptions) -> Result<(TriMesh, CleanRepor
             }
         }
         let mut next = 0u32;
-        positions.clear();
+        positions.reserve(n);
         for (v, &u) in used.iter().enumerate() {
             if u {
                 map[v] = Some(next);

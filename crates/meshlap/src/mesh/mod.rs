@@ -5,6 +5,7 @@
 
 pub mod builtin;
 pub mod clean;
+pub mod edit;
 pub mod topology;
 
 use std::fmt;
@@ -166,6 +167,22 @@ pub enum MeshError {
         b: u32,
         /// Why not.
         reason: &'static str,
+    },
+    /// A vertex split is not possible.
+    #[error("cannot split vertex {vertex}: {reason}")]
+    IllegalSplit {
+        /// The vertex.
+        vertex: u32,
+        /// Why not.
+        reason: &'static str,
+    },
+    /// More faces than the connectivity's 31-bit half-edge ids can address.
+    #[error("the mesh has {faces} faces; at most {max} are supported")]
+    TooManyFaces {
+        /// Faces in the mesh.
+        faces: usize,
+        /// The limit.
+        max: usize,
     },
     /// Invalid parameters for a generated mesh.
     #[error("invalid built-in mesh: {0}")]
