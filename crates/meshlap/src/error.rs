@@ -24,6 +24,9 @@ pub enum Error {
     /// A spectral computation failed.
     #[error(transparent)]
     Spectral(#[from] crate::spectral::SpectralError),
+    /// Compression or decompression failed.
+    #[error(transparent)]
+    Codec(#[from] crate::codec::CodecError),
     /// Writing an output file failed.
     #[error("cannot write {path}: {source}")]
     Write {

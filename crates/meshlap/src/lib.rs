@@ -18,12 +18,14 @@
 //! - [`analysis`]: matrix-theoretic properties (symmetry, stochasticity, GSML status,
 //!   eigenvalue bounds), smoothing iterations and SQL negative-weight repair.
 //! - [`solve`]: CG, PCG, BiCG, BiCGSTAB and direct solvers for implicit fairing.
+//! - [`codec`]: mesh compression (connectivity coding, spectral geometry coding, `.mlz`).
 //! - [`spectral`]: eigenvalue-decomposition (ED) transforms, partial spectra, partitioning.
 
 // Index loops over vertices read like the formulas they implement.
 #![allow(clippy::needless_range_loop)]
 
 pub mod analysis;
+pub mod codec;
 pub mod error;
 pub mod filter;
 pub mod input;
