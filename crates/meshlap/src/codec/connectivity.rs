@@ -357,7 +357,7 @@ pub fn encode(topo: &Topology) -> Result<EncodedConnectivity, CodecError> {
     m.count.encode(&mut enc, seeds.len() as u32);
 
     // Assigns the next number to a newly met vertex and codes its dummy flag.
-    let mut visit = |v: u32,
+    let visit = |v: u32,
                      enc: &mut RangeEncoder,
                      m: &mut Models,
                      new_id: &mut Vec<u32>,

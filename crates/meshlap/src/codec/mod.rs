@@ -4,7 +4,9 @@
 //! *Spectral compression of mesh geometry* (SIGGRAPH 2000) ([`geometry`]).
 
 pub mod connectivity;
+pub mod container;
 pub mod entropy;
+pub mod geometry;
 
 /// Errors of encoding and decoding.
 #[derive(Debug, thiserror::Error)]
