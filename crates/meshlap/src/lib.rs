@@ -19,6 +19,8 @@
 //!   eigenvalue bounds), smoothing iterations and SQL negative-weight repair.
 //! - [`solve`]: CG, PCG, BiCG, BiCGSTAB and direct solvers for implicit fairing.
 //! - [`codec`]: mesh compression (connectivity coding, spectral geometry coding, `.mlz`).
+//! - [`plot`]: PNG line charts for the experiments.
+//! - [`render`]: software rendering of meshes to PNG (the paper's figures).
 //! - [`spectral`]: eigenvalue-decomposition (ED) transforms, partial spectra, partitioning.
 
 // Index loops over vertices read like the formulas they implement.
@@ -32,6 +34,8 @@ pub mod input;
 pub mod io;
 pub mod mesh;
 pub mod operator;
+pub mod plot;
+pub mod render;
 pub mod solve;
 pub mod spectral;
 
