@@ -24,18 +24,15 @@ pub enum Error {
     /// A spectral computation failed.
     #[error(transparent)]
     Spectral(#[from] crate::spectral::SpectralError),
-<<<<<<< HEAD
     /// Compression or decompression failed.
     #[error(transparent)]
     Codec(#[from] crate::codec::CodecError),
-=======
     /// Rendering a chart failed.
     #[error(transparent)]
     Plot(#[from] crate::plot::PlotError),
     /// Rendering a mesh picture failed.
     #[error(transparent)]
     Render(#[from] crate::render::RenderError),
->>>>>>> main
     /// Writing an output file failed.
     #[error("cannot write {path}: {source}")]
     Write {
