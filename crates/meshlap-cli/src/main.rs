@@ -35,6 +35,9 @@ enum Command {
     Operator(cmd::operator::Args),
     Iterate(cmd::iterate::Args),
     RepairSql(cmd::repair::Args),
+    Compress(cmd::compress::Args),
+    Compare(cmd::compare::Args),
+    Decompress(cmd::decompress::Args),
     Render(cmd::render::Args),
 }
 
@@ -53,6 +56,9 @@ fn main() {
         Command::Operator(a) => cmd::operator::run(a),
         Command::Iterate(a) => cmd::iterate::run(a),
         Command::RepairSql(a) => cmd::repair::run(a),
+        Command::Compress(a) => cmd::compress::run(a),
+        Command::Compare(a) => cmd::compare::run(a),
+        Command::Decompress(a) => cmd::decompress::run(a),
         Command::Render(a) => cmd::render::run(a),
     };
     if let Err(e) = result {

@@ -27,6 +27,9 @@ pub enum Error {
     /// Compression or decompression failed.
     #[error(transparent)]
     Codec(#[from] crate::codec::CodecError),
+    /// A distortion metric could not be computed.
+    #[error(transparent)]
+    Metric(#[from] crate::metric::MetricError),
     /// Rendering a chart failed.
     #[error(transparent)]
     Plot(#[from] crate::plot::PlotError),

@@ -19,6 +19,7 @@
 //!   eigenvalue bounds), smoothing iterations and SQL negative-weight repair.
 //! - [`solve`]: CG, PCG, BiCG, BiCGSTAB and direct solvers for implicit fairing.
 //! - [`codec`]: mesh compression (connectivity coding, spectral geometry coding, `.mlz`).
+//! - [`metric`]: distortion metrics (vertex, Metro surface distance, Zhang, Karni–Gotsman).
 //! - [`plot`]: PNG line charts for the experiments.
 //! - [`render`]: software rendering of meshes to PNG (the paper's figures).
 //! - [`spectral`]: eigenvalue-decomposition (ED) transforms, partial spectra, partitioning.
@@ -33,6 +34,7 @@ pub mod filter;
 pub mod input;
 pub mod io;
 pub mod mesh;
+pub mod metric;
 pub mod operator;
 pub mod plot;
 pub mod render;

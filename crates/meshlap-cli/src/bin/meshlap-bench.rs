@@ -1,7 +1,8 @@
 //! `meshlap-bench TASK MESH [--repeat N]`: times library calls for the side-by-side
 //! scripts in `bench/` and prints JSON with the median and all timings (seconds).
 //! Tasks: `load` (read + clean + connectivity), `operators` (assemble each operator),
-//! `io` (write and re-read as PLY and OBJ).
+//! `io` (write and re-read as PLY and OBJ), `codec` (compress and decompress, default
+//! settings, non-manifold vertices split first).
 
 use meshlap::input::{open, OpenOptions};
 use meshlap::operator::{Operator, OperatorKind, OperatorOptions};
@@ -37,7 +38,7 @@ fn main() {
 
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let usage = "usage: meshlap-bench load|operators|io MESH [--repeat N]";
+    let usage = "usage: meshlap-bench load|operators|io|codec MESH [--repeat N]";
     let task = args.first().ok_or(usage)?.clone();
     let mesh = args.get(1).ok_or(usage)?.clone();
     let repeat = match args.iter().position(|a| a == "--repeat") {
@@ -100,6 +101,24 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                         "write_mb_s": bytes / w / 1e6, "read_mb_s": bytes / r / 1e6}),
                 );
             }
+        }
+        "codec" => {
+            // Compress (SSTL, 10 bits, default patches) and decompress in memory.
+            let input = open(&mesh, &OpenOptions::default())?;
+            let (mesh_c, _) = meshlap::mesh::clean::split_non_manifold(&input.mesh)?;
+            let topo = meshlap::mesh::topology::Topology::new(&mesh_c)?;
+            out.insert("vertices".into(), mesh_c.n_vertices().into());
+            let opts = meshlap::codec::CompressOptions::default();
+            let c = meshlap::codec::compress(&mesh_c, &topo, &opts)?;
+            let (e, te) = time(repeat, || {
+                meshlap::codec::compress(&mesh_c, &topo, &opts).map(|c| c.bytes.len())
+            });
+            let (d, td) = time(repeat, || {
+                meshlap::codec::decompress(&c.bytes).map(|m| m.n_faces())
+            });
+            out.insert("bits_per_vertex".into(), c.report.bits_per_vertex.into());
+            out.insert("encode".into(), serde_json::json!({"median": e, "times": te}));
+            out.insert("decode".into(), serde_json::json!({"median": d, "times": td}));
         }
         _ => return Err(usage.into()),
     }

@@ -1,7 +1,10 @@
 //! One module per subcommand.
 
 pub mod clean;
+pub mod compare;
+pub mod compress;
 pub mod convert;
+pub mod decompress;
 pub mod info;
 pub mod iterate;
 pub mod operator;
