@@ -36,6 +36,9 @@ pub enum Error {
     /// Rendering a mesh picture failed.
     #[error(transparent)]
     Render(#[from] crate::render::RenderError),
+    /// An experiment failed.
+    #[error(transparent)]
+    Experiment(#[from] crate::experiment::ExperimentError),
     /// Writing an output file failed.
     #[error("cannot write {path}: {source}")]
     Write {

@@ -20,6 +20,7 @@
 //! - [`solve`]: CG, PCG, BiCG, BiCGSTAB and direct solvers for implicit fairing.
 //! - [`codec`]: mesh compression (connectivity coding, spectral geometry coding, `.mlz`).
 //! - [`metric`]: distortion metrics (vertex, Metro surface distance, Zhang, Karni–Gotsman).
+//! - [`experiment`]: the paper's experiments as functions returning tables and charts.
 //! - [`plot`]: PNG line charts for the experiments.
 //! - [`render`]: software rendering of meshes to PNG (the paper's figures).
 //! - [`spectral`]: eigenvalue-decomposition (ED) transforms, partial spectra, partitioning.
@@ -30,6 +31,7 @@
 pub mod analysis;
 pub mod codec;
 pub mod error;
+pub mod experiment;
 pub mod filter;
 pub mod input;
 pub mod io;
