@@ -37,6 +37,7 @@ enum Command {
     RepairSql(cmd::repair::Args),
     Compress(cmd::compress::Args),
     Compare(cmd::compare::Args),
+    Experiment(cmd::experiment::Args),
     Decompress(cmd::decompress::Args),
     Render(cmd::render::Args),
 }
@@ -58,6 +59,7 @@ fn main() {
         Command::RepairSql(a) => cmd::repair::run(a),
         Command::Compress(a) => cmd::compress::run(a),
         Command::Compare(a) => cmd::compare::run(a),
+        Command::Experiment(a) => cmd::experiment::run(a),
         Command::Decompress(a) => cmd::decompress::run(a),
         Command::Render(a) => cmd::render::run(a),
     };

@@ -5,6 +5,7 @@ pub mod compare;
 pub mod compress;
 pub mod convert;
 pub mod decompress;
+pub mod experiment;
 pub mod info;
 pub mod iterate;
 pub mod operator;

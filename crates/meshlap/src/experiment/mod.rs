@@ -7,8 +7,11 @@
 //!   real meshes (Zhang 2004, §2.2–2.5 and §3), the SQL boundary-diagonal erratum, the
 //!   SQL negative-weight repair (§3.7), and the smoothing limits (§2.2: the TL converges
 //!   to the valence-weighted centroid, a doubly stochastic H to the centroid).
+//! - [`compression`]: §4.9 — rate–distortion of spectral compression per operator and
+//!   against Draco.
 
 pub mod claims;
+pub mod compression;
 
 use serde::Serialize;
 use std::path::{Path, PathBuf};
