@@ -7,7 +7,8 @@ Run: bench/.venv/bin/python bench/compression.py [MESH ...] [--operators sstl,sq
 Both sides code the same cleaned, manifold mesh (`meshlap clean --split-nonmanifold`).
 Ours: `meshlap compress --target-bpv b --measure --json` for each b and operator.
 Draco: compression level 10 at 8..14 quantisation bits; its decoded points are matched
-to the input vertices by nearest neighbour (Draco reorders vertices) and measured by
+to the input vertices through the index carried as a colour in a second encode
+(Draco reorders vertices; see draco_with_map) and measured by
 `meshlap compare --map`, i.e. with exactly the same metric code as ours. Draco's
 connectivity cost is bounded from above by its size at 1 quantisation bit.
 Timing: `meshlap-bench codec` (encode and decode in memory) and DracoPy encode+decode,
@@ -34,14 +35,35 @@ def run_json(*args):
 def write_obj(path, V, F):
     with open(path, "w") as f:
         for v in V:
-            f.write(f"v {v[0]!r} {v[1]!r} {v[2]!r}\n")
+            f.write("v %.9g %.9g %.9g\n" % (float(v[0]), float(v[1]), float(v[2])))
         for t in F:
             f.write(f"f {t[0] + 1} {t[1] + 1} {t[2] + 1}\n")
 
 
+def draco_with_map(V, F, q, P):
+    """Draco's decoded mesh with the input vertex of each point: the index rides along
+    as a 24-bit RGB colour in a second encode with the same settings. Colours change
+    Draco's traversal order but not the quantised positions: the second decode is used
+    only if its points are, as a set, exactly the first one's. None otherwise."""
+    import DracoPy
+    idx = np.arange(len(V))
+    rgb = np.stack([idx & 255, (idx >> 8) & 255, (idx >> 16) & 255], axis=1).astype(np.uint8)
+    d = DracoPy.decode(DracoPy.encode(V, F, quantization_bits=q, compression_level=10, colors=rgb))
+    P2 = np.asarray(d.points, dtype=float)
+    T2 = np.asarray(d.faces, dtype=np.int64).reshape(-1, 3)
+    C = np.asarray(d.colors).astype(np.int64)
+    if P2.shape != P.shape or C.shape[0] != len(P2):
+        return None
+    if not np.array_equal(P[np.lexsort(P.T)], P2[np.lexsort(P2.T)]):
+        return None
+    m = C[:, 0] | (C[:, 1] << 8) | (C[:, 2] << 16)
+    if len(np.unique(m)) != len(V) or m.max() >= len(V):
+        return None
+    return P2, T2, m
+
+
 def draco_points(clean, V, F, samples, tmp):
     import DracoPy
-    from scipy.spatial import cKDTree
     pts = []
     conn = len(DracoPy.encode(V, F, quantization_bits=1, compression_level=10)) * 8 / len(V)
     for q in range(8, 15):
@@ -49,15 +71,15 @@ def draco_points(clean, V, F, samples, tmp):
         d = DracoPy.decode(b)
         P = np.asarray(d.points, dtype=float)
         T = np.asarray(d.faces, dtype=np.int64).reshape(-1, 3)
+        mapped = draco_with_map(V, F, q, P) if len(P) == len(V) else None
         obj = Path(tmp) / f"draco{q}.obj"
-        write_obj(obj, P, T)
         args = ["compare", clean, obj, "--json", "--samples", samples]
-        if len(P) == len(V):
-            _, idx = cKDTree(V).query(P)
-            if len(np.unique(idx)) == len(V):
-                mp = Path(tmp) / f"draco{q}.map"
-                mp.write_text("\n".join(map(str, idx)))
-                args += ["--map", mp]
+        if mapped is not None:
+            P, T, idx = mapped
+            mp = Path(tmp) / f"draco{q}.map"
+            mp.write_text("\n".join(map(str, idx)))
+            args += ["--map", mp]
+        write_obj(obj, P, T)
         c = run_json(*args)
         pts.append({"coder": "draco", "param": f"q{q}", "bpv": len(b) * 8 / len(V),
                     "connectivity_bpv_upper": conn, "distortion": c})
