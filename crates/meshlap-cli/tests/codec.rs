@@ -57,7 +57,9 @@ fn compress_decompress_compare_round_trip() {
     assert!(r["distortion"]["same_connectivity"].as_bool().unwrap());
     let size = std::fs::metadata(&mlz).unwrap().len();
     assert_eq!(size, r["bytes"].as_u64().unwrap());
-    assert!(meshlap(&["decompress", mlz_s, "-o", out_s]).status.success());
+    assert!(meshlap(&["decompress", mlz_s, "-o", out_s])
+        .status
+        .success());
     let c = json(&meshlap(&[
         "compare",
         "builtin:icosphere:3",

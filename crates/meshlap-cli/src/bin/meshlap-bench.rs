@@ -117,8 +117,14 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                 meshlap::codec::decompress(&c.bytes).map(|m| m.n_faces())
             });
             out.insert("bits_per_vertex".into(), c.report.bits_per_vertex.into());
-            out.insert("encode".into(), serde_json::json!({"median": e, "times": te}));
-            out.insert("decode".into(), serde_json::json!({"median": d, "times": td}));
+            out.insert(
+                "encode".into(),
+                serde_json::json!({"median": e, "times": te}),
+            );
+            out.insert(
+                "decode".into(),
+                serde_json::json!({"median": d, "times": td}),
+            );
         }
         _ => return Err(usage.into()),
     }

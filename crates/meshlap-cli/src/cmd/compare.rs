@@ -57,9 +57,19 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
     let o = crate::common::opt;
     println!("diagonal of A        {:.6e}", c.diagonal);
     println!("same connectivity    {}", c.same_connectivity);
-    println!("vertex error         RMS {}  max {}", o(c.vertex_rms), o(c.vertex_max));
-    println!("surface A→B          RMS {:.6e}  max {:.6e}", c.a_to_b_rms, c.a_to_b_max);
-    println!("surface B→A          RMS {:.6e}  max {:.6e}", c.b_to_a_rms, c.b_to_a_max);
+    println!(
+        "vertex error         RMS {}  max {}",
+        o(c.vertex_rms),
+        o(c.vertex_max)
+    );
+    println!(
+        "surface A→B          RMS {:.6e}  max {:.6e}",
+        c.a_to_b_rms, c.a_to_b_max
+    );
+    println!(
+        "surface B→A          RMS {:.6e}  max {:.6e}",
+        c.b_to_a_rms, c.b_to_a_max
+    );
     println!("Hausdorff            {:.6e}", c.hausdorff);
     println!("Zhang SDL measure    {}", o(c.zhang_sdl));
     println!("Karni–Gotsman error  {}", o(c.karni_gotsman));

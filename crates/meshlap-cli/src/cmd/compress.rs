@@ -107,7 +107,11 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
             distortion,
         });
     }
-    println!("wrote           {} ({} bytes)", args.output.display(), r.bytes);
+    println!(
+        "wrote           {} ({} bytes)",
+        args.output.display(),
+        r.bytes
+    );
     println!("vertices        {}  faces {}", r.vertices, r.faces);
     println!(
         "bits/vertex     {:.3} total = {:.3} connectivity + {:.3} geometry + {:.3} order",

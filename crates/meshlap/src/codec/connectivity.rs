@@ -358,10 +358,10 @@ pub fn encode(topo: &Topology) -> Result<EncodedConnectivity, CodecError> {
 
     // Assigns the next number to a newly met vertex and codes its dummy flag.
     let visit = |v: u32,
-                     enc: &mut RangeEncoder,
-                     m: &mut Models,
-                     new_id: &mut Vec<u32>,
-                     order: &mut Vec<u32>| {
+                 enc: &mut RangeEncoder,
+                 m: &mut Models,
+                 new_id: &mut Vec<u32>,
+                 order: &mut Vec<u32>| {
         let dummy = v as usize >= n;
         enc.bit(&mut m.dummy, dummy);
         if !dummy {
@@ -393,8 +393,18 @@ pub fn encode(topo: &Topology) -> Result<EncodedConnectivity, CodecError> {
         emit(t, &new_id, &mut out_faces);
         let [e0, e1, e2] = cb.start(t);
         // Loop edges v0→v2, v2→v1, v1→v0 are the twins of the seed's half-edges.
-        set_he(&mut he_elem, &mut elem_he, closed.twin((3 * f0 + 2) as u32), e0);
-        set_he(&mut he_elem, &mut elem_he, closed.twin((3 * f0 + 1) as u32), e2);
+        set_he(
+            &mut he_elem,
+            &mut elem_he,
+            closed.twin((3 * f0 + 2) as u32),
+            e0,
+        );
+        set_he(
+            &mut he_elem,
+            &mut elem_he,
+            closed.twin((3 * f0 + 1) as u32),
+            e2,
+        );
         set_he(&mut he_elem, &mut elem_he, closed.twin((3 * f0) as u32), e1);
         loop {
             let g = cb.gate;
@@ -536,11 +546,7 @@ fn set_he(he_elem: &mut [u32], elem_he: &mut Vec<u32>, h: u32, e: u32) {
 /// Decodes `data` into faces over `n_vertices` vertices. `n_vertices` and `n_faces`
 /// are the counts the container declares; a stream that disagrees with them is
 /// corrupt.
-pub fn decode(
-    data: &[u8],
-    n_vertices: usize,
-    n_faces: usize,
-) -> Result<Vec<[u32; 3]>, CodecError> {
+pub fn decode(data: &[u8], n_vertices: usize, n_faces: usize) -> Result<Vec<[u32; 3]>, CodecError> {
     let mut dec = RangeDecoder::new(data);
     let mut m = Models::new();
     let mut cb = CutBorder::default();
@@ -581,22 +587,23 @@ pub fn decode(
             v as usize
         }
     };
-    let push_face = |faces: &mut Vec<[u32; 3]>, fan: &mut Vec<u32>, f: [u32; 3]| -> Result<(), CodecError> {
-        for v in f {
-            let k = key(v);
-            if fan.len() <= k {
-                fan.resize(k + 1, 0);
+    let push_face =
+        |faces: &mut Vec<[u32; 3]>, fan: &mut Vec<u32>, f: [u32; 3]| -> Result<(), CodecError> {
+            for v in f {
+                let k = key(v);
+                if fan.len() <= k {
+                    fan.resize(k + 1, 0);
+                }
+                fan[k] += 1;
             }
-            fan[k] += 1;
-        }
-        if f.iter().all(|&v| v < DUMMY) {
-            if faces.len() >= n_faces {
-                return Err(CodecError::Corrupt("more faces than declared"));
+            if f.iter().all(|&v| v < DUMMY) {
+                if faces.len() >= n_faces {
+                    return Err(CodecError::Corrupt("more faces than declared"));
+                }
+                faces.push(f);
             }
-            faces.push(f);
-        }
-        Ok(())
-    };
+            Ok(())
+        };
     for _ in 0..components {
         let v0 = new_vertex(&mut dec, &mut m)?;
         let v1 = new_vertex(&mut dec, &mut m)?;
@@ -635,7 +642,9 @@ pub fn decode(
                 }
                 Op::Close => {
                     if len != 3 {
-                        return Err(CodecError::Corrupt("close on a loop that is not a triangle"));
+                        return Err(CodecError::Corrupt(
+                            "close on a loop that is not a triangle",
+                        ));
                     }
                     let c = cb.vert[cb.prev[g as usize] as usize];
                     push_face(&mut faces, &mut fan, [a, b, c])?;
@@ -649,7 +658,11 @@ pub fn decode(
                     if dist + 5 > len as u64 {
                         return Err(CodecError::Corrupt("split offset beyond the loop"));
                     }
-                    let k = if back { len as u64 - 3 - dist } else { dist + 2 };
+                    let k = if back {
+                        len as u64 - 3 - dist
+                    } else {
+                        dist + 2
+                    };
                     if k + 2 >= len as u64 {
                         return Err(CodecError::Corrupt("split offset beyond the loop"));
                     }
@@ -681,7 +694,9 @@ pub fn decode(
     }
     let isolated = m.count.decode(&mut dec)? as u64;
     if n_real as u64 + isolated != n_vertices as u64 {
-        return Err(CodecError::Corrupt("vertex count disagrees with the header"));
+        return Err(CodecError::Corrupt(
+            "vertex count disagrees with the header",
+        ));
     }
     if faces.len() != n_faces {
         return Err(CodecError::Corrupt("face count disagrees with the header"));
@@ -714,7 +729,10 @@ mod tests {
         let topo = Topology::new(mesh).unwrap();
         let enc = encode(&topo).unwrap();
         let dec = decode(&enc.data, mesh.n_vertices(), mesh.n_faces()).unwrap();
-        assert_eq!(dec, enc.faces, "decoder disagrees with the encoder's replay");
+        assert_eq!(
+            dec, enc.faces,
+            "decoder disagrees with the encoder's replay"
+        );
         // Map back to the input numbering and compare as oriented face sets.
         let back: Vec<[u32; 3]> = dec
             .iter()
@@ -781,7 +799,10 @@ mod tests {
             }
             let shuffled = TriMesh::new(
                 mesh.positions.clone(),
-                mesh.faces.iter().map(|f| f.map(|v| perm[v as usize])).collect(),
+                mesh.faces
+                    .iter()
+                    .map(|f| f.map(|v| perm[v as usize]))
+                    .collect(),
             );
             if shuffled.faces.is_empty() {
                 continue;
@@ -819,10 +840,7 @@ mod tests {
     #[test]
     fn non_manifold_is_rejected_with_advice() {
         // Two triangles sharing only a vertex (a bow tie).
-        let m = TriMesh::new(
-            vec![[0.0; 3]; 5],
-            vec![[0, 1, 2], [0, 3, 4]],
-        );
+        let m = TriMesh::new(vec![[0.0; 3]; 5], vec![[0, 1, 2], [0, 3, 4]]);
         let topo = Topology::new(&m).unwrap();
         let e = encode(&topo).unwrap_err();
         assert!(e.to_string().contains("--split-nonmanifold"), "{e}");

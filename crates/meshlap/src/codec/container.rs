@@ -127,10 +127,7 @@ fn checksum(kind: SectionKind, payload: &[u8]) -> u32 {
 }
 
 /// Finds a section; a missing required section is corrupt.
-pub fn section<'a>(
-    sections: &[(SectionKind, &'a [u8])],
-    kind: SectionKind,
-) -> Option<&'a [u8]> {
+pub fn section<'a>(sections: &[(SectionKind, &'a [u8])], kind: SectionKind) -> Option<&'a [u8]> {
     sections.iter().find(|(k, _)| *k == kind).map(|(_, p)| *p)
 }
 

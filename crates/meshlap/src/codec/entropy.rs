@@ -293,7 +293,10 @@ impl UintModel {
         let mut node = 1usize;
         for i in 0..na {
             let b = (rest >> (len - 1 - i)) & 1 == 1;
-            enc.bit(&mut self.mant[((len as usize) << ADAPTIVE_MANTISSA) | node], b);
+            enc.bit(
+                &mut self.mant[((len as usize) << ADAPTIVE_MANTISSA) | node],
+                b,
+            );
             node = (node << 1) | b as usize;
         }
         let nd = len - na;

@@ -226,7 +226,11 @@ fn patch_basis(pt: &Topology, kind: OperatorKind, keep: Keep) -> Result<PatchBas
             verts.push(i as u32);
         }
     }
-    let faces: Vec<[u32; 3]> = pt.faces().iter().map(|f| f.map(|x| remap[x as usize])).collect();
+    let faces: Vec<[u32; 3]> = pt
+        .faces()
+        .iter()
+        .map(|f| f.map(|x| remap[x as usize]))
+        .collect();
     let np = verts.len();
     if np == 0 {
         return Ok(PatchBasis {
@@ -295,7 +299,10 @@ fn bases(topo: &Topology, params: &GeometryParams) -> Result<Vec<PatchBasis>, Co
             }
             let ft = Topology::from_faces(
                 patch.len(),
-                &faces.iter().map(|f| f.map(|v| local[&v])).collect::<Vec<_>>(),
+                &faces
+                    .iter()
+                    .map(|f| f.map(|v| local[&v]))
+                    .collect::<Vec<_>>(),
             )
             .map_err(|_| CodecError::Internal("patch topology"))?;
             let b = patch_basis(&ft, params.operator, params.keep)?;
@@ -353,9 +360,7 @@ struct GeoModels {
 impl GeoModels {
     fn new() -> Self {
         GeoModels {
-            coef: (0..MAG_BUCKETS)
-                .map(|_| IntModel::default())
-                .collect(),
+            coef: (0..MAG_BUCKETS).map(|_| IntModel::default()).collect(),
             resid: (0..3).map(|_| IntModel::default()).collect(),
         }
     }
@@ -478,7 +483,9 @@ impl<'a> GeometryEncoder<'a> {
     /// reconstruction the decoder will produce, and statistics.
     pub fn encode(&self, step: f64) -> Result<(Vec<u8>, Vec<[f64; 3]>, GeometryStats), CodecError> {
         if !(step.is_finite() && step > 0.0) {
-            return Err(CodecError::Parameter(format!("invalid quantisation step {step}")));
+            return Err(CodecError::Parameter(format!(
+                "invalid quantisation step {step}"
+            )));
         }
         let mut head = Vec::new();
         head.push(operator_code(self.params.operator)?);
@@ -570,7 +577,9 @@ impl<'a> GeometryEncoder<'a> {
 /// border-aware coding is on.
 fn residual_targets(border: &[bool], loose: &[u32], border_on: bool) -> Vec<u32> {
     let mut t: Vec<u32> = if border_on {
-        (0..border.len() as u32).filter(|&v| border[v as usize]).collect()
+        (0..border.len() as u32)
+            .filter(|&v| border[v as usize])
+            .collect()
     } else {
         Vec::new()
     };

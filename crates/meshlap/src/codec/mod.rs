@@ -12,7 +12,9 @@ pub mod geometry;
 #[derive(Debug, thiserror::Error)]
 pub enum CodecError {
     /// The mesh has a non-manifold edge or vertex.
-    #[error("cannot compress a non-manifold mesh ({0}); run `meshlap clean --split-nonmanifold` first")]
+    #[error(
+        "cannot compress a non-manifold mesh ({0}); run `meshlap clean --split-nonmanifold` first"
+    )]
     NonManifold(String),
     /// The mesh is not consistently oriented.
     #[error("cannot compress a mesh that is not consistently oriented ({0} edges disagree)")]
@@ -166,7 +168,11 @@ pub fn compress(
     mesh.validate()?;
     let n = mesh.n_vertices();
     let conn = connectivity::encode(topo)?;
-    let positions: Vec<[f64; 3]> = conn.order.iter().map(|&v| mesh.positions[v as usize]).collect();
+    let positions: Vec<[f64; 3]> = conn
+        .order
+        .iter()
+        .map(|&v| mesh.positions[v as usize])
+        .collect();
     let dtopo = Topology::from_faces(n, &conn.faces)?;
     let genc = GeometryEncoder::new(&dtopo, &positions, opts.geometry)?;
     let perm = if opts.preserve_order {
@@ -190,7 +196,9 @@ pub fn compress(
     let step = match opts.quantisation {
         Quantisation::Bits(q) => {
             if !(1.0..=40.0).contains(&q) {
-                return Err(CodecError::Parameter(format!("--bits must be in 1..=40, got {q}")).into());
+                return Err(
+                    CodecError::Parameter(format!("--bits must be in 1..=40, got {q}")).into(),
+                );
             }
             diag * (-q).exp2()
         }
@@ -249,7 +257,11 @@ pub fn compress(
         for (i, &v) in conn.order.iter().enumerate() {
             pos[v as usize] = rec[i];
         }
-        let faces = conn.faces.iter().map(|f| f.map(|v| conn.order[v as usize])).collect();
+        let faces = conn
+            .faces
+            .iter()
+            .map(|f| f.map(|v| conn.order[v as usize]))
+            .collect();
         (TriMesh::new(pos, faces), (0..n as u32).collect())
     } else {
         (TriMesh::new(rec, conn.faces.clone()), conn.order.clone())
@@ -309,7 +321,11 @@ mod tests {
 
     #[test]
     fn file_round_trip_matches_encoder_prediction() {
-        for spec in ["builtin:icosphere:3", "builtin:cube:8", "builtin:torus:12:8"] {
+        for spec in [
+            "builtin:icosphere:3",
+            "builtin:cube:8",
+            "builtin:torus:12:8",
+        ] {
             let (m, t) = open(spec);
             for preserve in [false, true] {
                 let c = compress(
@@ -355,8 +371,16 @@ mod tests {
                 },
             )
             .unwrap();
-            assert!(c.report.bits_per_vertex <= b, "{} > {b}", c.report.bits_per_vertex);
-            assert!(c.report.bits_per_vertex > 0.8 * b, "{} ≪ {b}", c.report.bits_per_vertex);
+            assert!(
+                c.report.bits_per_vertex <= b,
+                "{} > {b}",
+                c.report.bits_per_vertex
+            );
+            assert!(
+                c.report.bits_per_vertex > 0.8 * b,
+                "{} ≪ {b}",
+                c.report.bits_per_vertex
+            );
         }
     }
 

@@ -263,7 +263,10 @@ pub fn write(out: &mut Outputs, points: &[RdPoint]) -> Result<(), ExperimentErro
     meshes.sort();
     meshes.dedup();
     for m in &meshes {
-        for (metric, label) in [("vertex", "vertex RMS / diagonal"), ("metro", "Metro RMS / diagonal")] {
+        for (metric, label) in [
+            ("vertex", "vertex RMS / diagonal"),
+            ("metro", "Metro RMS / diagonal"),
+        ] {
             let mut coders: Vec<String> = points
                 .iter()
                 .filter(|p| &p.mesh == m)

@@ -231,7 +231,10 @@ mod tests {
         assert_eq!(closest_on_triangle([-1.0, -1.0, 0.0], a, b, c), a);
         let q = closest_on_triangle([0.2, 0.2, 5.0], a, b, c);
         assert!((q[0] - 0.2).abs() < 1e-15 && (q[1] - 0.2).abs() < 1e-15 && q[2] == 0.0);
-        assert_eq!(closest_on_triangle([0.5, -2.0, 1.0], a, b, c), [0.5, 0.0, 0.0]);
+        assert_eq!(
+            closest_on_triangle([0.5, -2.0, 1.0], a, b, c),
+            [0.5, 0.0, 0.0]
+        );
         let q = closest_on_triangle([1.0, 1.0, 0.0], a, b, c);
         assert!((q[0] - 0.5).abs() < 1e-15 && (q[1] - 0.5).abs() < 1e-15);
     }

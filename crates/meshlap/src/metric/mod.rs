@@ -232,12 +232,17 @@ pub fn compare(
             for (i, &v) in m.iter().enumerate() {
                 pos[v as usize] = b.positions[i];
             }
-            TriMesh::new(pos, b.faces.iter().map(|f| f.map(|v| m[v as usize])).collect())
+            TriMesh::new(
+                pos,
+                b.faces.iter().map(|f| f.map(|v| m[v as usize])).collect(),
+            )
         }
         None => b.clone(),
     };
     c.same_connectivity = canon_faces(&a.faces, |v| v) == canon_faces(&bb.faces, |v| v);
-    let d: Vec<f64> = (0..n).map(|i| norm(sub(a.positions[i], bb.positions[i]))).collect();
+    let d: Vec<f64> = (0..n)
+        .map(|i| norm(sub(a.positions[i], bb.positions[i])))
+        .collect();
     c.vertex_rms = Some((d.iter().map(|x| x * x).sum::<f64>() / n as f64).sqrt() / diag);
     c.vertex_max = Some(d.iter().copied().fold(0.0, f64::max) / diag);
     if c.same_connectivity {
@@ -266,12 +271,13 @@ pub fn compare(
                 }
             }
             let fro = |f: &dyn Fn(usize) -> [f64; 3]| {
-                (0..n).map(|i| {
-                    let v = f(i);
-                    v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
-                })
-                .sum::<f64>()
-                .sqrt()
+                (0..n)
+                    .map(|i| {
+                        let v = f(i);
+                        v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
+                    })
+                    .sum::<f64>()
+                    .sqrt()
             };
             let dx = fro(&|i| sub(a.positions[i], bb.positions[i]));
             let dg = fro(&|i| sub(ga[i], gb[i]));
@@ -323,7 +329,10 @@ mod tests {
         // Inner to outer polyhedron: 0.1 × the distance of the point's face plane from
         // the centre, so between 0.1·(inradius of a facet) and 0.1 r.
         let (d_max, d_rms) = (c.a_to_b_max * c.diagonal, c.a_to_b_rms * c.diagonal);
-        assert!(d_max <= 0.1 * r + 1e-9 && d_max > 0.095 * r, "{d_max} vs {r}");
+        assert!(
+            d_max <= 0.1 * r + 1e-9 && d_max > 0.095 * r,
+            "{d_max} vs {r}"
+        );
         assert!(d_rms <= d_max && d_rms > 0.09 * r, "{d_rms}");
     }
 

@@ -22,10 +22,18 @@ pub struct Args {
     #[arg(required = true)]
     pub meshes: Vec<String>,
     /// Operators, comma separated.
-    #[arg(long, value_delimiter = ',', default_value = "sstl,sql,tutte,kirchhoff,graph")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "sstl,sql,tutte,kirchhoff,graph"
+    )]
     pub operators: Vec<OperatorKind>,
     /// Keep ratios swept, comma separated.
-    #[arg(long, value_delimiter = ',', default_value = "0.05,0.1,0.2,0.3,0.5,0.7,1")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "0.05,0.1,0.2,0.3,0.5,0.7,1"
+    )]
     pub keep_ratios: Vec<f64>,
     /// Quantisation bits (step = diagonal · 2^-bits).
     #[arg(long, default_value_t = 12.0)]
@@ -89,6 +97,10 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         let s: Vec<&str> = order.iter().map(|(c, _)| c.as_str()).collect();
         println!("{m}: {}", s.join(" < "));
     }
-    eprintln!("wrote {} files to {}", out.written().len(), args.out.display());
+    eprintln!(
+        "wrote {} files to {}",
+        out.written().len(),
+        args.out.display()
+    );
     Ok(())
 }
