@@ -330,15 +330,14 @@ const MAG_BUCKETS: usize = 6;
 /// learn too slowly on a few thousand coefficients).
 fn coef_context(k: usize, hist: &[[i64; 3]; 2]) -> usize {
     let a = hist[0][k].unsigned_abs() + hist[1][k].unsigned_abs();
-    let bucket = match a {
+    match a {
         0 => 0,
         1 => 1,
         2..=3 => 2,
         4..=7 => 3,
         8..=15 => 4,
         _ => 5,
-    };
-    bucket
+    }
 }
 
 fn quantise(v: f64, s: f64) -> Result<i64, CodecError> {
@@ -383,6 +382,10 @@ pub struct GeometryStats {
     /// Geometry stream bytes.
     pub bytes: usize,
 }
+
+/// A coded geometry stream, the positions the decoder will produce from it (decoded
+/// vertex order, n×3) and the encoder's measurements.
+pub type EncodedGeometry = (Vec<u8>, Vec<[f64; 3]>, GeometryStats);
 
 /// Precomputed state of the encoder (bases are reused by rate control).
 pub struct GeometryEncoder<'a> {
@@ -481,7 +484,7 @@ impl<'a> GeometryEncoder<'a> {
 
     /// Codes the geometry with global step `step`; returns the stream, the
     /// reconstruction the decoder will produce, and statistics.
-    pub fn encode(&self, step: f64) -> Result<(Vec<u8>, Vec<[f64; 3]>, GeometryStats), CodecError> {
+    pub fn encode(&self, step: f64) -> Result<EncodedGeometry, CodecError> {
         if !(step.is_finite() && step > 0.0) {
             return Err(CodecError::Parameter(format!(
                 "invalid quantisation step {step}"
