@@ -39,6 +39,9 @@ enum Command {
     Compare(cmd::compare::Args),
     Experiment(cmd::experiment::Args),
     Decompress(cmd::decompress::Args),
+    Spectrum(cmd::spectrum::Args),
+    Project(cmd::project::Args),
+    Compaction(cmd::compaction::Args),
     Render(cmd::render::Args),
 }
 
@@ -61,6 +64,9 @@ fn main() {
         Command::Compare(a) => cmd::compare::run(a),
         Command::Experiment(a) => cmd::experiment::run(a),
         Command::Decompress(a) => cmd::decompress::run(a),
+        Command::Spectrum(a) => cmd::spectrum::run(a),
+        Command::Project(a) => cmd::project::run(a),
+        Command::Compaction(a) => cmd::compaction::run(a),
         Command::Render(a) => cmd::render::run(a),
     };
     if let Err(e) = result {

@@ -1,8 +1,10 @@
 //! `meshlap-bench TASK MESH [--repeat N]`: times library calls for the side-by-side
 //! scripts in `bench/` and prints JSON with the median and all timings (seconds).
 //! Tasks: `load` (read + clean + connectivity), `operators` (assemble each operator),
-//! `io` (write and re-read as PLY and OBJ), `codec` (compress and decompress, default
-//! settings, non-manifold vertices split first).
+//! `io` (write and re-read as PLY and OBJ), `spectrum` (dense eigenbases: KL and SQL
+//! by the symmetric solver, the TL through its GL similarity and by the general
+//! eigensolver plus LU), `codec` (compress and decompress, default settings,
+//! non-manifold vertices split first).
 
 use meshlap::input::{open, OpenOptions};
 use meshlap::operator::{Operator, OperatorKind, OperatorOptions};
@@ -38,7 +40,8 @@ fn main() {
 
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let usage = "usage: meshlap-bench load|operators|io|codec MESH [--repeat N]";
+    let usage =
+        "usage: meshlap-bench load|operators|io|spectrum|codec MESH [--repeat N] [--general]";
     let task = args.first().ok_or(usage)?.clone();
     let mesh = args.get(1).ok_or(usage)?.clone();
     let repeat = match args.iter().position(|a| a == "--repeat") {
@@ -125,6 +128,34 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                 "decode".into(),
                 serde_json::json!({"median": d, "times": td}),
             );
+        }
+        "spectrum" => {
+            use meshlap::spectral::{BasisOptions, EigenBasis, EigenPath};
+            let input = open(&mesh, &OpenOptions::default())?;
+            out.insert("vertices".into(), input.mesh.n_vertices().into());
+            let general = args.iter().any(|a| a == "--general");
+            let mut cases = vec![
+                ("kirchhoff", OperatorKind::Kirchhoff, EigenPath::Auto),
+                ("sql", OperatorKind::Sql, EigenPath::Auto),
+                ("tutte", OperatorKind::Tutte, EigenPath::Auto),
+            ];
+            if general {
+                cases.push(("tutte-general", OperatorKind::Tutte, EigenPath::General));
+            }
+            for (name, kind, path) in cases {
+                let op = Operator::assemble(
+                    kind,
+                    &input.mesh,
+                    &input.topology,
+                    &OperatorOptions::default(),
+                )?;
+                let opts = BasisOptions {
+                    path,
+                    ..Default::default()
+                };
+                let (m, t) = time(repeat, || EigenBasis::compute(&op, &opts).map(|b| b.len()));
+                out.insert(name.into(), serde_json::json!({"median": m, "times": t}));
+            }
         }
         _ => return Err(usage.into()),
     }

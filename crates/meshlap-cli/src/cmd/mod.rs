@@ -1,6 +1,7 @@
 //! One module per subcommand.
 
 pub mod clean;
+pub mod compaction;
 pub mod compare;
 pub mod compress;
 pub mod convert;
@@ -9,5 +10,7 @@ pub mod experiment;
 pub mod info;
 pub mod iterate;
 pub mod operator;
+pub mod project;
 pub mod render;
 pub mod repair;
+pub mod spectrum;

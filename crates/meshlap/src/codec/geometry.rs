@@ -12,22 +12,22 @@
 //! * Symmetric operators (KL, GL, SQL, SSTL): `E` is orthonormal, `X = Eᵀx`, and the
 //!   coefficient error equals the vertex error (Parseval).
 //! * The Tutte Laplacian `T = I − D⁻¹A` is not symmetric, but it is similar to the
-//!   normalised graph Laplacian `G = D^{-1/2} A D^{-1/2}`-based `I − …`:
-//!   `T = D^{-1/2} G D^{1/2}`. With `G = UΛUᵀ`, `E = D^{-1/2}U` and `E⁻¹ = UᵀD^{1/2}`,
-//!   so no dense solve is needed (Zhang §4.9 remarks that TL needs one otherwise).
+//!   normalised graph Laplacian `G = I − D^{-1/2} A D^{-1/2}`: `T = D^{-1/2} G D^{1/2}`,
+//!   so `EigenBasis`' symmetrized path gives `E = D^{-1/2}U` (unit columns) and the
+//!   coefficients by a D-weighted projection — no dense solve (Zhang §4.9 remarks that
+//!   TL needs one otherwise).
 //!
 //! **Determinism.** The decoder must reproduce the encoder's basis bit for bit,
-//! including inside repeated eigenvalues (icosphere, cube). The eigensolver runs
-//! sequentially (`Par::Seq`, so the thread count cannot change the rounding) on a
-//! matrix built from the decoded connectivity in the decoded vertex order, and every
-//! eigenvector's sign is fixed (its largest-magnitude entry, first on ties, positive).
-//! Encoder and decoder run the same code on the same input, so they agree exactly;
-//! tests check this on `builtin:icosphere:3` and `builtin:cube:8`.
+//! including inside repeated eigenvalues (icosphere, cube). The bases come from
+//! [`crate::spectral::EigenBasis`] (canonical vectors: probe-vector rule inside
+//! eigenvalue clusters, thread-independent arithmetic) on a matrix built from the
+//! decoded connectivity in the decoded vertex order, so encoder and decoder agree
+//! exactly; tests check this on `builtin:icosphere:3` and `builtin:cube:8`.
 //!
 //! **Quantisation.** A global step `Δ` (from `--bits q`: `Δ = diag·2^{−q}`, or found by
 //! rate control for `--target-bpv`) scaled per band: the kept coefficients are cut
 //! into four bands of equal count, band `b` using step `Δ·(1 + s·b/3)` (`s` =
-//! `band_slope`, default 0). Integers are range-coded with adaptive models whose
+//! `band_slope`, default 0.5). Integers are range-coded with adaptive models whose
 //! context is the magnitude of the two previous coefficients of the same coordinate.
 //!
 //! **Patch borders.** A truncated basis on a patch with a free border reconstructs
@@ -48,7 +48,8 @@ use super::CodecError;
 use crate::mesh::topology::Topology;
 use crate::mesh::TriMesh;
 use crate::operator::{Operator, OperatorKind, OperatorOptions};
-use faer::{Mat, Par};
+use crate::spectral::{forward, inverse, BasisOptions, EigenBasis};
+use faer::Mat;
 use rayon::prelude::*;
 
 const BANDS: usize = 4;
@@ -161,52 +162,38 @@ pub(crate) fn partition(topo: &Topology, p: usize) -> Vec<Vec<u32>> {
     patches
 }
 
-/// A patch's truncated basis: `synth` (n_p×m) maps coefficients to coordinates,
-/// `analysis` (m×n_p) coordinates to coefficients; `verts` lists the patch vertices
-/// that lie on a face of the patch (the others are coded as loose vertices).
+/// A patch's basis ([`crate::spectral::EigenBasis`]: canonical, deterministic
+/// eigenvectors, ascending eigenvalues) and how many coefficients it keeps; `verts`
+/// lists the patch vertices that lie on a face of the patch (the others are coded as
+/// loose vertices).
 struct PatchBasis {
     verts: Vec<u32>,
-    synth: Mat<f64>,
-    analysis: Mat<f64>,
+    basis: Option<EigenBasis>,
+    m: usize,
 }
 
-/// Dense symmetric eigendecomposition, sequential (deterministic), eigenvalues
-/// ascending, each eigenvector's largest-magnitude entry made positive.
-fn sym_eigvecs(a: &Mat<f64>) -> Result<Mat<f64>, CodecError> {
-    use faer::dyn_stack::{MemBuffer, MemStack};
-    use faer::linalg::evd;
-    let n = a.nrows();
-    let mut u = Mat::<f64>::zeros(n, n);
-    let mut s = faer::diag::Diag::<f64>::zeros(n);
-    let par = Par::Seq;
-    evd::self_adjoint_evd(
-        a.as_ref(),
-        s.as_mut(),
-        Some(u.as_mut()),
-        par,
-        MemStack::new(&mut MemBuffer::new(evd::self_adjoint_evd_scratch::<f64>(
-            n,
-            evd::ComputeEigenvectors::Yes,
-            par,
-            Default::default(),
-        ))),
-        Default::default(),
-    )
-    .map_err(|_| CodecError::Internal("eigendecomposition did not converge"))?;
-    for j in 0..n {
-        let mut best = 0;
-        for i in 0..n {
-            if u[(i, j)].abs() > u[(best, j)].abs() {
-                best = i;
-            }
-        }
-        if u[(best, j)] < 0.0 {
-            for i in 0..n {
-                u[(i, j)] = -u[(i, j)];
+impl PatchBasis {
+    /// The first `m` coefficients (m×3) of the patch coordinates `x` (n_p×3).
+    fn analyse(&self, x: &Mat<f64>) -> Result<Mat<f64>, CodecError> {
+        match &self.basis {
+            None => Ok(Mat::zeros(0, 3)),
+            Some(b) => {
+                let all = forward(b, x.as_ref()).map_err(spectral_err)?;
+                Ok(all.subrows(0, self.m).to_owned())
             }
         }
     }
-    Ok(u)
+    /// Coordinates (n_p×3) from the first m coefficients.
+    fn synthesise(&self, c: &Mat<f64>) -> Result<Mat<f64>, CodecError> {
+        match &self.basis {
+            None => Ok(Mat::zeros(0, 3)),
+            Some(b) => inverse(b, c.as_ref()).map_err(spectral_err),
+        }
+    }
+}
+
+fn spectral_err(e: crate::spectral::SpectralError) -> CodecError {
+    CodecError::Parameter(format!("patch eigenbasis: {e}"))
 }
 
 /// The basis of one patch given its submesh connectivity `pt` (local numbering);
@@ -235,38 +222,19 @@ fn patch_basis(pt: &Topology, kind: OperatorKind, keep: Keep) -> Result<PatchBas
     if np == 0 {
         return Ok(PatchBasis {
             verts,
-            synth: Mat::zeros(0, 0),
-            analysis: Mat::zeros(0, 0),
+            basis: None,
+            m: 0,
         });
     }
     let sub = TriMesh::new(vec![[0.0; 3]; np], faces);
     let st = Topology::new(&sub).map_err(|_| CodecError::Internal("patch topology"))?;
-    let m = keep.count(np);
-    let (op_kind, tutte) = match kind {
-        OperatorKind::Tutte => (OperatorKind::Graph, true),
-        k => (k, false),
-    };
-    let op = Operator::assemble(op_kind, &sub, &st, &OperatorOptions::default())
+    let op = Operator::assemble(kind, &sub, &st, &OperatorOptions::default())
         .map_err(|e| CodecError::Parameter(format!("operator on a patch: {e}")))?;
-    let dense = op.matrix.to_dense();
-    let u = sym_eigvecs(&dense)?;
-    let mut synth = Mat::<f64>::zeros(np, m);
-    let mut analysis = Mat::<f64>::zeros(m, np);
-    let sq: Vec<f64> = if tutte {
-        st.degrees().iter().map(|&d| (d as f64).sqrt()).collect()
-    } else {
-        vec![1.0; np]
-    };
-    for j in 0..m {
-        for i in 0..np {
-            synth[(i, j)] = u[(i, j)] / sq[i];
-            analysis[(j, i)] = u[(i, j)] * sq[i];
-        }
-    }
+    let basis = EigenBasis::compute(&op, &BasisOptions::default()).map_err(spectral_err)?;
     Ok(PatchBasis {
         verts,
-        synth,
-        analysis,
+        basis: Some(basis),
+        m: keep.count(np),
     })
 }
 
@@ -308,8 +276,8 @@ fn bases(topo: &Topology, params: &GeometryParams) -> Result<Vec<PatchBasis>, Co
             let b = patch_basis(&ft, params.operator, params.keep)?;
             Ok(PatchBasis {
                 verts: b.verts.iter().map(|&i| patch[i as usize]).collect(),
-                synth: b.synth,
-                analysis: b.analysis,
+                basis: b.basis,
+                m: b.m,
             })
         })
         .collect()
@@ -463,13 +431,9 @@ impl<'a> GeometryEncoder<'a> {
                         x[(i, k)] = positions[v as usize][k];
                     }
                 }
-                if np == 0 {
-                    Mat::zeros(0, 3)
-                } else {
-                    &b.analysis * &x
-                }
+                b.analyse(&x)
             })
-            .collect();
+            .collect::<Result<Vec<_>, _>>()?;
         let (border, loose) = border_and_loose(topo, &bases);
         Ok(GeometryEncoder {
             topo,
@@ -528,7 +492,7 @@ impl<'a> GeometryEncoder<'a> {
             }
             qcoefs.push(q);
         }
-        synthesise(&self.bases, &qcoefs, &mut rec);
+        synthesise(&self.bases, &qcoefs, &mut rec)?;
         let mut stats = GeometryStats {
             patches: self.bases.len(),
             coefficients: self.coefs.iter().map(|c| c.nrows()).sum(),
@@ -613,23 +577,22 @@ fn prediction(topo: &Topology, v: u32, rec: &[[f64; 3]], loose: &[bool]) -> [f64
     }
 }
 
-fn synthesise(bases: &[PatchBasis], coefs: &[Mat<f64>], rec: &mut [[f64; 3]]) {
+fn synthesise(
+    bases: &[PatchBasis],
+    coefs: &[Mat<f64>],
+    rec: &mut [[f64; 3]],
+) -> Result<(), CodecError> {
     let parts: Vec<Mat<f64>> = bases
         .par_iter()
         .zip(coefs.par_iter())
-        .map(|(b, c)| {
-            if b.verts.is_empty() {
-                Mat::zeros(0, 3)
-            } else {
-                &b.synth * c
-            }
-        })
-        .collect();
+        .map(|(b, c)| b.synthesise(c))
+        .collect::<Result<_, _>>()?;
     for (b, x) in bases.iter().zip(parts) {
         for (i, &v) in b.verts.iter().enumerate() {
             rec[v as usize] = [x[(i, 0)], x[(i, 1)], x[(i, 2)]];
         }
     }
+    Ok(())
 }
 
 /// Decodes a geometry stream for the decoded connectivity `topo`.
@@ -682,7 +645,7 @@ pub fn decode(topo: &Topology, data: &[u8]) -> Result<Vec<[f64; 3]>, CodecError>
     let mut models = GeoModels::new();
     let mut coefs = Vec::with_capacity(bases.len());
     for b in &bases {
-        let m = b.synth.ncols();
+        let m = b.m;
         let mut q = Mat::<f64>::zeros(m, 3);
         let mut hist = [[0i64; 3]; 2];
         for j in 0..m {
@@ -702,7 +665,7 @@ pub fn decode(topo: &Topology, data: &[u8]) -> Result<Vec<[f64; 3]>, CodecError>
     }
     let n = topo.n_vertices();
     let mut rec = vec![[0.0f64; 3]; n];
-    synthesise(&bases, &coefs, &mut rec);
+    synthesise(&bases, &coefs, &mut rec)?;
     let (border, loose) = border_and_loose(topo, &bases);
     let mut loose_set = vec![false; n];
     for &v in &loose {

@@ -9,9 +9,13 @@
 //!   to the valence-weighted centroid, a doubly stochastic H to the centroid).
 //! - [`compression`]: §4.9 — rate–distortion of spectral compression per operator and
 //!   against Draco.
+//! - [`eigen_cost`]: §4.9 — the cost of the ED-transform per operator (Fig. 3) and the
+//!   energy compaction of SSTL, SQL, TL, KL on smooth and sharp models.
 
 pub mod claims;
 pub mod compression;
+
+pub mod eigen_cost;
 
 use serde::Serialize;
 use std::path::{Path, PathBuf};

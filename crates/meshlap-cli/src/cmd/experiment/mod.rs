@@ -2,6 +2,7 @@
 //! experiment (siblings add their own variants here).
 
 pub mod compression;
+pub mod eigen_cost;
 
 use clap::Subcommand;
 
@@ -16,10 +17,12 @@ pub struct Args {
 #[derive(Subcommand, Debug)]
 pub enum Experiment {
     Compression(compression::Args),
+    EigenCost(eigen_cost::Args),
 }
 
 pub fn run(args: &Args) -> meshlap::Result<()> {
     match &args.command {
         Experiment::Compression(a) => compression::run(a),
+        Experiment::EigenCost(a) => eigen_cost::run(a),
     }
 }
