@@ -1,6 +1,7 @@
 //! `meshlap experiment …`: reproductions of the paper's experiments, one file per
 //! experiment (siblings add their own variants here).
 
+pub mod claims;
 pub mod compression;
 pub mod eigen_cost;
 
@@ -16,12 +17,14 @@ pub struct Args {
 /// The experiments.
 #[derive(Subcommand, Debug)]
 pub enum Experiment {
+    Claims(claims::Args),
     Compression(compression::Args),
     EigenCost(eigen_cost::Args),
 }
 
 pub fn run(args: &Args) -> meshlap::Result<()> {
     match &args.command {
+        Experiment::Claims(a) => claims::run(a),
         Experiment::Compression(a) => compression::run(a),
         Experiment::EigenCost(a) => eigen_cost::run(a),
     }
