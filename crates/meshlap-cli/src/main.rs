@@ -36,11 +36,14 @@ enum Command {
     Iterate(cmd::iterate::Args),
     RepairSql(cmd::repair::Args),
     Smooth(cmd::smooth::Args),
+    Compress(cmd::compress::Args),
+    Compare(cmd::compare::Args),
+    Decompress(cmd::decompress::Args),
     Spectrum(cmd::spectrum::Args),
     Project(cmd::project::Args),
     Compaction(cmd::compaction::Args),
-    Experiment(cmd::experiment::Args),
     Render(cmd::render::Args),
+    Experiment(cmd::experiment::Args),
 }
 
 fn main() {
@@ -66,11 +69,14 @@ fn main() {
         Command::Iterate(a) => cmd::iterate::run(a),
         Command::RepairSql(a) => cmd::repair::run(a),
         Command::Smooth(a) => cmd::smooth::run(a),
+        Command::Compress(a) => cmd::compress::run(a),
+        Command::Compare(a) => cmd::compare::run(a),
+        Command::Decompress(a) => cmd::decompress::run(a),
         Command::Spectrum(a) => cmd::spectrum::run(a),
         Command::Project(a) => cmd::project::run(a),
         Command::Compaction(a) => cmd::compaction::run(a),
-        Command::Experiment(a) => cmd::experiment::run(a),
         Command::Render(a) => cmd::render::run(a),
+        Command::Experiment(a) => cmd::experiment::run(a),
     };
     if let Err(e) = result {
         let msg = e.to_string().replace('\n', " ");

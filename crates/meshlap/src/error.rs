@@ -24,6 +24,12 @@ pub enum Error {
     /// A spectral computation failed.
     #[error(transparent)]
     Spectral(#[from] crate::spectral::SpectralError),
+    /// Compression or decompression failed.
+    #[error(transparent)]
+    Codec(#[from] crate::codec::CodecError),
+    /// A distortion metric could not be computed.
+    #[error(transparent)]
+    Metric(#[from] crate::metric::MetricError),
     /// Rendering a chart failed.
     #[error(transparent)]
     Plot(#[from] crate::plot::PlotError),

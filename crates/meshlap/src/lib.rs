@@ -18,6 +18,8 @@
 //! - [`analysis`]: matrix-theoretic properties (symmetry, stochasticity, GSML status,
 //!   eigenvalue bounds), smoothing iterations and SQL negative-weight repair.
 //! - [`solve`]: CG, PCG, BiCG, BiCGSTAB and direct solvers for implicit fairing.
+//! - [`codec`]: mesh compression (connectivity coding, spectral geometry coding, `.mlz`).
+//! - [`metric`]: distortion metrics (vertex, Metro surface distance, Zhang, Karni–Gotsman).
 //! - [`experiment`]: the paper's experiments as functions returning tables and charts.
 //! - [`plot`]: PNG line charts for the experiments.
 //! - [`render`]: software rendering of meshes to PNG (the paper's figures).
@@ -27,12 +29,14 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod analysis;
+pub mod codec;
 pub mod error;
 pub mod experiment;
 pub mod filter;
 pub mod input;
 pub mod io;
 pub mod mesh;
+pub mod metric;
 pub mod operator;
 pub mod plot;
 pub mod render;

@@ -8,7 +8,8 @@
 //! GL similarity and by the general eigensolver plus LU), `solvers` (implicit-fairing
 //! solves of `(I + λS)`, `(I + λT)`, `(D + λK)` with CG/BiCG/Cholesky, a streaming-copy
 //! bandwidth measurement and the memory-traffic bound per iteration; `--lambda L`, and
-//! `--export DIR` writes the matrices and right-hand side for the scipy side).
+//! `--export DIR` writes the matrices and right-hand side for the scipy side), `codec`
+//! (compress and decompress, default settings, non-manifold vertices split first).
 
 use meshlap::input::{open, OpenOptions};
 use meshlap::operator::{Operator, OperatorKind, OperatorOptions};
@@ -44,7 +45,7 @@ fn main() {
 
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let usage = "usage: meshlap-bench load|operators|topology|io|read|spectrum|solvers MESH \
+    let usage = "usage: meshlap-bench load|operators|topology|io|read|spectrum|solvers|codec MESH \
                  [--repeat N] [--kind K] [--general] [--lambda L] [--export DIR] \
                  | dump MESH DIR | write MESH OUT [--repeat N]";
     let task = args.first().ok_or(usage)?.clone();
@@ -189,6 +190,30 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                 .map(|p| args.get(p + 1).map(std::path::PathBuf::from).ok_or(usage))
                 .transpose()?;
             solvers(&mesh, lambda, repeat, export.as_deref(), &mut out)?;
+        }
+        "codec" => {
+            // Compress (SSTL, 10 bits, default patches) and decompress in memory.
+            let input = open(&mesh, &OpenOptions::default())?;
+            let (mesh_c, _) = meshlap::mesh::clean::split_non_manifold(&input.mesh)?;
+            let topo = meshlap::mesh::topology::Topology::new(&mesh_c)?;
+            out.insert("vertices".into(), mesh_c.n_vertices().into());
+            let opts = meshlap::codec::CompressOptions::default();
+            let c = meshlap::codec::compress(&mesh_c, &topo, &opts)?;
+            let (e, te) = time(repeat, || {
+                meshlap::codec::compress(&mesh_c, &topo, &opts).map(|c| c.bytes.len())
+            });
+            let (d, td) = time(repeat, || {
+                meshlap::codec::decompress(&c.bytes).map(|m| m.n_faces())
+            });
+            out.insert("bits_per_vertex".into(), c.report.bits_per_vertex.into());
+            out.insert(
+                "encode".into(),
+                serde_json::json!({"median": e, "times": te}),
+            );
+            out.insert(
+                "decode".into(),
+                serde_json::json!({"median": d, "times": td}),
+            );
         }
         "spectrum" => {
             use meshlap::spectral::{BasisOptions, EigenBasis, EigenPath};

@@ -2,7 +2,10 @@
 
 pub mod clean;
 pub mod compaction;
+pub mod compare;
+pub mod compress;
 pub mod convert;
+pub mod decompress;
 pub mod experiment;
 pub mod info;
 pub mod iterate;

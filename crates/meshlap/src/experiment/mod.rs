@@ -8,11 +8,15 @@
 //!   SQL negative-weight repair (§3.7), and the smoothing limits (§2.2: the TL converges
 //!   to the valence-weighted centroid, a doubly stochastic H to the centroid).
 //! - [`figures`]: the paper's Figs. 1 and 4 — truncated ED reconstructions rendered.
+//! - [`compression`]: §4.9 — rate–distortion of spectral compression per operator and
+//!   against Draco.
 //! - [`eigen_cost`]: §4.9 — the cost of the ED-transform per operator (Fig. 3) and the
 //!   energy compaction of SSTL, SQL, TL, KL on smooth and sharp models.
 //! - [`fairing`]: §4.10, Table 1 — CG on the SQL vs BiCG on the TL for implicit fairing.
 
 pub mod claims;
+pub mod compression;
+
 pub mod eigen_cost;
 pub mod fairing;
 pub mod figures;

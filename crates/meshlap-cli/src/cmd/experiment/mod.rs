@@ -2,6 +2,7 @@
 //! experiment (siblings add their own variants here).
 
 pub mod claims;
+pub mod compression;
 pub mod eigen_cost;
 pub mod fairing;
 pub mod figures;
@@ -19,6 +20,7 @@ pub struct Args {
 #[derive(Subcommand, Debug)]
 pub enum Experiment {
     Claims(claims::Args),
+    Compression(compression::Args),
     EigenCost(eigen_cost::Args),
     Figures(figures::Args),
     Fairing(fairing::Args),
@@ -27,6 +29,7 @@ pub enum Experiment {
 pub fn run(args: &Args) -> meshlap::Result<()> {
     match &args.command {
         Experiment::Claims(a) => claims::run(a),
+        Experiment::Compression(a) => compression::run(a),
         Experiment::EigenCost(a) => eigen_cost::run(a),
         Experiment::Figures(a) => figures::run(a),
         Experiment::Fairing(a) => fairing::run(a),

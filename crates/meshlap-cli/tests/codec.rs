@@ -1,0 +1,115 @@
+//! End-to-end tests of `meshlap compress`, `decompress` and `compare`.
+
+use std::process::{Command, Output};
+
+fn meshlap(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_meshlap"))
+        .args(args)
+        .output()
+        .expect("run meshlap")
+}
+
+fn json(out: &Output) -> serde_json::Value {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("valid JSON")
+}
+
+fn assert_one_line_error(out: &Output, needle: &str) {
+    assert_eq!(out.status.code(), Some(1), "{out:?}");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains(needle), "{err} should mention {needle}");
+}
+
+#[test]
+fn compress_decompress_compare_round_trip() {
+    let dir = tempfile::tempdir().unwrap();
+    let mlz = dir.path().join("s.mlz");
+    let out = dir.path().join("s.ply");
+    let (mlz_s, out_s) = (mlz.to_str().unwrap(), out.to_str().unwrap());
+    let r = json(&meshlap(&[
+        "compress",
+        "builtin:icosphere:3",
+        "-o",
+        mlz_s,
+        "--preserve-order",
+        "--bits",
+        "12",
+        "--measure",
+        "--samples",
+        "2000",
+        "--json",
+    ]));
+    for key in [
+        "bits_per_vertex",
+        "connectivity_bpv",
+        "geometry_bpv",
+        "permutation_bpv",
+        "step",
+        "distortion",
+    ] {
+        assert!(r.get(key).is_some(), "missing {key}");
+    }
+    assert!(r["distortion"]["same_connectivity"].as_bool().unwrap());
+    let size = std::fs::metadata(&mlz).unwrap().len();
+    assert_eq!(size, r["bytes"].as_u64().unwrap());
+    assert!(meshlap(&["decompress", mlz_s, "-o", out_s])
+        .status
+        .success());
+    let c = json(&meshlap(&[
+        "compare",
+        "builtin:icosphere:3",
+        out_s,
+        "--samples",
+        "2000",
+        "--json",
+    ]));
+    // With the order preserved the decoded mesh has the same connectivity, and its
+    // error is within the 12-bit quantisation (step = diag/4096, RMS ≈ step/2).
+    assert!(c["same_connectivity"].as_bool().unwrap());
+    assert!(c["vertex_rms"].as_f64().unwrap() < 2.0 / 4096.0);
+    assert!(c["hausdorff"].as_f64().unwrap() < 4.0 / 4096.0);
+}
+
+#[test]
+fn corrupt_and_foreign_files_fail_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let mlz = dir.path().join("t.mlz");
+    let mlz_s = mlz.to_str().unwrap();
+    assert!(meshlap(&["compress", "builtin:torus:8:6", "-o", mlz_s])
+        .status
+        .success());
+    let mut bytes = std::fs::read(&mlz).unwrap();
+    let out = dir.path().join("o.obj");
+    let out_s = out.to_str().unwrap();
+    bytes.truncate(bytes.len() - 7);
+    std::fs::write(&mlz, &bytes).unwrap();
+    assert_one_line_error(&meshlap(&["decompress", mlz_s, "-o", out_s]), "truncated");
+    std::fs::write(&mlz, b"solid ascii stl").unwrap();
+    assert_one_line_error(&meshlap(&["decompress", mlz_s, "-o", out_s]), "magic");
+    assert!(!out.exists(), "no partial output");
+}
+
+#[test]
+fn non_manifold_input_suggests_splitting() {
+    let dir = tempfile::tempdir().unwrap();
+    let bowtie = dir.path().join("bowtie.obj");
+    std::fs::write(
+        &bowtie,
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv -1 0 0\nv 0 -1 0\nf 1 2 3\nf 1 4 5\n",
+    )
+    .unwrap();
+    let mlz = dir.path().join("b.mlz");
+    let o = meshlap(&[
+        "compress",
+        bowtie.to_str().unwrap(),
+        "-o",
+        mlz.to_str().unwrap(),
+    ]);
+    assert_one_line_error(&o, "--split-nonmanifold");
+    assert!(!mlz.exists());
+}

@@ -1,0 +1,416 @@
+//! Mesh compression: lossless connectivity coding ([`connectivity`], a cut-border
+//! machine), adaptive range coding ([`entropy`]), the `.mlz` container
+//! ([`container`]) and spectral geometry coding after Karni and Gotsman,
+//! *Spectral compression of mesh geometry* (SIGGRAPH 2000) ([`geometry`]).
+
+pub mod connectivity;
+pub mod container;
+pub mod entropy;
+pub mod geometry;
+
+/// Errors of encoding and decoding.
+#[derive(Debug, thiserror::Error)]
+pub enum CodecError {
+    /// The mesh has a non-manifold edge or vertex.
+    #[error(
+        "cannot compress a non-manifold mesh ({0}); run `meshlap clean --split-nonmanifold` first"
+    )]
+    NonManifold(String),
+    /// The mesh is not consistently oriented.
+    #[error("cannot compress a mesh that is not consistently oriented ({0} edges disagree)")]
+    NotOriented(usize),
+    /// The input ended early.
+    #[error("truncated file: the {0} ends early")]
+    Truncated(&'static str),
+    /// The input is not a valid stream.
+    #[error("corrupt file: {0}")]
+    Corrupt(&'static str),
+    /// Not an `.mlz` file.
+    #[error("not a meshlap compressed file (bad magic number)")]
+    BadMagic,
+    /// A format version this build cannot read.
+    #[error("unsupported .mlz version {0}")]
+    Version(u16),
+    /// The checksum does not match.
+    #[error("corrupt file: checksum mismatch in the {0} section")]
+    Checksum(&'static str),
+    /// A parameter is out of range.
+    #[error("{0}")]
+    Parameter(String),
+    /// An internal invariant failed (a bug).
+    #[error("internal codec error: {0}")]
+    Internal(&'static str),
+}
+
+use crate::mesh::topology::Topology;
+use crate::mesh::TriMesh;
+use container::{ByteReader, SectionKind};
+use entropy::{RangeDecoder, RangeEncoder};
+use geometry::{GeometryEncoder, GeometryParams, GeometryStats};
+use serde::Serialize;
+
+/// How finely the geometry is quantised.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub enum Quantisation {
+    /// Global step `diag · 2^{−q}` (diag: bounding-box diagonal).
+    Bits(f64),
+    /// Rate control: the finest step whose whole file fits `b` bits per vertex.
+    TargetBpv(f64),
+}
+
+/// Options of [`compress`].
+#[derive(Copy, Clone, Debug)]
+pub struct CompressOptions {
+    /// Geometry coder parameters.
+    pub geometry: GeometryParams,
+    /// Quantisation or rate target.
+    pub quantisation: Quantisation,
+    /// Store the input vertex order (otherwise the decoder's order is the traversal's).
+    pub preserve_order: bool,
+}
+
+impl Default for CompressOptions {
+    fn default() -> Self {
+        CompressOptions {
+            geometry: GeometryParams::default(),
+            quantisation: Quantisation::Bits(10.0),
+            preserve_order: false,
+        }
+    }
+}
+
+/// Sizes and parameters of a compressed mesh.
+#[derive(Clone, Debug, Serialize)]
+pub struct CompressReport {
+    /// Vertices.
+    pub vertices: usize,
+    /// Faces.
+    pub faces: usize,
+    /// File size in bytes.
+    pub bytes: usize,
+    /// Whole file, bits per vertex.
+    pub bits_per_vertex: f64,
+    /// Connectivity section, bits per vertex.
+    pub connectivity_bpv: f64,
+    /// Geometry section, bits per vertex.
+    pub geometry_bpv: f64,
+    /// Permutation section, bits per vertex (0 without `--preserve-order`).
+    pub permutation_bpv: f64,
+    /// Global quantisation step (absolute).
+    pub step: f64,
+    /// The same as bits: `log2(diag / step)`.
+    pub quantisation_bits: f64,
+    /// Operator of the basis.
+    pub operator: crate::operator::OperatorKind,
+    /// Geometry coder measurements.
+    pub geometry: GeometryStats,
+}
+
+/// A compressed mesh: the file image, the report, and the mesh the decoder will
+/// produce (in the decoder's vertex order, or the input's with `preserve_order`).
+#[derive(Clone, Debug)]
+pub struct Compressed {
+    /// The `.mlz` file image.
+    pub bytes: Vec<u8>,
+    /// Sizes and parameters.
+    pub report: CompressReport,
+    /// The decoded mesh.
+    pub decoded: TriMesh,
+    /// `order[i]` = input vertex of decoded vertex `i` (identity with `preserve_order`).
+    pub order: Vec<u32>,
+}
+
+fn header_bytes(n: usize, f: usize) -> Vec<u8> {
+    let mut h = Vec::with_capacity(8);
+    h.extend_from_slice(&(n as u32).to_le_bytes());
+    h.extend_from_slice(&(f as u32).to_le_bytes());
+    h
+}
+
+fn encode_permutation(order: &[u32]) -> Vec<u8> {
+    let n = order.len();
+    let bits = usize::BITS - n.saturating_sub(1).leading_zeros();
+    let mut enc = RangeEncoder::new();
+    for &v in order {
+        enc.direct(v, bits);
+    }
+    enc.finish()
+}
+
+fn decode_permutation(data: &[u8], n: usize) -> Result<Vec<u32>, CodecError> {
+    let bits = usize::BITS - n.saturating_sub(1).leading_zeros();
+    // Each entry takes `bits` bits: bound the count by the data before allocating.
+    if (n as u64) * (bits as u64) > (data.len() as u64 + 8) * 8 {
+        return Err(CodecError::Truncated("permutation"));
+    }
+    let mut dec = RangeDecoder::new(data);
+    let mut seen = vec![false; n];
+    let mut order = Vec::with_capacity(n);
+    for _ in 0..n {
+        let v = dec.direct(bits) as usize;
+        if v >= n || seen[v] {
+            return Err(CodecError::Corrupt("permutation is not a permutation"));
+        }
+        seen[v] = true;
+        order.push(v as u32);
+    }
+    dec.finish()?;
+    Ok(order)
+}
+
+/// Compresses a manifold, consistently oriented mesh (Karni–Gotsman spectral geometry
+/// coding over a cut-border connectivity code). `topo` is `mesh`'s connectivity.
+pub fn compress(
+    mesh: &TriMesh,
+    topo: &Topology,
+    opts: &CompressOptions,
+) -> Result<Compressed, crate::Error> {
+    mesh.validate()?;
+    let n = mesh.n_vertices();
+    let conn = connectivity::encode(topo)?;
+    let positions: Vec<[f64; 3]> = conn
+        .order
+        .iter()
+        .map(|&v| mesh.positions[v as usize])
+        .collect();
+    let dtopo = Topology::from_faces(n, &conn.faces)?;
+    let genc = GeometryEncoder::new(&dtopo, &positions, opts.geometry)?;
+    let perm = if opts.preserve_order {
+        Some(encode_permutation(&conn.order))
+    } else {
+        None
+    };
+    let diag = mesh.bbox_diagonal().max(f64::MIN_POSITIVE);
+    let header = header_bytes(n, mesh.n_faces());
+    let assemble = |geo: &[u8]| -> Result<Vec<u8>, CodecError> {
+        let mut secs: Vec<(SectionKind, &[u8])> = vec![
+            (SectionKind::Header, &header),
+            (SectionKind::Connectivity, &conn.data),
+        ];
+        if let Some(p) = &perm {
+            secs.push((SectionKind::Permutation, p));
+        }
+        secs.push((SectionKind::Geometry, geo));
+        container::write(&secs)
+    };
+    let step = match opts.quantisation {
+        Quantisation::Bits(q) => {
+            if !(1.0..=40.0).contains(&q) {
+                return Err(
+                    CodecError::Parameter(format!("--bits must be in 1..=40, got {q}")).into(),
+                );
+            }
+            diag * (-q).exp2()
+        }
+        Quantisation::TargetBpv(b) => {
+            if !(b.is_finite() && b > 0.0) {
+                return Err(CodecError::Parameter(format!("invalid --target-bpv {b}")).into());
+            }
+            let budget = (b * n as f64 / 8.0).floor() as usize;
+            // Bisection on q: file size grows with q.
+            // A step too small for 31-bit coefficients counts as "too large a file".
+            let size = |q: f64| -> Result<usize, CodecError> {
+                match genc.encode(diag * (-q).exp2()) {
+                    Ok((g, _, _)) => Ok(assemble(&g)?.len()),
+                    Err(CodecError::Parameter(_)) => Ok(usize::MAX),
+                    Err(e) => Err(e),
+                }
+            };
+            let (mut lo, mut hi) = (1.0f64, 30.0f64);
+            if size(lo)? > budget {
+                hi = lo;
+            } else if size(hi)? <= budget {
+                lo = hi;
+            }
+            for _ in 0..24 {
+                if hi - lo < 1e-3 {
+                    break;
+                }
+                let mid = 0.5 * (lo + hi);
+                if size(mid)? <= budget {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            diag * (-lo).exp2()
+        }
+    };
+    let (geo, rec, gstats) = genc.encode(step)?;
+    let bytes = assemble(&geo)?;
+    let bpv = |b: usize| b as f64 * 8.0 / n.max(1) as f64;
+    let report = CompressReport {
+        vertices: n,
+        faces: mesh.n_faces(),
+        bytes: bytes.len(),
+        bits_per_vertex: bpv(bytes.len()),
+        connectivity_bpv: bpv(conn.data.len()),
+        geometry_bpv: bpv(geo.len()),
+        permutation_bpv: perm.as_ref().map_or(0.0, |p| bpv(p.len())),
+        step,
+        quantisation_bits: (diag / step).log2(),
+        operator: opts.geometry.operator,
+        geometry: gstats,
+    };
+    let (decoded, order) = if opts.preserve_order {
+        let mut pos = vec![[0.0; 3]; n];
+        for (i, &v) in conn.order.iter().enumerate() {
+            pos[v as usize] = rec[i];
+        }
+        let faces = conn
+            .faces
+            .iter()
+            .map(|f| f.map(|v| conn.order[v as usize]))
+            .collect();
+        (TriMesh::new(pos, faces), (0..n as u32).collect())
+    } else {
+        (TriMesh::new(rec, conn.faces.clone()), conn.order.clone())
+    };
+    Ok(Compressed {
+        bytes,
+        report,
+        decoded,
+        order,
+    })
+}
+
+/// Decompresses an `.mlz` file image. Connectivity is rebuilt exactly; geometry to
+/// the coded precision; vertex order is the input's if it was stored.
+pub fn decompress(bytes: &[u8]) -> Result<TriMesh, CodecError> {
+    let secs = container::read(bytes)?;
+    let need = |k: SectionKind| {
+        container::section(&secs, k).ok_or(CodecError::Corrupt("a required section is missing"))
+    };
+    let mut h = ByteReader::new(need(SectionKind::Header)?, "header");
+    let n = h.u32()? as usize;
+    let nf = h.u32()? as usize;
+    let conn = need(SectionKind::Connectivity)?;
+    // A face costs at least ~1/400 byte of range-coded data (adaptive probabilities
+    // saturate): refuse counts the data cannot possibly hold before allocating.
+    if nf as u64 > 400 * (conn.len() as u64 + 16) || n > 3 * nf + 3 {
+        return Err(CodecError::Corrupt("counts larger than the data can hold"));
+    }
+    let faces = connectivity::decode(conn, n, nf)?;
+    let topo = Topology::from_faces(n, &faces).map_err(|_| CodecError::Corrupt("faces"))?;
+    let pos = geometry::decode(&topo, need(SectionKind::Geometry)?)?;
+    match container::section(&secs, SectionKind::Permutation) {
+        None => Ok(TriMesh::new(pos, faces)),
+        Some(p) => {
+            let order = decode_permutation(p, n)?;
+            let mut out = vec![[0.0; 3]; n];
+            for (i, &v) in order.iter().enumerate() {
+                out[v as usize] = pos[i];
+            }
+            let faces = faces.iter().map(|f| f.map(|v| order[v as usize])).collect();
+            Ok(TriMesh::new(out, faces))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::builtin;
+    use rand::{Rng, SeedableRng};
+
+    fn open(spec: &str) -> (TriMesh, Topology) {
+        let m = builtin::from_spec(spec).unwrap();
+        let t = Topology::new(&m).unwrap();
+        (m, t)
+    }
+
+    #[test]
+    fn file_round_trip_matches_encoder_prediction() {
+        for spec in [
+            "builtin:icosphere:3",
+            "builtin:cube:8",
+            "builtin:torus:12:8",
+        ] {
+            let (m, t) = open(spec);
+            for preserve in [false, true] {
+                let c = compress(
+                    &m,
+                    &t,
+                    &CompressOptions {
+                        preserve_order: preserve,
+                        ..Default::default()
+                    },
+                )
+                .unwrap();
+                let d = decompress(&c.bytes).unwrap();
+                assert_eq!(d, c.decoded, "{spec}");
+                if preserve {
+                    let canon = |f: &[[u32; 3]]| {
+                        let mut v: Vec<[u32; 3]> = f
+                            .iter()
+                            .map(|t| {
+                                let k = (0..3).min_by_key(|&k| t[k]).unwrap();
+                                [t[k], t[(k + 1) % 3], t[(k + 2) % 3]]
+                            })
+                            .collect();
+                        v.sort_unstable();
+                        v
+                    };
+                    assert_eq!(canon(&d.faces), canon(&m.faces));
+                    assert!(c.report.permutation_bpv > 0.0);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn rate_control_meets_the_target() {
+        let (m, t) = open("builtin:icosphere:4");
+        for b in [4.0, 8.0] {
+            let c = compress(
+                &m,
+                &t,
+                &CompressOptions {
+                    quantisation: Quantisation::TargetBpv(b),
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+            assert!(
+                c.report.bits_per_vertex <= b,
+                "{} > {b}",
+                c.report.bits_per_vertex
+            );
+            assert!(
+                c.report.bits_per_vertex > 0.8 * b,
+                "{} ≪ {b}",
+                c.report.bits_per_vertex
+            );
+        }
+    }
+
+    #[test]
+    fn hostile_files_give_typed_errors() {
+        let (m, t) = open("builtin:torus:9:7");
+        let c = compress(&m, &t, &CompressOptions::default()).unwrap();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(21);
+        for _ in 0..300 {
+            let mut d = c.bytes.clone();
+            match rng.gen_range(0..3) {
+                0 => d.truncate(rng.gen_range(0..d.len())),
+                1 => {
+                    let i = rng.gen_range(0..d.len());
+                    d[i] ^= 1 << rng.gen_range(0..8);
+                }
+                _ => {
+                    // Forge a valid container around garbage with huge counts.
+                    let mut hdr = vec![0xFF; 8];
+                    hdr[..4].copy_from_slice(&rng.gen::<u32>().to_le_bytes());
+                    let junk: Vec<u8> = (0..rng.gen_range(0..40)).map(|_| rng.gen()).collect();
+                    d = container::write(&[
+                        (SectionKind::Header, &hdr),
+                        (SectionKind::Connectivity, &junk),
+                        (SectionKind::Geometry, &junk),
+                    ])
+                    .unwrap();
+                }
+            }
+            assert!(decompress(&d).is_err());
+        }
+    }
+}

@@ -1,0 +1,347 @@
+//! §4.9 / Karni–Gotsman 2000: rate–distortion of JPEG-like spectral compression per
+//! combinatorial operator, against Google Draco.
+//!
+//! For every mesh and operator (SSTL, SQL, TL, KL and GL, all F = D − W), the full
+//! codec ([`crate::codec::compress`]) runs at a fixed quantisation and a sweep of
+//! keep ratios (the fraction of low-frequency coefficients kept per patch), so that
+//! truncation — the basis' energy compaction — drives the distortion, as in the
+//! paper's comparison. Each point records the whole file's bits per vertex and the
+//! distortion of the decoded mesh ([`crate::metric::compare`]): vertex RMS and Metro
+//! RMS (of the bounding-box diagonal), Zhang's SDL measure and Karni–Gotsman's error.
+//! Draco points (from `bench/compression.py --json-out`) are added when given.
+//!
+//! Non-manifold input is made manifold first (vertex splitting, as
+//! `meshlap clean --split-nonmanifold`), since the connectivity coder needs it.
+
+use super::{sig, ExperimentError, Outputs, Table};
+use crate::codec::geometry::{GeometryParams, Keep};
+use crate::codec::{compress, CompressOptions, Quantisation};
+use crate::input::Input;
+use crate::mesh::topology::Topology;
+use crate::operator::OperatorKind;
+use crate::plot::{Chart, Scale, Series};
+use serde::Serialize;
+
+/// One rate–distortion point.
+#[derive(Clone, Debug, Serialize)]
+pub struct RdPoint {
+    /// Mesh (short name).
+    pub mesh: String,
+    /// Coder: an operator name, or `draco`.
+    pub coder: String,
+    /// Setting (keep ratio, or Draco's quantisation bits).
+    pub setting: String,
+    /// Whole file, bits per vertex.
+    pub bits_per_vertex: f64,
+    /// Connectivity bits per vertex (Draco: upper bound, or NaN if unknown).
+    pub connectivity_bpv: f64,
+    /// Vertex RMS error / diagonal.
+    pub vertex_rms: Option<f64>,
+    /// Larger of the two one-sided Metro RMS distances / diagonal.
+    pub metro_rms: f64,
+    /// Hausdorff distance / diagonal.
+    pub hausdorff: f64,
+    /// Zhang §4.9 SDL measure.
+    pub zhang_sdl: Option<f64>,
+    /// Karni–Gotsman error.
+    pub karni_gotsman: Option<f64>,
+}
+
+/// Parameters of [`rate_distortion`].
+#[derive(Clone, Debug)]
+pub struct RdOptions {
+    /// Operators compared.
+    pub operators: Vec<OperatorKind>,
+    /// Keep ratios swept.
+    pub keep_ratios: Vec<f64>,
+    /// Quantisation bits (fixed).
+    pub bits: f64,
+    /// Patch size.
+    pub patch_size: usize,
+    /// Surface samples per mesh for the Metro distance.
+    pub samples: usize,
+}
+
+impl Default for RdOptions {
+    fn default() -> Self {
+        RdOptions {
+            operators: vec![
+                OperatorKind::Sstl,
+                OperatorKind::Sql,
+                OperatorKind::Tutte,
+                OperatorKind::Kirchhoff,
+                OperatorKind::Graph,
+            ],
+            keep_ratios: vec![0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0],
+            bits: 12.0,
+            patch_size: 300,
+            samples: 50_000,
+        }
+    }
+}
+
+fn input_err(source: &str, e: impl std::fmt::Display) -> ExperimentError {
+    ExperimentError::Input {
+        source_name: source.to_string(),
+        message: e.to_string(),
+    }
+}
+
+/// Runs the sweep on every input.
+pub fn rate_distortion(
+    inputs: &[Input],
+    opts: &RdOptions,
+    mut progress: impl FnMut(&str),
+) -> Result<Vec<RdPoint>, ExperimentError> {
+    let mut out = Vec::new();
+    for input in inputs {
+        let name = super::claims::short_name(&input.source);
+        let (mesh, _) = crate::mesh::clean::split_non_manifold(&input.mesh)
+            .map_err(|e| input_err(&input.source, e))?;
+        let topo = Topology::new(&mesh).map_err(|e| input_err(&input.source, e))?;
+        for &op in &opts.operators {
+            for &r in &opts.keep_ratios {
+                progress(&format!("{name} {} keep {r}", op.name()));
+                let c = compress(
+                    &mesh,
+                    &topo,
+                    &CompressOptions {
+                        geometry: GeometryParams {
+                            operator: op,
+                            patch_size: opts.patch_size,
+                            keep: Keep::Ratio(r),
+                            ..Default::default()
+                        },
+                        quantisation: Quantisation::Bits(opts.bits),
+                        preserve_order: false,
+                    },
+                )
+                .map_err(|e| input_err(&input.source, e))?;
+                let d = crate::metric::compare(&mesh, &c.decoded, Some(&c.order), opts.samples)
+                    .map_err(|e| input_err(&input.source, e))?;
+                out.push(RdPoint {
+                    mesh: name.clone(),
+                    coder: op.name().to_string(),
+                    setting: format!("keep {r}"),
+                    bits_per_vertex: c.report.bits_per_vertex,
+                    connectivity_bpv: c.report.connectivity_bpv,
+                    vertex_rms: d.vertex_rms,
+                    metro_rms: d.a_to_b_rms.max(d.b_to_a_rms),
+                    hausdorff: d.hausdorff,
+                    zhang_sdl: d.zhang_sdl,
+                    karni_gotsman: d.karni_gotsman,
+                });
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Reads Draco points written by `bench/compression.py --json-out`:
+/// `{mesh: [{coder, param, bpv, connectivity_bpv_upper, distortion: {…}}]}`.
+pub fn draco_points(json: &str) -> Result<Vec<RdPoint>, ExperimentError> {
+    let v: serde_json::Value =
+        serde_json::from_str(json).map_err(|e| ExperimentError::Json(e.to_string()))?;
+    let obj = v
+        .as_object()
+        .ok_or_else(|| ExperimentError::Json("expected an object of meshes".into()))?;
+    let mut out = Vec::new();
+    for (mesh, pts) in obj {
+        for p in pts.as_array().into_iter().flatten() {
+            if p["coder"].as_str() != Some("draco") {
+                continue;
+            }
+            let d = &p["distortion"];
+            let f = |x: &serde_json::Value| x.as_f64();
+            out.push(RdPoint {
+                mesh: super::claims::short_name(mesh),
+                coder: "draco".into(),
+                setting: p["param"].as_str().unwrap_or("").to_string(),
+                bits_per_vertex: f(&p["bpv"]).unwrap_or(f64::NAN),
+                connectivity_bpv: f(&p["connectivity_bpv_upper"]).unwrap_or(f64::NAN),
+                vertex_rms: f(&d["vertex_rms"]),
+                metro_rms: f(&d["a_to_b_rms"])
+                    .unwrap_or(f64::NAN)
+                    .max(f(&d["b_to_a_rms"]).unwrap_or(f64::NAN)),
+                hausdorff: f(&d["hausdorff"]).unwrap_or(f64::NAN),
+                zhang_sdl: f(&d["zhang_sdl"]),
+                karni_gotsman: f(&d["karni_gotsman"]),
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// The result table.
+pub fn table(points: &[RdPoint]) -> Table {
+    let mut t = Table::new(
+        "Rate–distortion of spectral compression per operator (Zhang 2004 §4.9, Karni–Gotsman 2000) and Draco",
+        &[
+            "mesh",
+            "coder",
+            "setting",
+            "bits/vertex",
+            "connectivity bpv",
+            "vertex RMS",
+            "Metro RMS",
+            "Hausdorff",
+            "Zhang SDL",
+            "Karni–Gotsman",
+        ],
+    );
+    for p in points {
+        t.push(vec![
+            p.mesh.clone(),
+            p.coder.clone(),
+            p.setting.clone(),
+            format!("{:.3}", p.bits_per_vertex),
+            format!("{:.3}", p.connectivity_bpv),
+            sig(p.vertex_rms, 3),
+            sig(Some(p.metro_rms), 3),
+            sig(Some(p.hausdorff), 3),
+            sig(p.zhang_sdl, 3),
+            sig(p.karni_gotsman, 3),
+        ]);
+    }
+    t.notes.push(
+        "Distances are divided by the bounding-box diagonal. Ours: fixed quantisation, keep \
+         ratio swept; Draco: compression level 10 at 8–14 bits, connectivity bpv an upper \
+         bound (its size at 1 bit)."
+            .into(),
+    );
+    t
+}
+
+/// The best operator at each rate, as the paper orders them: for each mesh the
+/// operators sorted by mean log vertex RMS over the keep ratios < 1 (lower first).
+pub fn operator_order(points: &[RdPoint]) -> Vec<(String, Vec<(String, f64)>)> {
+    let mut meshes: Vec<String> = points.iter().map(|p| p.mesh.clone()).collect();
+    meshes.dedup();
+    let mut out = Vec::new();
+    for m in meshes {
+        let mut coders: Vec<String> = points
+            .iter()
+            .filter(|p| p.mesh == m && p.coder != "draco")
+            .map(|p| p.coder.clone())
+            .collect();
+        coders.sort();
+        coders.dedup();
+        let mut scores: Vec<(String, f64)> = coders
+            .into_iter()
+            .map(|c| {
+                let v: Vec<f64> = points
+                    .iter()
+                    .filter(|p| p.mesh == m && p.coder == c && p.setting != "keep 1")
+                    .filter_map(|p| p.vertex_rms)
+                    .map(f64::ln)
+                    .collect();
+                (c, v.iter().sum::<f64>() / v.len().max(1) as f64)
+            })
+            .collect();
+        scores.sort_by(|a, b| a.1.total_cmp(&b.1));
+        out.push((m, scores));
+    }
+    out
+}
+
+/// Writes `compression.md/.csv/.json` and a chart per mesh and metric.
+pub fn write(out: &mut Outputs, points: &[RdPoint]) -> Result<(), ExperimentError> {
+    let mut t = table(points);
+    for (m, order) in operator_order(points) {
+        let s: Vec<String> = order
+            .iter()
+            .map(|(c, v)| format!("{c} ({:.3e})", v.exp()))
+            .collect();
+        t.notes.push(format!(
+            "{m}: operators by geometric-mean vertex RMS over keep ratios < 1: {}",
+            s.join(" < ")
+        ));
+    }
+    out.table("compression", &t)?;
+    out.json("compression.json", &points)?;
+    let mut meshes: Vec<String> = points.iter().map(|p| p.mesh.clone()).collect();
+    meshes.sort();
+    meshes.dedup();
+    for m in &meshes {
+        for (metric, label) in [
+            ("vertex", "vertex RMS / diagonal"),
+            ("metro", "Metro RMS / diagonal"),
+        ] {
+            let mut coders: Vec<String> = points
+                .iter()
+                .filter(|p| &p.mesh == m)
+                .map(|p| p.coder.clone())
+                .collect();
+            coders.dedup();
+            let mut series = Vec::new();
+            for c in coders {
+                if series.iter().any(|s: &Series| s.name == c) {
+                    continue;
+                }
+                let mut pts: Vec<(f64, f64)> = points
+                    .iter()
+                    .filter(|p| &p.mesh == m && p.coder == c)
+                    .filter_map(|p| {
+                        let y = if metric == "vertex" {
+                            p.vertex_rms?
+                        } else {
+                            p.metro_rms
+                        };
+                        (y > 0.0 && y.is_finite()).then_some((p.bits_per_vertex, y))
+                    })
+                    .collect();
+                pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+                if !pts.is_empty() {
+                    series.push(Series::new(c, pts).with_markers());
+                }
+            }
+            let chart = Chart {
+                title: format!("{m}: rate–distortion"),
+                x_label: "bits per vertex (whole file)".into(),
+                y_label: label.into(),
+                y_scale: Scale::Log,
+                series,
+                ..Chart::default()
+            };
+            let stem = m.replace(['.', ':'], "_");
+            out.chart(&format!("compression_{stem}_{metric}.png"), &chart)?;
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sweep_is_monotone_and_reads_draco_json() {
+        let input = crate::input::open("builtin:icosphere:3", &Default::default()).unwrap();
+        let opts = RdOptions {
+            operators: vec![OperatorKind::Sstl, OperatorKind::Kirchhoff],
+            keep_ratios: vec![0.1, 0.5, 1.0],
+            bits: 12.0,
+            patch_size: 200,
+            samples: 2000,
+        };
+        let pts = rate_distortion(&[input], &opts, |_| {}).unwrap();
+        assert_eq!(pts.len(), 6);
+        for w in pts.chunks(3) {
+            // More coefficients: more bits, less error.
+            assert!(w[0].bits_per_vertex < w[1].bits_per_vertex);
+            assert!(w[1].bits_per_vertex < w[2].bits_per_vertex);
+            assert!(w[0].vertex_rms.unwrap() > w[2].vertex_rms.unwrap());
+        }
+        let json = r#"{"bunny.obj": [{"coder": "draco", "param": "q8", "bpv": 5.5,
+            "connectivity_bpv_upper": 2.1, "distortion": {"vertex_rms": 0.001,
+            "a_to_b_rms": 0.0004, "b_to_a_rms": 0.0005, "hausdorff": 0.002,
+            "zhang_sdl": null, "karni_gotsman": 0.01}},
+            {"coder": "meshlap-sstl", "param": "4bpv", "bpv": 4.0, "distortion": {}}]}"#;
+        let d = draco_points(json).unwrap();
+        assert_eq!(d.len(), 1);
+        assert_eq!(d[0].metro_rms, 0.0005);
+        assert_eq!(d[0].zhang_sdl, None);
+        let t = table(&[pts.clone(), d].concat());
+        assert_eq!(t.rows.len(), 7);
+    }
+}
