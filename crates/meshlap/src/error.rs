@@ -24,6 +24,9 @@ pub enum Error {
     /// A spectral computation failed.
     #[error(transparent)]
     Spectral(#[from] crate::spectral::SpectralError),
+    /// Partitioning a mesh into patches failed.
+    #[error(transparent)]
+    Partition(#[from] crate::spectral::partition::PartitionError),
     /// Writing an output file failed.
     #[error("cannot write {path}: {source}")]
     Write {

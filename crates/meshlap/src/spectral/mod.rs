@@ -1,5 +1,7 @@
 //! Eigenvalue-decomposition transforms. (Filled in by the spectral work.)
 
+pub mod partition;
+
 /// Errors of spectral computations.
 #[derive(Debug, thiserror::Error)]
 pub enum SpectralError {
