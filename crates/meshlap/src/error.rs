@@ -27,6 +27,9 @@ pub enum Error {
     /// Partitioning a mesh into patches failed.
     #[error(transparent)]
     Partition(#[from] crate::spectral::partition::PartitionError),
+    /// A partial (shift-invert) eigensolve failed.
+    #[error(transparent)]
+    PartialSpectrum(#[from] crate::spectral::partial::PartialError),
     /// Writing an output file failed.
     #[error("cannot write {path}: {source}")]
     Write {

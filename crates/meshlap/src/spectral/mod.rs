@@ -1,5 +1,6 @@
 //! Eigenvalue-decomposition transforms. (Filled in by the spectral work.)
 
+pub mod partial;
 pub mod partition;
 
 /// Errors of spectral computations.
