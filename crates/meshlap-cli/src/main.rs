@@ -35,6 +35,7 @@ enum Command {
     Operator(cmd::operator::Args),
     Iterate(cmd::iterate::Args),
     RepairSql(cmd::repair::Args),
+    Partition(cmd::partition::Args),
 }
 
 fn main() {
@@ -52,6 +53,7 @@ fn main() {
         Command::Operator(a) => cmd::operator::run(a),
         Command::Iterate(a) => cmd::iterate::run(a),
         Command::RepairSql(a) => cmd::repair::run(a),
+        Command::Partition(a) => cmd::partition::run(a),
     };
     if let Err(e) = result {
         let msg = e.to_string().replace('\n', " ");

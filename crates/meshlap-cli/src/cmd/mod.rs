@@ -5,4 +5,5 @@ pub mod convert;
 pub mod info;
 pub mod iterate;
 pub mod operator;
+pub mod partition;
 pub mod repair;
