@@ -36,6 +36,7 @@ enum Command {
     Iterate(cmd::iterate::Args),
     RepairSql(cmd::repair::Args),
     Partition(cmd::partition::Args),
+    Render(cmd::render::Args),
 }
 
 fn main() {
@@ -54,6 +55,7 @@ fn main() {
         Command::Iterate(a) => cmd::iterate::run(a),
         Command::RepairSql(a) => cmd::repair::run(a),
         Command::Partition(a) => cmd::partition::run(a),
+        Command::Render(a) => cmd::render::run(a),
     };
     if let Err(e) = result {
         let msg = e.to_string().replace('\n', " ");

@@ -267,3 +267,42 @@ fn repair_and_iterate() {
     let last = &steps[300];
     assert!(last["distance_to_weighted_centroid"].as_f64().unwrap() < 1e-6);
 }
+
+#[test]
+fn render_writes_a_png_and_refuses_bad_sizes_without_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("m.png");
+    let out = meshlap(&[
+        "render",
+        "builtin:torus:16:8",
+        "-o",
+        png.to_str().unwrap(),
+        "--width",
+        "120",
+        "--height",
+        "90",
+        "--azimuth",
+        "-30",
+        "--colour",
+        "degree",
+    ]);
+    assert!(out.status.success(), "{out:?}");
+    let bytes = std::fs::read(&png).unwrap();
+    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+    // IHDR width and height, big-endian
+    assert_eq!(u32::from_be_bytes(bytes[16..20].try_into().unwrap()), 120);
+    assert_eq!(u32::from_be_bytes(bytes[20..24].try_into().unwrap()), 90);
+
+    let empty = tempfile::tempdir().unwrap();
+    let bad = empty.path().join("bad.png");
+    let out = meshlap(&[
+        "render",
+        "builtin:tetrahedron",
+        "-o",
+        bad.to_str().unwrap(),
+        "--width",
+        "3",
+    ]);
+    assert_one_line_error(&out, "size");
+    assert!(dir_is_empty(empty.path()));
+}

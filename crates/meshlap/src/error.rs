@@ -30,6 +30,15 @@ pub enum Error {
     /// A partial (shift-invert) eigensolve failed.
     #[error(transparent)]
     PartialSpectrum(#[from] crate::spectral::partial::PartialError),
+    /// Rendering a chart failed.
+    #[error(transparent)]
+    Plot(#[from] crate::plot::PlotError),
+    /// Rendering a mesh picture failed.
+    #[error(transparent)]
+    Render(#[from] crate::render::RenderError),
+    /// An experiment failed.
+    #[error(transparent)]
+    Experiment(#[from] crate::experiment::ExperimentError),
     /// Writing an output file failed.
     #[error("cannot write {path}: {source}")]
     Write {

@@ -18,6 +18,9 @@
 //! - [`analysis`]: matrix-theoretic properties (symmetry, stochasticity, GSML status,
 //!   eigenvalue bounds), smoothing iterations and SQL negative-weight repair.
 //! - [`solve`]: CG, PCG, BiCG, BiCGSTAB and direct solvers for implicit fairing.
+//! - [`experiment`]: the paper's experiments as functions returning tables and charts.
+//! - [`plot`]: PNG line charts for the experiments.
+//! - [`render`]: software rendering of meshes to PNG (the paper's figures).
 //! - [`spectral`]: eigenvalue-decomposition (ED) transforms, partial spectra, partitioning.
 
 // Index loops over vertices read like the formulas they implement.
@@ -25,11 +28,14 @@
 
 pub mod analysis;
 pub mod error;
+pub mod experiment;
 pub mod filter;
 pub mod input;
 pub mod io;
 pub mod mesh;
 pub mod operator;
+pub mod plot;
+pub mod render;
 pub mod solve;
 pub mod spectral;
 

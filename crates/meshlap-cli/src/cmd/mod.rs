@@ -6,4 +6,5 @@ pub mod info;
 pub mod iterate;
 pub mod operator;
 pub mod partition;
+pub mod render;
 pub mod repair;

@@ -322,6 +322,13 @@ pub fn write_atomic(
         f(&mut w).map_err(err)?;
         w.flush().map_err(err)?;
     }
+    // A temporary file is created private (0600); the result is an ordinary file.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(tmp.path(), std::fs::Permissions::from_mode(0o644))
+            .map_err(err)?;
+    }
     tmp.persist(path).map_err(|e| err(e.error))?;
     Ok(())
 }

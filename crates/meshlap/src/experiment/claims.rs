@@ -1,0 +1,446 @@
+//! The paper's §2–3 claims, measured (Zhang 2004):
+//!
+//! - [`properties`]: for every operator on every mesh, what §3 says of it — symmetry,
+//!   nonnegative weights, zero row sums, a doubly stochastic and variance-diminishing
+//!   `H = I − F/k`, positive semi-definiteness, one zero eigenvalue per component, the
+//!   Gershgorin bound, GSML status — measured on the assembled matrix by
+//!   [`crate::analysis::properties::analyze`], never assumed from the kind.
+//! - [`erratum`]: the SQL's boundary diagonal as printed, `1 + ½Σ(1/d_k − 1/d_j)`, against
+//!   the corrected `1 + ½Σ(1/d_j − 1/d_k)` (see [`crate::operator::sql`]): the largest
+//!   |row sum| of each.
+//! - [`repair`]: negative SQL weights before and after greedy edge swapping (§3.7).
+//! - [`limits`]: repeated smoothing `x ← Hx` (§2.2): the TL converges to the
+//!   valence-weighted centroid `Σ d_i x_i / Σ d_i`, a doubly stochastic H (KL; SQL
+//!   without negative weights) to the centroid, and never increases the variance.
+//!
+//! Sign convention of every operator: `F = D − W`, positive semi-definite.
+
+use super::{sig, yes_no, ExperimentError, Table};
+use crate::analysis::properties::{analyze, PropertyOptions, PropertyReport};
+use crate::analysis::repair::{repair_sql, RepairOptions, RepairReport};
+use crate::analysis::smoothing::{gershgorin_k, iterate, SmoothingStep};
+use crate::input::Input;
+use crate::operator::{sql::BoundaryDiagonal, Operator, OperatorKind, OperatorOptions};
+use crate::plot::{Chart, Scale, Series};
+use serde::Serialize;
+
+fn input_err(input: &Input, e: impl std::fmt::Display) -> ExperimentError {
+    ExperimentError::Input {
+        source_name: input.source.clone(),
+        message: e.to_string(),
+    }
+}
+
+/// Short name of a mesh source for tables (file name without directories).
+pub fn short_name(source: &str) -> String {
+    std::path::Path::new(source)
+        .file_name()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| source.to_string())
+}
+
+/// One (mesh, operator) result of [`properties`].
+#[derive(Clone, Debug, Serialize)]
+pub struct PropertyRow {
+    /// Mesh source.
+    pub mesh: String,
+    /// Connected components of the mesh.
+    pub components: usize,
+    /// Operator.
+    pub kind: OperatorKind,
+    /// The measured report, or why the operator could not be assembled.
+    pub report: Result<PropertyReport, String>,
+}
+
+/// Measures every operator of `kinds` on every mesh.
+pub fn properties(
+    inputs: &[Input],
+    kinds: &[OperatorKind],
+    opts: &PropertyOptions,
+    mut progress: impl FnMut(&str),
+) -> (Vec<PropertyRow>, Table) {
+    let mut rows = Vec::new();
+    for input in inputs {
+        let components = input.topology.components().1;
+        for &kind in kinds {
+            progress(&format!("{} {}", short_name(&input.source), kind.name()));
+            let report = Operator::assemble(
+                kind,
+                &input.mesh,
+                &input.topology,
+                &OperatorOptions::default(),
+            )
+            .map(|op| analyze(&op.matrix, opts))
+            .map_err(|e| e.to_string());
+            rows.push(PropertyRow {
+                mesh: input.source.clone(),
+                components,
+                kind,
+                report,
+            });
+        }
+    }
+    let mut t = Table::new(
+        "Matrix-theoretic properties, measured (Zhang 2004 §2–3)",
+        &[
+            "mesh",
+            "operator",
+            "n",
+            "symmetric",
+            "neg. weights",
+            "max |row sum|",
+            "H doubly stoch.",
+            "variance dimin.",
+            "PSD",
+            "zero eig. mult. / comps",
+            "λ_max",
+            "Gershgorin max",
+            "GSML",
+        ],
+    );
+    for r in &rows {
+        let name = short_name(&r.mesh);
+        match &r.report {
+            Err(e) => t.push(vec![name, r.kind.name().into(), format!("error: {e}")]),
+            Ok(p) => t.push(vec![
+                name,
+                r.kind.name().into(),
+                p.n.to_string(),
+                yes_no(Some(p.symmetric)),
+                p.negative_weights.to_string(),
+                sig(Some(p.max_abs_row_sum), 2),
+                yes_no(Some(p.smoothing.doubly_stochastic)),
+                yes_no(Some(p.smoothing.variance_diminishing)),
+                yes_no(p.positive_semidefinite),
+                format!(
+                    "{} / {}",
+                    p.zero_eigenvalue_multiplicity
+                        .map_or("n/a".into(), |m| m.to_string()),
+                    r.components
+                ),
+                sig(p.lambda_max, 4),
+                sig(Some(p.gershgorin_max), 4),
+                if p.gsml.is_gsml {
+                    "yes".into()
+                } else {
+                    format!("no ({})", p.gsml.failing.join(", "))
+                },
+            ]),
+        }
+    }
+    t.notes.push(
+        "Spectra are dense (n ≤ the dense limits); `n/a` where the spectrum was not computed. \
+         H = I − F/k with the smallest admissible k."
+            .into(),
+    );
+    (rows, t)
+}
+
+/// One mesh of [`erratum`].
+#[derive(Clone, Debug, Serialize)]
+pub struct ErratumRow {
+    /// Mesh source.
+    pub mesh: String,
+    /// Boundary vertices.
+    pub boundary_vertices: usize,
+    /// `max |row sum|` with the printed diagonal.
+    pub printed_max_abs_row_sum: f64,
+    /// Rows whose sum exceeds 1e-12 with the printed diagonal.
+    pub printed_nonzero_rows: usize,
+    /// `max |row sum|` with the corrected diagonal.
+    pub corrected_max_abs_row_sum: f64,
+}
+
+fn row_sums(m: &crate::SparseMatrix) -> Vec<f64> {
+    let mut s = vec![0.0; m.nrows()];
+    for j in 0..m.ncols() {
+        for (&i, &v) in m.row_idx_of_col_raw(j).iter().zip(m.val_of_col(j)) {
+            s[i] += v;
+        }
+    }
+    s
+}
+
+/// The SQL boundary-diagonal erratum on each mesh.
+pub fn erratum(inputs: &[Input]) -> Result<(Vec<ErratumRow>, Table), ExperimentError> {
+    let mut rows = Vec::new();
+    for input in inputs {
+        let build = |d| {
+            Operator::assemble(
+                OperatorKind::Sql,
+                &input.mesh,
+                &input.topology,
+                &OperatorOptions {
+                    sql_boundary: d,
+                    ..Default::default()
+                },
+            )
+            .map_err(|e| input_err(input, e))
+        };
+        let printed = row_sums(&build(BoundaryDiagonal::AsPrinted)?.matrix);
+        let corrected = row_sums(&build(BoundaryDiagonal::ZeroRowSum)?.matrix);
+        let max_abs = |v: &[f64]| v.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        rows.push(ErratumRow {
+            mesh: input.source.clone(),
+            boundary_vertices: (0..input.topology.n_vertices())
+                .filter(|&v| input.topology.is_boundary_vertex(crate::VertexId(v as u32)))
+                .count(),
+            printed_max_abs_row_sum: max_abs(&printed),
+            printed_nonzero_rows: printed.iter().filter(|x| x.abs() > 1e-12).count(),
+            corrected_max_abs_row_sum: max_abs(&corrected),
+        });
+    }
+    let mut t = Table::new(
+        "SQL boundary diagonal: as printed vs corrected (Zhang 2004 §3.7 erratum)",
+        &[
+            "mesh",
+            "boundary vertices",
+            "printed: max |row sum|",
+            "printed: rows ≠ 0",
+            "corrected: max |row sum|",
+        ],
+    );
+    for r in &rows {
+        t.push(vec![
+            short_name(&r.mesh),
+            r.boundary_vertices.to_string(),
+            sig(Some(r.printed_max_abs_row_sum), 3),
+            r.printed_nonzero_rows.to_string(),
+            sig(Some(r.corrected_max_abs_row_sum), 2),
+        ]);
+    }
+    t.notes.push(
+        "Printed: D_ii = 1 + ½ Σ (1/d_km − 1/d_jm); corrected: D_ii = 1 + ½ Σ (1/d_jm − 1/d_km). \
+         Only the corrected one has the zero row sums the paper claims."
+            .into(),
+    );
+    Ok((rows, t))
+}
+
+/// One mesh of [`repair`].
+#[derive(Clone, Debug, Serialize)]
+pub struct RepairRow {
+    /// Mesh source.
+    pub mesh: String,
+    /// What the repair did.
+    pub report: RepairReport,
+}
+
+/// Greedy edge-swap repair of negative SQL weights on each mesh.
+pub fn repair(
+    inputs: &[Input],
+    opts: &RepairOptions,
+) -> Result<(Vec<RepairRow>, Table), ExperimentError> {
+    let mut rows = Vec::new();
+    for input in inputs {
+        let (_, report) = repair_sql(&input.mesh, opts).map_err(|e| input_err(input, e))?;
+        rows.push(RepairRow {
+            mesh: input.source.clone(),
+            report,
+        });
+    }
+    let mut t = Table::new(
+        "SQL negative weights removed by greedy edge swapping (Zhang 2004 §3.7)",
+        &[
+            "mesh",
+            "negative before",
+            "most negative before",
+            "flips",
+            "negative after",
+            "most negative after",
+        ],
+    );
+    for r in &rows {
+        let p = &r.report;
+        t.push(vec![
+            short_name(&r.mesh),
+            p.negative_before.to_string(),
+            sig(Some(p.min_weight_before), 3),
+            p.flips.to_string(),
+            p.negative_after.to_string(),
+            sig(Some(p.min_weight_after), 3),
+        ]);
+    }
+    Ok((rows, t))
+}
+
+/// One operator of [`limits`].
+#[derive(Clone, Debug, Serialize)]
+pub struct LimitRow {
+    /// Operator.
+    pub kind: OperatorKind,
+    /// The k of `H = I − F/k`.
+    pub k: f64,
+    /// Every step.
+    pub steps: Vec<SmoothingStep>,
+    /// Largest ratio σ²(x_{p+1}) / σ²(x_p) over the run (> 1: the variance grew).
+    pub max_variance_ratio: f64,
+}
+
+/// Repeated smoothing with each operator of `kinds` for `steps` steps on one mesh.
+pub fn limits(
+    input: &Input,
+    kinds: &[OperatorKind],
+    steps: usize,
+) -> Result<(Vec<LimitRow>, Table, Chart), ExperimentError> {
+    let degrees = input.topology.degrees();
+    let mut rows = Vec::new();
+    for &kind in kinds {
+        let op = Operator::assemble(
+            kind,
+            &input.mesh,
+            &input.topology,
+            &OperatorOptions::default(),
+        )
+        .map_err(|e| input_err(input, e))?;
+        let k = gershgorin_k(&op.matrix);
+        let (st, _) = iterate(&op.matrix, k, &input.mesh.positions, &degrees, steps);
+        // Ratios are compared while the variance is well above rounding level (1e-20
+        // of the input's); below that, quotients of rounding errors mean nothing.
+        let floor = st[0].variance * 1e-20;
+        let max_variance_ratio = st
+            .windows(2)
+            .filter(|w| w[0].variance > floor)
+            .map(|w| w[1].variance / w[0].variance)
+            .fold(0.0, f64::max);
+        rows.push(LimitRow {
+            kind,
+            k,
+            steps: st,
+            max_variance_ratio,
+        });
+    }
+    let diag = input.mesh.bbox_diagonal().max(f64::MIN_POSITIVE);
+    let mut t = Table::new(
+        format!(
+            "Smoothing limits after {steps} steps of H = I − F/k on {} (distances / bbox diagonal)",
+            short_name(&input.source)
+        ),
+        &[
+            "operator",
+            "k",
+            "max dist. to centroid",
+            "max dist. to valence-weighted centroid",
+            "variance ever grew",
+            "max σ² ratio",
+        ],
+    );
+    for r in &rows {
+        let last = r.steps.last().expect("step 0 is always recorded");
+        t.push(vec![
+            r.kind.name().into(),
+            sig(Some(r.k), 4),
+            sig(Some(last.distance_to_centroid / diag), 3),
+            sig(Some(last.distance_to_weighted_centroid / diag), 3),
+            yes_no(Some(r.max_variance_ratio > 1.0 + 1e-12)),
+            sig(Some(r.max_variance_ratio), 6),
+        ]);
+    }
+    t.notes.push(
+        "The TL (row-stochastic H) converges to the valence-weighted centroid Σdᵢxᵢ/Σdᵢ, \
+         a doubly stochastic H (KL, SQL with nonnegative weights) to the centroid."
+            .into(),
+    );
+    let mut series = Vec::new();
+    for r in &rows {
+        let pts = |f: fn(&SmoothingStep) -> f64| -> Vec<(f64, f64)> {
+            r.steps
+                .iter()
+                .map(|s| (s.step as f64, f(s) / diag))
+                .collect()
+        };
+        series.push(Series::new(
+            format!("{}: to centroid", r.kind.name()),
+            pts(|s| s.distance_to_centroid),
+        ));
+        series.push(Series::new(
+            format!("{}: to weighted centroid", r.kind.name()),
+            pts(|s| s.distance_to_weighted_centroid),
+        ));
+    }
+    let chart = Chart {
+        title: format!("Limits of Hᵖx on {}", short_name(&input.source)),
+        x_label: "step p".into(),
+        y_label: "max distance / bbox diagonal".into(),
+        y_scale: Scale::Log,
+        series,
+        ..Chart::default()
+    };
+    Ok((rows, t, chart))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::input::{open, OpenOptions};
+
+    fn builtin(spec: &str) -> Input {
+        open(spec, &OpenOptions::default()).unwrap()
+    }
+
+    #[test]
+    fn properties_of_the_paper_hold_on_a_closed_mesh() {
+        let inputs = [builtin("builtin:icosphere:1")];
+        let kinds = [
+            OperatorKind::Kirchhoff,
+            OperatorKind::Graph,
+            OperatorKind::Tutte,
+            OperatorKind::Sstl,
+        ];
+        let (rows, t) = properties(&inputs, &kinds, &PropertyOptions::default(), |_| {});
+        assert_eq!(t.rows.len(), 4);
+        let gsml: Vec<bool> = rows
+            .iter()
+            .map(|r| r.report.as_ref().unwrap().gsml.is_gsml)
+            .collect();
+        // KL, TL and SSTL are GSMLs; the GL is not (no zero row sum).
+        assert_eq!(gsml, [true, false, true, true]);
+        assert!(t.rows[1][12].contains("zero"), "{:?}", t.rows[1]);
+    }
+
+    #[test]
+    fn erratum_shows_on_a_mesh_with_boundary_only() {
+        let (rows, _) =
+            erratum(&[builtin("builtin:grid:6"), builtin("builtin:icosahedron")]).unwrap();
+        assert!(rows[0].printed_max_abs_row_sum > 0.05, "{:?}", rows[0]);
+        assert!(rows[0].printed_nonzero_rows > 0);
+        assert!(rows[0].corrected_max_abs_row_sum < 1e-12);
+        assert_eq!(rows[1].boundary_vertices, 0);
+        assert!(rows[1].printed_max_abs_row_sum < 1e-12);
+    }
+
+    #[test]
+    fn tl_goes_to_the_weighted_centroid_and_kl_to_the_centroid() {
+        // A grid has valences 2…6; pulling a corner (low valence) out breaks the
+        // symmetry, so the centroid and the valence-weighted centroid differ.
+        let mut input = builtin("builtin:grid:5");
+        input.mesh.positions[0][0] -= 3.0;
+        let (rows, t, chart) = limits(
+            &input,
+            &[OperatorKind::Tutte, OperatorKind::Kirchhoff],
+            3000,
+        )
+        .unwrap();
+        let last = |i: usize| rows[i].steps.last().unwrap().clone();
+        let (tl, kl) = (last(0), last(1));
+        assert!(tl.distance_to_weighted_centroid < 1e-8, "{tl:?}");
+        assert!(tl.distance_to_centroid > 1e-3, "{tl:?}");
+        assert!(kl.distance_to_centroid < 1e-8, "{kl:?}");
+        assert!(kl.distance_to_weighted_centroid > 1e-3, "{kl:?}");
+        // the doubly stochastic H never increases the variance
+        assert!(rows[1].max_variance_ratio <= 1.0 + 1e-12);
+        assert_eq!(t.rows.len(), 2);
+        assert_eq!(chart.series.len(), 4);
+    }
+
+    #[test]
+    fn repair_removes_negative_weights_of_a_step_mesh() {
+        let (rows, t) = repair(&[builtin("builtin:step:8")], &RepairOptions::default()).unwrap();
+        assert_eq!(
+            rows[0].report.negative_after,
+            rows[0].report.remaining.len()
+        );
+        assert!(rows[0].report.negative_after <= rows[0].report.negative_before);
+        assert_eq!(t.rows.len(), 1);
+    }
+}

@@ -1,0 +1,386 @@
+//! PNG line charts for the experiments (eigen-decomposition cost, energy compaction,
+//! solver convergence, rate–distortion curves).
+//!
+//! Rendering uses `plotters` into an in-memory RGB buffer with an embedded font
+//! (Ubuntu Light from `epaint_default_fonts`, so no system font library is needed), then
+//! the buffer is PNG-encoded and written through [`crate::io::write_atomic`]: a chart file
+//! is either complete or absent.
+//!
+//! ```no_run
+//! use meshlap::plot::{Chart, Scale, Series};
+//! let chart = Chart {
+//!     title: "CG residual".into(),
+//!     x_label: "iteration".into(),
+//!     y_label: "‖r‖/‖b‖".into(),
+//!     y_scale: Scale::Log,
+//!     series: vec![Series::new("SQL", vec![(0.0, 1.0), (1.0, 0.1), (2.0, 0.01)])],
+//!     ..Chart::default()
+//! };
+//! chart.write_png(std::path::Path::new("out/residual.png")).unwrap();
+//! ```
+
+use plotters::prelude::*;
+use std::path::Path;
+use std::sync::Once;
+
+/// Errors of chart rendering.
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    /// The chart has nothing drawable (no series, or no finite point; on a log axis,
+    /// no positive value).
+    #[error("chart `{0}` has no drawable points")]
+    Empty(String),
+    /// Invalid chart parameters.
+    #[error("invalid chart: {0}")]
+    Invalid(String),
+    /// The drawing backend failed.
+    #[error("cannot draw chart `{title}`: {message}")]
+    Draw {
+        /// Chart title.
+        title: String,
+        /// Backend message.
+        message: String,
+    },
+    /// Writing the PNG failed.
+    #[error(transparent)]
+    Io(#[from] crate::io::IoError),
+}
+
+/// Axis scale.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub enum Scale {
+    /// Linear.
+    #[default]
+    Linear,
+    /// Base-10 logarithmic; non-positive values are dropped from the chart.
+    Log,
+}
+
+/// One named polyline.
+#[derive(Clone, Debug, Default)]
+pub struct Series {
+    /// Legend entry.
+    pub name: String,
+    /// `(x, y)` points in drawing order. Non-finite points are skipped.
+    pub points: Vec<(f64, f64)>,
+    /// Draw a marker at every point as well as the line.
+    pub markers: bool,
+}
+
+impl Series {
+    /// A line series without markers.
+    pub fn new(name: impl Into<String>, points: Vec<(f64, f64)>) -> Self {
+        Series {
+            name: name.into(),
+            points,
+            markers: false,
+        }
+    }
+    /// The same series with markers at the points.
+    pub fn with_markers(mut self) -> Self {
+        self.markers = true;
+        self
+    }
+}
+
+/// A line chart.
+#[derive(Clone, Debug)]
+pub struct Chart {
+    /// Title above the plot.
+    pub title: String,
+    /// Label of the horizontal axis.
+    pub x_label: String,
+    /// Label of the vertical axis.
+    pub y_label: String,
+    /// Horizontal scale.
+    pub x_scale: Scale,
+    /// Vertical scale.
+    pub y_scale: Scale,
+    /// The series, drawn in order with a fixed colour cycle.
+    pub series: Vec<Series>,
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+}
+
+impl Default for Chart {
+    fn default() -> Self {
+        Chart {
+            title: String::new(),
+            x_label: String::new(),
+            y_label: String::new(),
+            x_scale: Scale::Linear,
+            y_scale: Scale::Linear,
+            series: Vec::new(),
+            width: 960,
+            height: 640,
+        }
+    }
+}
+
+/// Colour cycle (Tableau 10), distinguishable in print and for most colour-blind readers.
+const PALETTE: [(u8, u8, u8); 10] = [
+    (31, 119, 180),
+    (255, 127, 14),
+    (44, 160, 44),
+    (214, 39, 40),
+    (148, 103, 189),
+    (140, 86, 75),
+    (227, 119, 194),
+    (127, 127, 127),
+    (188, 189, 34),
+    (23, 190, 207),
+];
+
+/// Registers the embedded font under the family name `sans-serif` (idempotent).
+pub(crate) fn register_fonts() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        let bytes: &'static [u8] = epaint_default_fonts::UBUNTU_LIGHT;
+        // The embedded font is known to parse; a failure would only lose text, and is
+        // reported by the first draw call.
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, bytes);
+    });
+}
+
+fn keep(scale: Scale, v: f64) -> bool {
+    v.is_finite() && (scale == Scale::Linear || v > 0.0)
+}
+
+/// Range of the kept values, padded so that a constant series still has an extent.
+fn range(values: impl Iterator<Item = f64>, scale: Scale) -> Option<(f64, f64)> {
+    let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+        (lo.min(v), hi.max(v))
+    });
+    if !lo.is_finite() || !hi.is_finite() {
+        return None;
+    }
+    Some(match scale {
+        Scale::Linear => {
+            let pad = if hi > lo {
+                0.04 * (hi - lo)
+            } else {
+                lo.abs().max(1.0) * 0.5
+            };
+            (lo - pad, hi + pad)
+        }
+        Scale::Log => {
+            if hi > lo {
+                (lo / 1.25, hi * 1.25)
+            } else {
+                (lo / 2.0, hi * 2.0)
+            }
+        }
+    })
+}
+
+fn draw_err(title: &str, e: impl std::fmt::Display) -> PlotError {
+    PlotError::Draw {
+        title: title.to_string(),
+        message: e.to_string(),
+    }
+}
+
+impl Chart {
+    /// Renders the chart into an RGB8 buffer of `width × height × 3` bytes.
+    pub fn render_rgb(&self) -> Result<Vec<u8>, PlotError> {
+        if self.width < 200 || self.height < 150 || self.width > 8192 || self.height > 8192 {
+            return Err(PlotError::Invalid(format!(
+                "size {}×{} outside 200×150 … 8192×8192",
+                self.width, self.height
+            )));
+        }
+        register_fonts();
+        let pts: Vec<Vec<(f64, f64)>> = self
+            .series
+            .iter()
+            .map(|s| {
+                s.points
+                    .iter()
+                    .copied()
+                    .filter(|&(x, y)| keep(self.x_scale, x) && keep(self.y_scale, y))
+                    .collect()
+            })
+            .collect();
+        let all = || pts.iter().flatten();
+        let empty = || PlotError::Empty(self.title.clone());
+        let xr = range(all().map(|p| p.0), self.x_scale).ok_or_else(empty)?;
+        let yr = range(all().map(|p| p.1), self.y_scale).ok_or_else(empty)?;
+
+        let mut buf = vec![0u8; self.width as usize * self.height as usize * 3];
+        {
+            let root =
+                BitMapBackend::with_buffer(&mut buf, (self.width, self.height)).into_drawing_area();
+            root.fill(&WHITE).map_err(|e| draw_err(&self.title, e))?;
+            // One code path per axis-scale combination: plotters encodes the scale in
+            // the coordinate type.
+            macro_rules! draw {
+                ($xs:expr, $ys:expr) => {{
+                    let mut chart = ChartBuilder::on(&root)
+                        .caption(&self.title, ("sans-serif", 26))
+                        .margin(16)
+                        .x_label_area_size(48)
+                        .y_label_area_size(80)
+                        .build_cartesian_2d($xs, $ys)
+                        .map_err(|e| draw_err(&self.title, e))?;
+                    chart
+                        .configure_mesh()
+                        .x_desc(self.x_label.as_str())
+                        .y_desc(self.y_label.as_str())
+                        .label_style(("sans-serif", 15))
+                        .axis_desc_style(("sans-serif", 18))
+                        .y_label_formatter(&|v: &f64| fmt_tick(*v))
+                        .x_label_formatter(&|v: &f64| fmt_tick(*v))
+                        .draw()
+                        .map_err(|e| draw_err(&self.title, e))?;
+                    for (i, (s, p)) in self.series.iter().zip(&pts).enumerate() {
+                        let (r, g, b) = PALETTE[i % PALETTE.len()];
+                        let colour = RGBColor(r, g, b);
+                        let style = colour.stroke_width(2);
+                        chart
+                            .draw_series(LineSeries::new(p.iter().copied(), style))
+                            .map_err(|e| draw_err(&self.title, e))?
+                            .label(s.name.as_str())
+                            .legend(move |(x, y)| {
+                                PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
+                            });
+                        if s.markers {
+                            chart
+                                .draw_series(p.iter().map(|&q| Circle::new(q, 3, colour.filled())))
+                                .map_err(|e| draw_err(&self.title, e))?;
+                        }
+                    }
+                    if self.series.iter().any(|s| !s.name.is_empty()) {
+                        chart
+                            .configure_series_labels()
+                            .position(SeriesLabelPosition::UpperRight)
+                            .background_style(WHITE.mix(0.85))
+                            .border_style(BLACK)
+                            .label_font(("sans-serif", 15))
+                            .draw()
+                            .map_err(|e| draw_err(&self.title, e))?;
+                    }
+                }};
+            }
+            match (self.x_scale, self.y_scale) {
+                (Scale::Linear, Scale::Linear) => draw!(xr.0..xr.1, yr.0..yr.1),
+                (Scale::Linear, Scale::Log) => draw!(xr.0..xr.1, (yr.0..yr.1).log_scale()),
+                (Scale::Log, Scale::Linear) => draw!((xr.0..xr.1).log_scale(), yr.0..yr.1),
+                (Scale::Log, Scale::Log) => {
+                    draw!((xr.0..xr.1).log_scale(), (yr.0..yr.1).log_scale())
+                }
+            }
+            root.present().map_err(|e| draw_err(&self.title, e))?;
+        }
+        Ok(buf)
+    }
+
+    /// Renders the chart and writes it as a PNG file, atomically.
+    pub fn write_png(&self, path: &Path) -> Result<(), PlotError> {
+        let rgb = self.render_rgb()?;
+        let (w, h) = (self.width, self.height);
+        crate::io::write_atomic(path, |out| {
+            let mut enc = png::Encoder::new(out, w, h);
+            enc.set_color(png::ColorType::Rgb);
+            enc.set_depth(png::BitDepth::Eight);
+            enc.set_compression(png::Compression::Best);
+            let mut writer = enc.write_header().map_err(std::io::Error::other)?;
+            writer
+                .write_image_data(&rgb)
+                .map_err(std::io::Error::other)?;
+            writer.finish().map_err(std::io::Error::other)
+        })?;
+        Ok(())
+    }
+}
+
+/// Compact tick labels: plain for moderate magnitudes, scientific otherwise.
+fn fmt_tick(v: f64) -> String {
+    let a = v.abs();
+    if v == 0.0 {
+        "0".into()
+    } else if (1e-3..1e5).contains(&a) {
+        let s = format!("{v:.4}");
+        let s = s.trim_end_matches('0').trim_end_matches('.');
+        s.to_string()
+    } else {
+        format!("{v:.1e}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn chart(y_scale: Scale) -> Chart {
+        Chart {
+            title: "test".into(),
+            x_label: "x".into(),
+            y_label: "y".into(),
+            y_scale,
+            series: vec![
+                Series::new(
+                    "a",
+                    (0..20).map(|i| (i as f64, (-(i as f64)).exp())).collect(),
+                ),
+                Series::new("b", vec![(0.0, 0.5), (10.0, 0.05), (19.0, 1e-6)]).with_markers(),
+            ],
+            width: 400,
+            height: 300,
+            ..Chart::default()
+        }
+    }
+
+    #[test]
+    fn renders_coloured_lines_on_white() {
+        for scale in [Scale::Linear, Scale::Log] {
+            let rgb = chart(scale).render_rgb().unwrap();
+            assert_eq!(rgb.len(), 400 * 300 * 3);
+            let px: Vec<&[u8]> = rgb.chunks_exact(3).collect();
+            let white = px.iter().filter(|p| p == &&[255, 255, 255]).count();
+            let blue = px.iter().filter(|p| p == &&[31, 119, 180]).count();
+            let orange = px.iter().filter(|p| p == &&[255, 127, 14]).count();
+            assert!(white > px.len() / 2, "{scale:?}: background");
+            assert!(blue > 100 && orange > 50, "{scale:?}: {blue} {orange}");
+            // text was drawn (dark anti-aliased pixels besides the black axes)
+            let grey = px
+                .iter()
+                .filter(|p| p[0] == p[1] && p[1] == p[2] && p[0] > 30 && p[0] < 200)
+                .count();
+            assert!(grey > 50, "{scale:?}: text pixels {grey}");
+        }
+    }
+
+    #[test]
+    fn writes_a_png_atomically() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("c.png");
+        chart(Scale::Log).write_png(&path).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+        let dec = png::Decoder::new(std::io::Cursor::new(bytes));
+        let reader = dec.read_info().unwrap();
+        assert_eq!((reader.info().width, reader.info().height), (400, 300));
+        // a failing chart leaves no file behind
+        let bad = dir.path().join("bad.png");
+        let empty = Chart {
+            title: "empty".into(),
+            ..Chart::default()
+        };
+        assert!(matches!(empty.write_png(&bad), Err(PlotError::Empty(_))));
+        assert!(!bad.exists());
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn log_axis_drops_non_positive_values_and_rejects_all_non_positive() {
+        let mut c = chart(Scale::Log);
+        c.series = vec![Series::new("z", vec![(0.0, 0.0), (1.0, -1.0)])];
+        assert!(matches!(c.render_rgb(), Err(PlotError::Empty(_))));
+        c.series[0].points.push((2.0, 1.0));
+        assert!(c.render_rgb().is_ok());
+        c.width = 10;
+        assert!(matches!(c.render_rgb(), Err(PlotError::Invalid(_))));
+    }
+}
