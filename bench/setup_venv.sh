@@ -6,7 +6,7 @@ if [ ! -x "$here/.venv/bin/python" ]; then
   python3 -m venv "$here/.venv"
 fi
 "$here/.venv/bin/python" -m pip install --quiet --upgrade pip
-"$here/.venv/bin/python" -m pip install --quiet numpy scipy libigl trimesh DracoPy threadpoolctl
+"$here/.venv/bin/python" -m pip install --quiet numpy scipy libigl trimesh DracoPy threadpoolctl pymetis
 "$here/.venv/bin/python" - <<'PY'
 import numpy, scipy, igl, trimesh, DracoPy, threadpoolctl
 print("peers:", "numpy", numpy.__version__, "scipy", scipy.__version__, "trimesh", trimesh.__version__)
