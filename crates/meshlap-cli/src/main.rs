@@ -36,6 +36,10 @@ enum Command {
     Iterate(cmd::iterate::Args),
     RepairSql(cmd::repair::Args),
     Partition(cmd::partition::Args),
+    Spectrum(cmd::spectrum::Args),
+    Project(cmd::project::Args),
+    Compaction(cmd::compaction::Args),
+    Experiment(cmd::experiment::Args),
     Render(cmd::render::Args),
 }
 
@@ -55,6 +59,10 @@ fn main() {
         Command::Iterate(a) => cmd::iterate::run(a),
         Command::RepairSql(a) => cmd::repair::run(a),
         Command::Partition(a) => cmd::partition::run(a),
+        Command::Spectrum(a) => cmd::spectrum::run(a),
+        Command::Project(a) => cmd::project::run(a),
+        Command::Compaction(a) => cmd::compaction::run(a),
+        Command::Experiment(a) => cmd::experiment::run(a),
         Command::Render(a) => cmd::render::run(a),
     };
     if let Err(e) = result {

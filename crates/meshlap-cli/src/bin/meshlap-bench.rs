@@ -1,10 +1,11 @@
 //! `meshlap-bench TASK MESH [--repeat N]`: times library calls for the side-by-side
 //! scripts in `bench/` and prints JSON with the median and all timings (seconds).
 //! Tasks: `load` (read + clean + connectivity), `operators` (assemble each operator),
-//! `io` (write and re-read as PLY and OBJ), `partial` (the `--count` smallest eigenpairs
-//! by banded shift-invert), `partition` (METIS patches of `--patch-size`),
-//! `project-patches` (partition + patch-wise truncated ED reconstruction, end to end,
-//! with the peak RSS).
+//! `io` (write and re-read as PLY and OBJ), `spectrum` (dense eigenbases: KL and SQL
+//! by the symmetric solver, the TL through its GL similarity and by the general
+//! eigensolver plus LU), `partial` (the `--count` smallest eigenpairs by banded
+//! shift-invert), `partition` (METIS patches of `--patch-size`), `project-patches`
+//! (partition + patch-wise truncated ED reconstruction, end to end, with the peak RSS).
 
 use meshlap::input::{open, OpenOptions};
 use meshlap::operator::{Operator, OperatorKind, OperatorOptions};
@@ -53,7 +54,7 @@ fn main() {
 
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let usage = "usage: meshlap-bench load|operators|io|partial|partition|project-patches MESH [--repeat N] [--count K] [--kind K] [--patch-size P] [--keep F]";
+    let usage = "usage: meshlap-bench load|operators|io|spectrum|partial|partition|project-patches MESH [--repeat N] [--general] [--count K] [--kind K] [--patch-size P] [--keep F]";
     let task = args.first().ok_or(usage)?.clone();
     let mesh = args.get(1).ok_or(usage)?.clone();
     let repeat = match args.iter().position(|a| a == "--repeat") {
@@ -115,6 +116,34 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                     serde_json::json!({"write": w, "read": r, "bytes": bytes,
                         "write_mb_s": bytes / w / 1e6, "read_mb_s": bytes / r / 1e6}),
                 );
+            }
+        }
+        "spectrum" => {
+            use meshlap::spectral::{BasisOptions, EigenBasis, EigenPath};
+            let input = open(&mesh, &OpenOptions::default())?;
+            out.insert("vertices".into(), input.mesh.n_vertices().into());
+            let general = args.iter().any(|a| a == "--general");
+            let mut cases = vec![
+                ("kirchhoff", OperatorKind::Kirchhoff, EigenPath::Auto),
+                ("sql", OperatorKind::Sql, EigenPath::Auto),
+                ("tutte", OperatorKind::Tutte, EigenPath::Auto),
+            ];
+            if general {
+                cases.push(("tutte-general", OperatorKind::Tutte, EigenPath::General));
+            }
+            for (name, kind, path) in cases {
+                let op = Operator::assemble(
+                    kind,
+                    &input.mesh,
+                    &input.topology,
+                    &OperatorOptions::default(),
+                )?;
+                let opts = BasisOptions {
+                    path,
+                    ..Default::default()
+                };
+                let (m, t) = time(repeat, || EigenBasis::compute(&op, &opts).map(|b| b.len()));
+                out.insert(name.into(), serde_json::json!({"median": m, "times": t}));
             }
         }
         "partial" => {

@@ -1,10 +1,14 @@
 //! One module per subcommand.
 
 pub mod clean;
+pub mod compaction;
 pub mod convert;
+pub mod experiment;
 pub mod info;
 pub mod iterate;
 pub mod operator;
 pub mod partition;
+pub mod project;
 pub mod render;
 pub mod repair;
+pub mod spectrum;

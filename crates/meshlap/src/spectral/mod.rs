@@ -1,4 +1,24 @@
-//! Eigenvalue-decomposition transforms. (Filled in by the spectral work.)
+//! Eigenvalue-decomposition (ED) transforms (Zhang 2004 §2.3, §2.6, §4.9; Karni &
+//! Gotsman 2000).
+//!
+//! **Sign convention.** Every operator taken here is positive semi-definite,
+//! `F = D − W` as in the paper (libigl/pmp use the negative), so eigenvalues are
+//! ascending from the smoothest (lowest-frequency) basis vector.
+//!
+//! - [`basis`]: the dense eigenbasis `E` of an operator (symmetric, symmetrized
+//!   through a positive diagonal similarity — the TL through the GL — or general),
+//!   with canonical, deterministic vectors.
+//! - [`transform`]: the forward ED-transform `X = E⁻¹x`, its inverse and the truncated
+//!   reconstruction `x⁽ᵐ⁾` from the first m coefficients.
+//! - [`compaction`]: the transform efficiency (energy compaction) for every m.
+
+pub mod basis;
+pub mod compaction;
+pub mod transform;
+
+pub use basis::{BasisOptions, EigenBasis, EigenPath, Normalization, DENSE_LIMIT};
+pub use compaction::{energy_compaction, Compaction};
+pub use transform::{forward, inverse, mat_to_positions, positions_to_mat, truncated};
 
 pub mod partial;
 pub mod partition;
@@ -6,7 +26,85 @@ pub mod partition;
 /// Errors of spectral computations.
 #[derive(Debug, thiserror::Error)]
 pub enum SpectralError {
-    /// Placeholder until the spectral module lands.
-    #[error("spectral module not implemented")]
-    Unimplemented,
+    /// The operator has no rows (empty mesh) or is not square.
+    #[error("the operator is empty or not square")]
+    Empty,
+    /// Too many vertices for a dense eigendecomposition.
+    #[error("n = {n} vertices exceeds the dense eigensolver's limit of {limit}")]
+    TooLarge {
+        /// Vertices.
+        n: usize,
+        /// The limit.
+        limit: usize,
+    },
+    /// A stored operator entry is NaN or infinite.
+    #[error("operator entry #{index} is not finite")]
+    NonFinite {
+        /// Index into the stored values.
+        index: usize,
+    },
+    /// An input has the wrong length.
+    #[error("{what} has {got} entries, expected {expected}")]
+    ShapeMismatch {
+        /// Which input.
+        what: &'static str,
+        /// Expected length.
+        expected: usize,
+        /// Actual length.
+        got: usize,
+    },
+    /// A mass-matrix entry is not positive.
+    #[error(
+        "mass of vertex {vertex} is {value}; the lumped mass must be positive (degenerate faces?)"
+    )]
+    InvalidMass {
+        /// The vertex.
+        vertex: usize,
+        /// Its mass.
+        value: f64,
+    },
+    /// The symmetric path was asked for a non-symmetric operator.
+    #[error("the operator is not symmetric; use the symmetrized or general path")]
+    NotSymmetric,
+    /// A non-symmetric operator without a positive diagonal symmetrizer.
+    #[error("the operator is not symmetric and has no positive diagonal symmetrizer; use the general path")]
+    NotSymmetrizable,
+    /// The dense eigensolver did not converge.
+    #[error("the {path} eigensolver did not converge")]
+    NoConvergence {
+        /// Which path.
+        path: &'static str,
+    },
+    /// The general path met eigenvalues with a non-negligible imaginary part.
+    #[error("the operator has complex eigenvalues (|Im λ| up to {max_imaginary:.3e}); its ED-transform is not real")]
+    ComplexSpectrum {
+        /// Largest |imaginary part|.
+        max_imaginary: f64,
+    },
+    /// The general path's eigenvectors are (numerically) linearly dependent.
+    #[error(
+        "the eigenvectors are numerically dependent (defective operator); no ED-transform exists"
+    )]
+    SingularBasis,
+    /// Unknown eigensolver path name.
+    #[error("unknown eigensolver path `{0}`; choose auto, symmetric, symmetrized or general")]
+    UnknownPath(String),
+    /// Another invalid argument.
+    #[error("{0}")]
+    InvalidArgument(String),
+}
+
+#[cfg(test)]
+pub(crate) mod test_util {
+    use crate::mesh::{builtin, TriMesh};
+
+    /// An icosphere with three faces removed far apart: irregular valences, three
+    /// holes and no symmetry left, so its combinatorial spectra are simple.
+    pub fn irregular() -> TriMesh {
+        let mut m = builtin::icosphere(2).unwrap();
+        for f in [250usize, 131, 7] {
+            m.faces.remove(f);
+        }
+        m
+    }
 }

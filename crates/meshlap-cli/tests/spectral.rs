@@ -1,0 +1,236 @@
+//! End-to-end tests of `spectrum`, `project`, `compaction` and `experiment eigen-cost`.
+
+use std::process::{Command, Output};
+
+fn meshlap(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_meshlap"))
+        .args(args)
+        .output()
+        .expect("run meshlap")
+}
+
+fn json(out: &Output) -> serde_json::Value {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("valid JSON")
+}
+
+fn assert_one_line_error(out: &Output, needle: &str) {
+    assert_eq!(out.status.code(), Some(1), "{out:?}");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains(needle), "{err} should mention {needle}");
+}
+
+#[test]
+fn spectrum_json_and_vectors() {
+    let dir = tempfile::tempdir().unwrap();
+    let npy = dir.path().join("v.npy");
+    let v = json(&meshlap(&[
+        "spectrum",
+        "builtin:icosahedron",
+        "--kind",
+        "kl",
+        "--json",
+        "--vectors",
+        npy.to_str().unwrap(),
+    ]));
+    let ev: Vec<f64> = v["eigenvalues"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    let s5 = 5f64.sqrt();
+    let expected = [
+        0.0,
+        5. - s5,
+        5. - s5,
+        5. - s5,
+        6.,
+        6.,
+        6.,
+        6.,
+        6.,
+        5. + s5,
+        5. + s5,
+        5. + s5,
+    ];
+    for (a, b) in ev.iter().zip(expected) {
+        assert!((a - b).abs() < 1e-12);
+    }
+    assert_eq!(v["multiplicities"], serde_json::json!([1, 3, 5, 3]));
+    assert_eq!(v["path"], "symmetric");
+    let e = meshlap::io::read_npy(&npy).unwrap();
+    assert_eq!((e.nrows(), e.ncols()), (12, 12));
+    let g = e.transpose() * &e;
+    for i in 0..12 {
+        for j in 0..12 {
+            let d = if i == j { 1.0 } else { 0.0 };
+            assert!((g[(i, j)] - d).abs() < 1e-12);
+        }
+    }
+    // --count and the TL through the GL.
+    let v = json(&meshlap(&[
+        "spectrum",
+        "builtin:step:4",
+        "--kind",
+        "tl",
+        "--count",
+        "4",
+        "--json",
+    ]));
+    assert_eq!(v["eigenvalues"].as_array().unwrap().len(), 4);
+    assert_eq!(v["path"], "symmetrized");
+    assert!(v["max_residual"].as_f64().unwrap() < 1e-12);
+}
+
+#[test]
+fn spectrum_errors() {
+    assert_one_line_error(
+        &meshlap(&["spectrum", "builtin:grid:3", "--kind", "kl", "--count", "0"]),
+        "--count",
+    );
+    assert_one_line_error(
+        &meshlap(&[
+            "spectrum",
+            "builtin:step:3",
+            "--kind",
+            "tl",
+            "--path",
+            "symmetric",
+        ]),
+        "not symmetric",
+    );
+    assert_one_line_error(
+        &meshlap(&["spectrum", "builtin:icosphere:5", "--kind", "kl"]),
+        "exceeds",
+    );
+    let out = meshlap(&["spectrum", "builtin:grid:3", "--kind", "kl", "--path", "x"]);
+    assert_eq!(out.status.code(), Some(2));
+}
+
+#[test]
+fn project_keep_n_and_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("p.ply");
+    let o = out.to_str().unwrap();
+    for kind in ["sql", "tl", "sstl"] {
+        let v = json(&meshlap(&[
+            "project",
+            "builtin:cube:3",
+            "--kind",
+            kind,
+            "--keep",
+            "100%",
+            "-o",
+            o,
+            "--json",
+        ]));
+        assert!(v["relative_error"].as_f64().unwrap() < 1e-10, "{kind}");
+        assert!((v["energy_kept"].as_f64().unwrap() - 1.0).abs() < 1e-12);
+    }
+    let v = json(&meshlap(&[
+        "project",
+        "builtin:icosphere:2",
+        "--kind",
+        "sstl",
+        "--keep",
+        "1",
+        "-o",
+        o,
+        "--json",
+    ]));
+    // x⁽¹⁾ of a GSML is the centroid: every vertex moves to it (the origin).
+    assert!(v["max_displacement"].as_f64().unwrap() > 0.2);
+    let m = meshlap::io::read_mesh(&out, None).unwrap().mesh;
+    assert_eq!(m.n_faces(), 320);
+    for p in &m.positions {
+        assert!(p.iter().all(|c| c.abs() < 1e-6), "{p:?}");
+    }
+    let fresh = dir.path().join("never.obj");
+    assert_one_line_error(
+        &meshlap(&[
+            "project",
+            "builtin:grid:3",
+            "--kind",
+            "kl",
+            "--keep",
+            "17",
+            "-o",
+            fresh.to_str().unwrap(),
+        ]),
+        "--keep",
+    );
+    assert!(!fresh.exists());
+}
+
+#[test]
+fn compaction_csv_and_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("c.csv");
+    let v = json(&meshlap(&[
+        "compaction",
+        "builtin:step:6",
+        "--kind",
+        "sql",
+        "--centre",
+        "--json",
+        "--csv",
+        csv.to_str().unwrap(),
+    ]));
+    let n = v["vertices"].as_u64().unwrap() as usize;
+    let total = v["total"].as_array().unwrap();
+    assert_eq!(total.len(), n);
+    assert!((total[n - 1].as_f64().unwrap() - 1.0).abs() < 1e-12);
+    assert!(total[0].as_f64().unwrap() < 1e-20, "centred: no DC energy");
+    assert_eq!(v["per_coordinate"].as_array().unwrap().len(), 3);
+    let text = std::fs::read_to_string(&csv).unwrap();
+    assert_eq!(text.lines().count(), n + 1);
+    assert!(text.starts_with("m,x,y,z,total\n"));
+}
+
+#[test]
+fn experiment_eigen_cost_writes_its_tables() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("exp");
+    let v = json(&meshlap(&[
+        "experiment",
+        "eigen-cost",
+        "--mesh",
+        "builtin:icosphere:2",
+        "--sizes",
+        "20,60",
+        "--compaction-size",
+        "80",
+        "--out",
+        out.to_str().unwrap(),
+        "--json",
+    ]));
+    let cost = v["cost"].as_array().unwrap();
+    assert_eq!(cost.len(), 2 * 6);
+    assert!(cost
+        .iter()
+        .all(|r| r["eigen_seconds"].as_f64().unwrap() >= 0.0));
+    assert_eq!(v["compaction_order"].as_array().unwrap().len(), 4);
+    for f in ["eigen_cost.md", "compaction.md", "eigen_cost.json"] {
+        assert!(out.join(f).exists(), "{f}");
+    }
+}
+
+#[test]
+fn help_on_spectral_commands() {
+    for cmd in [
+        &["spectrum", "--help"][..],
+        &["project", "--help"],
+        &["compaction", "--help"],
+        &["experiment", "eigen-cost", "--help"],
+    ] {
+        let out = meshlap(cmd);
+        assert!(out.status.success(), "{cmd:?}");
+        assert!(out.stdout.len() > 200, "{cmd:?} help too short");
+    }
+}

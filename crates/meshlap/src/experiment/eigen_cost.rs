@@ -1,0 +1,476 @@
+//! The paper's §4.9 experiments on ED-transforms (Zhang 2004):
+//!
+//! - [`cost`] (Fig. 3): the time to eigendecompose the KL, GL, SQL, SSTL, the TL
+//!   through its GL similarity (symmetric solver, S-weighted projection) and the TL by
+//!   the general non-symmetric eigensolver plus the dense LU of `E` that the paper's
+//!   Matlab `eig` + `E\x` needs, on patches of growing size n; and the time for the
+//!   spectral coefficients of the positions (projection versus LU solve).
+//! - [`compaction`]: the transform efficiency of SSTL, SQL, TL and KL on centred
+//!   geometry, on smooth models and on models with sharp transitions. The paper's
+//!   order on smooth models is SSTL > SQL > TL > KL, "often reversed" on a tessellated
+//!   step or cube; the differences are slight.
+//!
+//! Patches are grown by breadth-first search ([`bfs_patch`]); the real multilevel
+//! partitioner lives in `spectral::partition`. Sign convention: `F = D − W`, PSD.
+
+use super::claims::short_name;
+use super::{sig, ExperimentError, Table};
+use crate::input::{self, Input, OpenOptions};
+use crate::mesh::{TriMesh, VertexId};
+use crate::operator::{Operator, OperatorKind, OperatorOptions};
+use crate::plot::{Chart, Scale, Series};
+use crate::spectral::compaction::{centre, energy_compaction};
+use crate::spectral::{forward, positions_to_mat, BasisOptions, EigenBasis, EigenPath};
+use serde::Serialize;
+use std::collections::VecDeque;
+use std::time::Instant;
+
+fn input_err(source: &str, e: impl std::fmt::Display) -> ExperimentError {
+    ExperimentError::Input {
+        source_name: source.to_string(),
+        message: e.to_string(),
+    }
+}
+
+/// The patch of `input` grown by breadth-first search from `seed` (neighbours in
+/// index order) until it has `n` vertices, with the faces whose three corners are
+/// inside; cleaned, so vertices left without a face are dropped and the patch can
+/// have slightly fewer than n vertices.
+pub fn bfs_patch(input: &Input, seed: usize, n: usize) -> Result<Input, ExperimentError> {
+    let nv = input.mesh.n_vertices();
+    if nv == 0 || seed >= nv {
+        return Err(input_err(&input.source, "seed vertex out of range"));
+    }
+    let mut inside = vec![false; nv];
+    let mut order = Vec::with_capacity(n.min(nv));
+    let mut queue = VecDeque::from([seed]);
+    inside[seed] = true;
+    while let Some(v) = queue.pop_front() {
+        if order.len() == n {
+            break;
+        }
+        order.push(v);
+        for &w in input.topology.neighbors(VertexId(v as u32)) {
+            let w = w as usize;
+            if !inside[w] {
+                inside[w] = true;
+                queue.push_back(w);
+            }
+        }
+    }
+    let mut new_index = vec![u32::MAX; nv];
+    for (k, &v) in order.iter().enumerate() {
+        new_index[v] = k as u32;
+    }
+    let faces: Vec<[u32; 3]> = input
+        .mesh
+        .faces
+        .iter()
+        .filter(|f| f.iter().all(|&v| new_index[v as usize] != u32::MAX))
+        .map(|f| f.map(|v| new_index[v as usize]))
+        .collect();
+    let positions = order.iter().map(|&v| input.mesh.positions[v]).collect();
+    let name = format!("{} [bfs {n}]", short_name(&input.source));
+    input::from_mesh(
+        &name,
+        TriMesh::new(positions, faces),
+        None,
+        &Default::default(),
+    )
+    .map_err(|e| input_err(&name, e))
+}
+
+/// The operators timed by [`cost`]: (label, kind, path).
+pub const COST_OPERATORS: [(&str, OperatorKind, EigenPath); 6] = [
+    ("kl", OperatorKind::Kirchhoff, EigenPath::Symmetric),
+    ("gl", OperatorKind::Graph, EigenPath::Symmetric),
+    ("sql", OperatorKind::Sql, EigenPath::Symmetric),
+    ("sstl", OperatorKind::Sstl, EigenPath::Symmetric),
+    ("tl", OperatorKind::Tutte, EigenPath::Auto),
+    ("tl-general", OperatorKind::Tutte, EigenPath::General),
+];
+
+/// One decomposition measured by [`cost`].
+#[derive(Clone, Debug, Serialize)]
+pub struct CostRow {
+    /// Mesh the patch was cut from.
+    pub mesh: String,
+    /// Vertices of the patch.
+    pub n: usize,
+    /// Operator label (see [`COST_OPERATORS`]).
+    pub operator: String,
+    /// Path actually used.
+    pub path: EigenPath,
+    /// Eigendecomposition (with the LU of E on the general path), median seconds.
+    pub eigen_seconds: f64,
+    /// Spectral coefficients of the n×3 positions, median seconds.
+    pub coefficient_seconds: f64,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Fig. 3: times every operator of [`COST_OPERATORS`] on BFS patches of each mesh
+/// (seed vertex 0) of every size; medians of `repeat` runs. Returns the rows, a table
+/// and one log–log chart per mesh (time against n, one series per operator).
+pub fn cost(
+    inputs: &[Input],
+    sizes: &[usize],
+    repeat: usize,
+    mut progress: impl FnMut(&str),
+) -> Result<(Vec<CostRow>, Table, NamedCharts), ExperimentError> {
+    let mut rows = Vec::new();
+    for input in inputs {
+        for &size in sizes {
+            let patch = bfs_patch(input, 0, size)?;
+            let x = positions_to_mat(&patch.mesh.positions);
+            for (label, kind, path) in COST_OPERATORS {
+                progress(&format!("{} n={size} {label}", short_name(&input.source)));
+                let op = Operator::assemble(
+                    kind,
+                    &patch.mesh,
+                    &patch.topology,
+                    &OperatorOptions::default(),
+                )
+                .map_err(|e| input_err(&patch.source, e))?;
+                let opts = BasisOptions {
+                    path,
+                    ..Default::default()
+                };
+                let (mut te, mut tc) = (Vec::new(), Vec::new());
+                let mut used = path;
+                for _ in 0..repeat.max(1) {
+                    let t = Instant::now();
+                    let b =
+                        EigenBasis::compute(&op, &opts).map_err(|e| input_err(&patch.source, e))?;
+                    te.push(t.elapsed().as_secs_f64());
+                    used = b.path();
+                    let t = Instant::now();
+                    std::hint::black_box(
+                        forward(&b, x.as_ref()).map_err(|e| input_err(&patch.source, e))?,
+                    );
+                    tc.push(t.elapsed().as_secs_f64());
+                }
+                rows.push(CostRow {
+                    mesh: short_name(&input.source),
+                    n: patch.mesh.n_vertices(),
+                    operator: label.to_string(),
+                    path: used,
+                    eigen_seconds: median(te),
+                    coefficient_seconds: median(tc),
+                });
+            }
+        }
+    }
+    let mut t = Table::new(
+        "Cost of the ED-transform (Zhang 2004 Fig. 3), seconds",
+        &[
+            "mesh",
+            "n",
+            "operator",
+            "path",
+            "eigendecomposition",
+            "coefficients",
+        ],
+    );
+    for r in &rows {
+        t.push(vec![
+            r.mesh.clone(),
+            r.n.to_string(),
+            r.operator.clone(),
+            r.path.name().into(),
+            sig(Some(r.eigen_seconds), 3),
+            sig(Some(r.coefficient_seconds), 3),
+        ]);
+    }
+    t.notes.push(format!(
+        "BFS patches from vertex 0; medians of {} run(s). tl = the TL through its GL \
+         similarity (symmetric solver, D-weighted projection); tl-general = non-symmetric \
+         eigendecomposition + LU of E (coefficients by LU solves), as Matlab's eig + E\\x.",
+        repeat.max(1)
+    ));
+    let mut charts = Vec::new();
+    let mut meshes: Vec<String> = Vec::new();
+    for r in &rows {
+        if !meshes.contains(&r.mesh) {
+            meshes.push(r.mesh.clone());
+        }
+    }
+    for m in meshes {
+        let series = COST_OPERATORS
+            .iter()
+            .map(|(label, _, _)| {
+                let pts = rows
+                    .iter()
+                    .filter(|r| r.mesh == m && r.operator == *label)
+                    .map(|r| (r.n as f64, r.eigen_seconds))
+                    .collect();
+                Series::new(label.to_uppercase(), pts).with_markers()
+            })
+            .collect();
+        charts.push((
+            m.clone(),
+            Chart {
+                title: format!("Eigendecomposition cost, patches of {m}"),
+                x_label: "vertices n".into(),
+                y_label: "seconds".into(),
+                x_scale: Scale::Log,
+                y_scale: Scale::Log,
+                series,
+                ..Chart::default()
+            },
+        ));
+    }
+    Ok((rows, t, charts))
+}
+
+/// A model of the compaction comparison.
+#[derive(Clone, Debug)]
+pub struct CompactionModel {
+    /// Name in tables.
+    pub name: String,
+    /// Smooth (true) or with sharp transitions.
+    pub smooth: bool,
+    /// The mesh.
+    pub input: Input,
+}
+
+/// The default models: a `patch_size` BFS patch of `smooth_source` (if any) and
+/// `builtin:icosphere:3` (smooth); `builtin:cube:8` and `builtin:step:20` (sharp).
+pub fn compaction_models(
+    smooth_source: Option<&Input>,
+    patch_size: usize,
+) -> Result<Vec<CompactionModel>, ExperimentError> {
+    let mut models = Vec::new();
+    if let Some(s) = smooth_source {
+        let p = bfs_patch(s, 0, patch_size)?;
+        models.push(CompactionModel {
+            name: p.source.clone(),
+            smooth: true,
+            input: p,
+        });
+    }
+    for (spec, smooth) in [
+        ("builtin:icosphere:3", true),
+        ("builtin:cube:8", false),
+        ("builtin:step:20", false),
+    ] {
+        models.push(CompactionModel {
+            name: spec.trim_start_matches("builtin:").to_string(),
+            smooth,
+            input: input::open(spec, &OpenOptions::default()).map_err(|e| input_err(spec, e))?,
+        });
+    }
+    Ok(models)
+}
+
+/// The operators compared by [`compaction`], in the paper's order.
+pub const COMPACTION_OPERATORS: [(&str, OperatorKind); 4] = [
+    ("sstl", OperatorKind::Sstl),
+    ("sql", OperatorKind::Sql),
+    ("tl", OperatorKind::Tutte),
+    ("kl", OperatorKind::Kirchhoff),
+];
+
+/// One (model, operator) of [`compaction`].
+#[derive(Clone, Debug, Serialize)]
+pub struct CompactionRow {
+    /// Model name.
+    pub model: String,
+    /// Smooth model.
+    pub smooth: bool,
+    /// Vertices.
+    pub n: usize,
+    /// Operator label.
+    pub operator: String,
+    /// Mean of η(m) over m = 1..=n (higher = better compaction).
+    pub mean_efficiency: f64,
+    /// 1 − η(m) at m = 2 %, 5 %, 10 % of n.
+    pub residual_at: [f64; 3],
+    /// Smallest m with η(m) ≥ 99 %.
+    pub m_99: usize,
+    /// Smallest m with η(m) ≥ 99.9 %.
+    pub m_999: usize,
+    /// 1 − η(m) for m = 1..=n.
+    pub residual: Vec<f64>,
+}
+
+/// Per model, operators from best to worst mean efficiency.
+pub type CompactionOrder = Vec<(String, Vec<String>)>;
+
+/// Charts keyed by the mesh or model they show.
+pub type NamedCharts = Vec<(String, Chart)>;
+
+/// §4.9 energy compaction of the centred positions for every model and operator.
+/// Returns the rows, the order per model, a table and one chart per model (residual
+/// energy 1 − η(m), log scale, against m up to n/4).
+pub fn compaction(
+    models: &[CompactionModel],
+    mut progress: impl FnMut(&str),
+) -> Result<(Vec<CompactionRow>, CompactionOrder, Table, NamedCharts), ExperimentError> {
+    let mut rows = Vec::new();
+    for model in models {
+        let x = centre(positions_to_mat(&model.input.mesh.positions).as_ref());
+        let n = model.input.mesh.n_vertices();
+        for (label, kind) in COMPACTION_OPERATORS {
+            progress(&format!("{} {label}", model.name));
+            let err = |e: &dyn std::fmt::Display| input_err(&model.name, e);
+            let op = Operator::assemble(
+                kind,
+                &model.input.mesh,
+                &model.input.topology,
+                &OperatorOptions::default(),
+            )
+            .map_err(|e| err(&e))?;
+            let b = EigenBasis::compute(&op, &BasisOptions::default()).map_err(|e| err(&e))?;
+            let coeffs = forward(&b, x.as_ref()).map_err(|e| err(&e))?;
+            let comp = energy_compaction(coeffs.as_ref());
+            let at = |p: f64| {
+                let m = ((p * n as f64).round() as usize).clamp(1, n);
+                (1.0 - comp.total[m - 1]).max(0.0)
+            };
+            rows.push(CompactionRow {
+                model: model.name.clone(),
+                smooth: model.smooth,
+                n,
+                operator: label.into(),
+                mean_efficiency: comp.mean_efficiency(),
+                residual_at: [at(0.02), at(0.05), at(0.10)],
+                m_99: comp.coefficients_for(0.99),
+                m_999: comp.coefficients_for(0.999),
+                residual: comp.total.iter().map(|e| (1.0 - e).max(0.0)).collect(),
+            });
+        }
+    }
+    let order: CompactionOrder = models
+        .iter()
+        .map(|m| {
+            let mut ops: Vec<&CompactionRow> = rows.iter().filter(|r| r.model == m.name).collect();
+            ops.sort_by(|a, b| b.mean_efficiency.total_cmp(&a.mean_efficiency));
+            (
+                m.name.clone(),
+                ops.iter().map(|r| r.operator.clone()).collect(),
+            )
+        })
+        .collect();
+    let mut t = Table::new(
+        "Energy compaction (transform efficiency η, Zhang 2004 §4.9), centred positions",
+        &[
+            "model",
+            "smooth",
+            "n",
+            "operator",
+            "mean η",
+            "1−η(2% n)",
+            "1−η(5% n)",
+            "1−η(10% n)",
+            "m for 99%",
+            "m for 99.9%",
+        ],
+    );
+    for r in &rows {
+        t.push(vec![
+            r.model.clone(),
+            if r.smooth { "yes" } else { "no" }.into(),
+            r.n.to_string(),
+            r.operator.clone(),
+            format!("{:.6}", r.mean_efficiency),
+            sig(Some(r.residual_at[0]), 3),
+            sig(Some(r.residual_at[1]), 3),
+            sig(Some(r.residual_at[2]), 3),
+            r.m_99.to_string(),
+            r.m_999.to_string(),
+        ]);
+    }
+    for (m, ops) in &order {
+        t.notes.push(format!(
+            "{m}: {} (best first, by mean η)",
+            ops.iter()
+                .map(|s| s.to_uppercase())
+                .collect::<Vec<_>>()
+                .join(" > ")
+        ));
+    }
+    let charts = models
+        .iter()
+        .map(|m| {
+            let series = rows
+                .iter()
+                .filter(|r| r.model == m.name)
+                .map(|r| {
+                    let upto = (r.n / 4).max(2);
+                    Series::new(
+                        r.operator.to_uppercase(),
+                        r.residual[..upto]
+                            .iter()
+                            .enumerate()
+                            .map(|(i, &v)| ((i + 1) as f64, v))
+                            .collect(),
+                    )
+                })
+                .collect();
+            (
+                m.name.clone(),
+                Chart {
+                    title: format!("Energy compaction, {}", m.name),
+                    x_label: "coefficients kept m".into(),
+                    y_label: "residual energy 1 − η(m)".into(),
+                    y_scale: Scale::Log,
+                    series,
+                    ..Chart::default()
+                },
+            )
+        })
+        .collect();
+    Ok((rows, order, t, charts))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bfs_patch_is_a_connected_ball() {
+        let input = input::open("builtin:icosphere:3", &OpenOptions::default()).unwrap();
+        let p = bfs_patch(&input, 0, 100).unwrap();
+        assert!(p.mesh.n_vertices() <= 100 && p.mesh.n_vertices() >= 90);
+        assert_eq!(p.topology.components().1, 1);
+        assert!(p.topology.boundary_edges().count() > 0);
+        // The whole mesh when n is large enough.
+        let all = bfs_patch(&input, 5, 10_000).unwrap();
+        assert_eq!(all.mesh.n_faces(), input.mesh.n_faces());
+        assert!(bfs_patch(&input, 1_000_000, 10).is_err());
+    }
+
+    #[test]
+    fn cost_and_compaction_tables() {
+        let input = input::open("builtin:icosphere:2", &OpenOptions::default()).unwrap();
+        let mut calls = 0;
+        let (rows, t, charts) =
+            cost(std::slice::from_ref(&input), &[30, 60], 1, |_| calls += 1).unwrap();
+        assert_eq!(rows.len(), 12);
+        assert_eq!(calls, 12);
+        assert_eq!(t.rows.len(), 12);
+        assert_eq!(charts.len(), 1);
+        assert!(rows
+            .iter()
+            .filter(|r| r.operator == "tl")
+            .all(|r| r.path == EigenPath::Symmetrized));
+        let models = vec![CompactionModel {
+            name: "step".into(),
+            smooth: false,
+            input: input::open("builtin:step:6", &OpenOptions::default()).unwrap(),
+        }];
+        let (rows, order, t, charts) = compaction(&models, |_| {}).unwrap();
+        assert_eq!(rows.len(), 4);
+        assert_eq!(order[0].1.len(), 4);
+        assert_eq!(t.notes.len(), 1);
+        assert_eq!(charts.len(), 1);
+        for r in &rows {
+            assert!(r.residual.last().unwrap().abs() < 1e-12);
+            assert!(r.residual_at[0] >= r.residual_at[2]);
+        }
+    }
+}
