@@ -544,7 +544,8 @@ pub fn patchwise_reconstruction(
     }
     let total = part.n_patches();
     let done = std::sync::atomic::AtomicUsize::new(0);
-    let patches: Vec<crate::Result<(Vec<u32>, Vec<[f64; 3]>)>> = (0..total)
+    type PatchResult = crate::Result<(Vec<u32>, Vec<[f64; 3]>)>;
+    let patches: Vec<PatchResult> = (0..total)
         .into_par_iter()
         .map(|p| {
             let sub = part.submesh(mesh, p);
