@@ -44,6 +44,13 @@ enum Command {
 }
 
 fn main() {
+    // Like other Unix filters, stop quietly when the reader of our output goes away
+    // (`meshlap info … | head`), instead of panicking on the broken pipe.
+    #[cfg(unix)]
+    // SAFETY: restoring the default disposition of SIGPIPE before any thread exists.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = Cli::parse();
     if let Some(t) = cli.threads {
         // A pool can only be built once; ignore a second attempt.

@@ -306,3 +306,56 @@ fn render_writes_a_png_and_refuses_bad_sizes_without_output() {
     assert_one_line_error(&out, "size");
     assert!(dir_is_empty(empty.path()));
 }
+
+#[test]
+fn experiment_claims_writes_its_tables_and_chart() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("claims");
+    let o = meshlap(&[
+        "experiment",
+        "claims",
+        "--mesh",
+        "builtin:icosahedron",
+        "--boundary-mesh",
+        "builtin:grid:5",
+        "--repair-mesh",
+        "builtin:step:6",
+        "--limit-mesh",
+        "builtin:grid:4",
+        "--steps",
+        "400",
+        "--out",
+        out.to_str().unwrap(),
+        "--json",
+    ]);
+    let v = json(&o);
+    assert_eq!(v["properties"].as_array().unwrap().len(), 9);
+    assert!(v["erratum"][0]["printed_max_abs_row_sum"].as_f64().unwrap() > 0.05);
+    assert!(
+        v["erratum"][0]["corrected_max_abs_row_sum"]
+            .as_f64()
+            .unwrap()
+            < 1e-12
+    );
+    for f in [
+        "properties.md",
+        "properties.csv",
+        "erratum.md",
+        "repair.md",
+        "limits.md",
+        "limits.png",
+        "claims.json",
+    ] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    // a missing mesh is one clear error line
+    let bad = meshlap(&[
+        "experiment",
+        "claims",
+        "--mesh",
+        "/nonexistent.obj",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_one_line_error(&bad, "nonexistent");
+}

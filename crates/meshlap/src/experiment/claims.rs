@@ -271,17 +271,19 @@ pub struct LimitRow {
     pub kind: OperatorKind,
     /// The k of `H = I − F/k`.
     pub k: f64,
-    /// Every step.
+    /// The recorded steps (every `record_every`-th and the last).
     pub steps: Vec<SmoothingStep>,
     /// Largest ratio σ²(x_{p+1}) / σ²(x_p) over the run (> 1: the variance grew).
     pub max_variance_ratio: f64,
 }
 
-/// Repeated smoothing with each operator of `kinds` for `steps` steps on one mesh.
+/// Repeated smoothing with each operator of `kinds` for `steps` steps on one mesh;
+/// every `record_every`-th step (and the last) is kept in the result.
 pub fn limits(
     input: &Input,
     kinds: &[OperatorKind],
     steps: usize,
+    record_every: usize,
 ) -> Result<(Vec<LimitRow>, Table, Chart), ExperimentError> {
     let degrees = input.topology.degrees();
     let mut rows = Vec::new();
@@ -303,10 +305,15 @@ pub fn limits(
             .filter(|w| w[0].variance > floor)
             .map(|w| w[1].variance / w[0].variance)
             .fold(0.0, f64::max);
+        let every = record_every.max(1);
+        let steps_kept = st
+            .into_iter()
+            .filter(|s| s.step % every == 0 || s.step == steps)
+            .collect();
         rows.push(LimitRow {
             kind,
             k,
-            steps: st,
+            steps: steps_kept,
             max_variance_ratio,
         });
     }
@@ -419,8 +426,10 @@ mod tests {
             &input,
             &[OperatorKind::Tutte, OperatorKind::Kirchhoff],
             3000,
+            7,
         )
         .unwrap();
+        assert_eq!(rows[0].steps.len(), 3000 / 7 + 2);
         let last = |i: usize| rows[i].steps.last().unwrap().clone();
         let (tl, kl) = (last(0), last(1));
         assert!(tl.distance_to_weighted_centroid < 1e-8, "{tl:?}");

@@ -7,11 +7,13 @@
 //!   real meshes (Zhang 2004, §2.2–2.5 and §3), the SQL boundary-diagonal erratum, the
 //!   SQL negative-weight repair (§3.7), and the smoothing limits (§2.2: the TL converges
 //!   to the valence-weighted centroid, a doubly stochastic H to the centroid).
+//! - [`figures`]: the paper's Figs. 1 and 4 — truncated ED reconstructions rendered.
 //! - [`eigen_cost`]: §4.9 — the cost of the ED-transform per operator (Fig. 3) and the
 //!   energy compaction of SSTL, SQL, TL, KL on smooth and sharp models.
 
 pub mod claims;
 pub mod eigen_cost;
+pub mod figures;
 
 use serde::Serialize;
 use std::path::{Path, PathBuf};

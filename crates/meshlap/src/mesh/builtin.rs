@@ -39,7 +39,7 @@ pub fn from_spec(spec: &str) -> Result<TriMesh, MeshError> {
     };
     let max_args = match name {
         "tetrahedron" | "octahedron" | "icosahedron" => 0,
-        "icosphere" | "grid" | "cube" | "step" => 1,
+        "icosphere" | "grid" | "cube" | "sphere48" | "step" => 1,
         "torus" => 2,
         _ => {
             return Err(MeshError::Builtin(format!(
@@ -61,6 +61,7 @@ pub fn from_spec(spec: &str) -> Result<TriMesh, MeshError> {
         "torus" => torus(arg(0, 32, 20_000)?, arg(1, 16, 20_000)?),
         "grid" => grid(arg(0, 16, 10_000)?),
         "cube" => cube(arg(0, 8, 5_000)?),
+        "sphere48" => sphere48(arg(0, 8, 5_000)?),
         "step" => step(arg(0, 16, 10_000)?),
         _ => unreachable!("name checked above"),
     }
@@ -75,6 +76,7 @@ pub const NAMES: &[&str] = &[
     "torus:U:V",
     "grid:N",
     "cube:N",
+    "sphere48:N",
     "step:N",
 ];
 
@@ -313,6 +315,24 @@ pub fn step(n: usize) -> Result<TriMesh, MeshError> {
 /// Surface of the cube `[-1, 1]³`, each side tessellated by `n`×`n` quads split into
 /// triangles; shared vertices along the cube's edges are welded. `6n² + 2` vertices.
 pub fn cube(n: usize) -> Result<TriMesh, MeshError> {
+    cube_lattice(n, false)
+}
+
+/// The "4-8" sphere of the paper's Fig. 4: the cube's n×n quad grids split along
+/// alternating diagonals (checkerboard), so interior vertices have degree 4 and 8 in
+/// turn, then pushed onto the unit sphere. `6n² + 2` vertices.
+pub fn sphere48(n: usize) -> Result<TriMesh, MeshError> {
+    let mut m = cube_lattice(n, true)?;
+    for p in &mut m.positions {
+        let l = dot(*p, *p).sqrt();
+        *p = p.map(|c| c / l);
+    }
+    Ok(m)
+}
+
+/// The cube's surface lattice `[−1, 1]³`, each quad split along one diagonal, or along
+/// alternating diagonals (4-8 connectivity).
+fn cube_lattice(n: usize, alternate: bool) -> Result<TriMesh, MeshError> {
     if n == 0 {
         return Err(MeshError::Builtin(
             "cube needs at least 1 cell per side".into(),
@@ -342,8 +362,13 @@ pub fn cube(n: usize) -> Result<TriMesh, MeshError> {
                         vertex(q, &mut positions)
                     };
                     let (a, b, c, d) = (corner(0, 0), corner(1, 0), corner(1, 1), corner(0, 1));
-                    faces.push([a, b, c]);
-                    faces.push([a, c, d]);
+                    if alternate && (i + j + level) % 2 == 1 {
+                        faces.push([a, b, d]);
+                        faces.push([b, c, d]);
+                    } else {
+                        faces.push([a, b, c]);
+                        faces.push([a, c, d]);
+                    }
                 }
             }
         }
@@ -361,6 +386,27 @@ mod tests {
         let t = Topology::new(m).unwrap();
         let (v, e, f) = (m.n_vertices(), t.n_edges(), m.n_faces());
         (v, e, f, v as i64 - e as i64 + f as i64)
+    }
+
+    #[test]
+    fn sphere48_has_4_8_connectivity() {
+        let m = sphere48(6).unwrap();
+        assert_eq!(euler(&m), (6 * 36 + 2, 12 * 36 * 3 / 2, 12 * 36, 2));
+        let t = Topology::new(&m).unwrap();
+        assert!(t.is_manifold() && t.inconsistently_oriented_edges() == 0);
+        let d = t.degrees();
+        let count = |k: u32| d.iter().filter(|&&x| x == k).count();
+        // every face interior vertex has degree 4 or 8, half and half
+        assert!(
+            count(4) + count(8) > 6 * 25 - 10,
+            "{:?}",
+            (count(4), count(8))
+        );
+        assert!(count(4).abs_diff(count(8)) < 20);
+        assert!(m
+            .positions
+            .iter()
+            .all(|p| (dot(*p, *p) - 1.0).abs() < 1e-12));
     }
 
     #[test]

@@ -1,7 +1,9 @@
 //! `meshlap experiment …`: reproductions of the paper's experiments, one file per
 //! experiment (siblings add their own variants here).
 
+pub mod claims;
 pub mod eigen_cost;
+pub mod figures;
 
 use clap::Subcommand;
 
@@ -15,11 +17,15 @@ pub struct Args {
 /// The experiments.
 #[derive(Subcommand, Debug)]
 pub enum Experiment {
+    Claims(claims::Args),
     EigenCost(eigen_cost::Args),
+    Figures(figures::Args),
 }
 
 pub fn run(args: &Args) -> meshlap::Result<()> {
     match &args.command {
+        Experiment::Claims(a) => claims::run(a),
         Experiment::EigenCost(a) => eigen_cost::run(a),
+        Experiment::Figures(a) => figures::run(a),
     }
 }
