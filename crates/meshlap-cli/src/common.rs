@@ -38,3 +38,15 @@ pub fn print_json<T: Serialize>(value: &T) -> meshlap::Result<()> {
 pub fn opt(v: Option<f64>) -> String {
     v.map_or("n/a".to_string(), |x| format!("{x:.6e}"))
 }
+
+/// A spinner on stderr for work that can take more than a second (hidden when stderr
+/// is not a terminal).
+pub fn spinner(msg: String) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new_spinner().with_message(msg);
+    if std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+        bar.enable_steady_tick(std::time::Duration::from_millis(120));
+    } else {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
+    bar
+}

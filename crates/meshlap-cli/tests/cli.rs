@@ -107,6 +107,7 @@ fn help_on_every_command() {
         "operator",
         "iterate",
         "repair-sql",
+        "smooth",
     ] {
         let out = meshlap(&[cmd, "--help"]);
         assert!(out.status.success(), "{cmd}");
@@ -266,6 +267,185 @@ fn repair_and_iterate() {
     assert_eq!(steps.len(), 301);
     let last = &steps[300];
     assert!(last["distance_to_weighted_centroid"].as_f64().unwrap() < 1e-6);
+}
+
+#[test]
+fn smooth_json_reports_iterations_per_column_and_writes_the_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("smooth.ply");
+    let o = out.to_str().unwrap();
+    for (args, direct) in [
+        (vec!["--implicit", "-k", "sql", "--solver", "cg"], false),
+        (vec!["--implicit", "-k", "tl", "--solver", "bicg"], false),
+        (
+            vec![
+                "--filter", "implicit", "-k", "tl", "--solver", "cg-sym", "--stop", "strong",
+            ],
+            false,
+        ),
+        (vec!["-k", "sql", "--solver", "cholesky"], true),
+    ] {
+        let mut a = vec![
+            "smooth",
+            "builtin:icosphere:3",
+            "-o",
+            o,
+            "--json",
+            "--lambda",
+            "10",
+        ];
+        a.extend(args.iter());
+        let v = json(&meshlap(&a));
+        let its = v["iterations"].as_array().unwrap();
+        assert_eq!(its.len(), 3, "{args:?}");
+        assert_eq!(
+            its.iter().all(|i| i.as_u64().unwrap() > 0),
+            !direct,
+            "{args:?}"
+        );
+        assert_eq!(v["residuals"].as_array().unwrap().len(), 3);
+        assert!(v["solve_seconds"].as_f64().unwrap() >= 0.0);
+        // the sphere shrinks under implicit fairing
+        assert!(v["volume_after"].as_f64().unwrap() < v["volume_before"].as_f64().unwrap());
+        assert!(out.exists());
+    }
+    for f in [
+        vec!["--filter", "explicit"],
+        vec!["--filter", "taubin", "--preserve", "volume"],
+        vec!["--filter", "butterworth", "--passband", "0.2", "-k", "kl"],
+        vec![
+            "--filter",
+            "ideal",
+            "--passband",
+            "0.5",
+            "--preserve",
+            "bbox",
+        ],
+    ] {
+        let mut a = vec!["smooth", "builtin:icosphere:2", "-o", o, "--json"];
+        a.extend(f.iter());
+        let v = json(&meshlap(&a));
+        assert!(v["seconds"].as_f64().is_some(), "{f:?}");
+    }
+}
+
+#[test]
+fn smooth_errors_are_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.obj");
+    let o = out.to_str().unwrap();
+    // CG on the non-symmetric Tutte Laplacian would solve the wrong system
+    let e = meshlap(&[
+        "smooth",
+        "builtin:icosphere:2",
+        "-o",
+        o,
+        "-k",
+        "tl",
+        "--solver",
+        "cg",
+    ]);
+    assert_one_line_error(&e, "symmetric");
+    let e = meshlap(&[
+        "smooth",
+        "builtin:icosphere:2",
+        "-o",
+        o,
+        "--filter",
+        "butterworth",
+    ]);
+    assert_one_line_error(&e, "--passband");
+    let e = meshlap(&["smooth", "builtin:icosphere:2", "-o", o, "--lambda=-3"]);
+    assert_one_line_error(&e, "λ");
+    let e = meshlap(&[
+        "smooth",
+        "builtin:icosphere:2",
+        "-o",
+        o,
+        "--filter",
+        "ideal",
+        "--passband",
+        "1",
+        "--dense-limit",
+        "10",
+    ]);
+    assert_one_line_error(&e, "limit");
+    let e = meshlap(&[
+        "smooth",
+        "builtin:icosphere:2",
+        "-o",
+        o,
+        "--max-iterations",
+        "1",
+        "--stop",
+        "strong",
+        "--tol",
+        "1e-12",
+    ]);
+    assert_one_line_error(&e, "no convergence");
+    assert!(dir_is_empty(dir.path()));
+    let e = meshlap(&[
+        "smooth",
+        "builtin:icosphere:2",
+        "-o",
+        o,
+        "--implicit",
+        "--filter",
+        "taubin",
+    ]);
+    assert_eq!(e.status.code(), Some(2));
+}
+
+#[test]
+fn experiment_fairing_writes_tables_and_plots() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_str().unwrap();
+    let v = json(&meshlap(&[
+        "experiment",
+        "fairing",
+        "builtin:icosphere:3",
+        &data("cow.obj"),
+        "--lambda",
+        "30",
+        "--repeat",
+        "1",
+        "--out",
+        d,
+        "--json",
+    ]));
+    let tables = v["tables"].as_array().unwrap();
+    assert_eq!(tables.len(), 2);
+    assert_eq!(tables[1]["name"], "cow");
+    assert_eq!(tables[1]["paper"]["cg_30"][1], 15);
+    for t in tables {
+        let runs = t["runs"].as_array().unwrap();
+        assert_eq!(runs.len(), 3);
+        for r in runs {
+            assert!(r["error"].as_f64().unwrap() < 1e-3, "{r}");
+        }
+    }
+    for f in [
+        "table1-lambda30.md",
+        "table1-lambda30.csv",
+        "table1.json",
+        "convergence-icosphere-3-lambda30.png",
+        "convergence-cow-lambda30.png",
+    ] {
+        let p = dir.path().join(f);
+        assert!(std::fs::metadata(&p).unwrap().len() > 100, "{f}");
+    }
+    let md = std::fs::read_to_string(dir.path().join("table1-lambda30.md")).unwrap();
+    assert!(md.contains("| cow         | 2903 |"), "{md}");
+    let e = meshlap(&[
+        "experiment",
+        "fairing",
+        "builtin:icosphere:1",
+        "--lambda",
+        "0",
+        "--out",
+        d,
+    ]);
+    assert_one_line_error(&e, "--lambda");
 }
 
 #[test]

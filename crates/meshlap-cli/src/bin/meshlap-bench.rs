@@ -3,9 +3,13 @@
 //! Tasks: `load` (read + clean + connectivity), `operators` (assemble each operator),
 //! `io` (write and re-read as PLY and OBJ), `spectrum` (dense eigenbases: KL and SQL
 //! by the symmetric solver, the TL through its GL similarity and by the general
-//! eigensolver plus LU), `partial` (the `--count` smallest eigenpairs by banded
-//! shift-invert), `partition` (METIS patches of `--patch-size`), `project-patches`
-//! (partition + patch-wise truncated ED reconstruction, end to end, with the peak RSS).
+//! eigensolver plus LU), `solvers` (implicit-fairing solves of `(I + λS)`,
+//! `(I + λT)`, `(D + λK)` with CG/BiCG/Cholesky, a streaming-copy bandwidth measurement
+//! and the memory-traffic bound per iteration; `--lambda L`, and `--export DIR` writes
+//! the matrices and right-hand side for the scipy side), `partial` (the `--count`
+//! smallest eigenpairs by banded shift-invert), `partition` (METIS patches of
+//! `--patch-size`), `project-patches` (partition + patch-wise truncated ED
+//! reconstruction, end to end, with the peak RSS).
 
 use meshlap::input::{open, OpenOptions};
 use meshlap::operator::{Operator, OperatorKind, OperatorOptions};
@@ -54,7 +58,7 @@ fn main() {
 
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let usage = "usage: meshlap-bench load|operators|io|spectrum|partial|partition|project-patches MESH [--repeat N] [--general] [--count K] [--kind K] [--patch-size P] [--keep F]";
+    let usage = "usage: meshlap-bench load|operators|io|spectrum|solvers|partial|partition|project-patches MESH [--repeat N] [--general] [--lambda L] [--export DIR] [--count K] [--kind K] [--patch-size P] [--keep F]";
     let task = args.first().ok_or(usage)?.clone();
     let mesh = args.get(1).ok_or(usage)?.clone();
     let repeat = match args.iter().position(|a| a == "--repeat") {
@@ -117,6 +121,18 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                         "write_mb_s": bytes / w / 1e6, "read_mb_s": bytes / r / 1e6}),
                 );
             }
+        }
+        "solvers" => {
+            let lambda: f64 = match args.iter().position(|a| a == "--lambda") {
+                Some(p) => args.get(p + 1).ok_or(usage)?.parse()?,
+                None => 30.0,
+            };
+            let export = args
+                .iter()
+                .position(|a| a == "--export")
+                .map(|p| args.get(p + 1).map(std::path::PathBuf::from).ok_or(usage))
+                .transpose()?;
+            solvers(&mesh, lambda, repeat, export.as_deref(), &mut out)?;
         }
         "spectrum" => {
             use meshlap::spectral::{BasisOptions, EigenBasis, EigenPath};
@@ -248,5 +264,140 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         _ => return Err(usage.into()),
     }
     println!("{}", serde_json::to_string(&out)?);
+    Ok(())
+}
+
+/// Streaming-copy bandwidth (bytes read + written per second) of `threads` rayon
+/// workers over two 128 MiB arrays, far beyond the last-level cache.
+fn copy_bandwidth(repeat: usize) -> f64 {
+    use rayon::prelude::*;
+    let n = 16 << 20; // 16 Mi f64 = 128 MiB per array
+    let src: Vec<f64> = (0..n).into_par_iter().map(|i| i as f64).collect();
+    let mut dst = vec![0.0f64; n];
+    let (t, _) = time(repeat.max(5), || {
+        dst.par_chunks_mut(1 << 16)
+            .zip(src.par_chunks(1 << 16))
+            .for_each(|(d, s)| d.copy_from_slice(s));
+        dst[n / 2]
+    });
+    2.0 * 8.0 * n as f64 / t
+}
+
+fn solvers(
+    mesh: &str,
+    lambda: f64,
+    repeat: usize,
+    export: Option<&std::path::Path>,
+    out: &mut BTreeMap<String, serde_json::Value>,
+) -> Result<(), Box<dyn std::error::Error>> {
+    use meshlap::filter::{ImplicitSolver, SolverKind};
+    use meshlap::solve::{direct::CholeskySolver, Info, Params, Stopping};
+    let input = open(mesh, &OpenOptions::default())?;
+    let n = input.mesh.n_vertices();
+    let topo = &input.topology;
+    let s = meshlap::operator::sql::sql(topo, Default::default())?;
+    let t = meshlap::operator::tutte::tutte(topo)?;
+    let b: Vec<f64> = input.mesh.positions.iter().flat_map(|p| *p).collect();
+    // The three systems, as the solvers see them.
+    let cg_sql = ImplicitSolver::new(&s, lambda, SolverKind::Cg)?;
+    let bicg_tl = ImplicitSolver::new(&t, lambda, SolverKind::Bicg)?;
+    let cg_tl = ImplicitSolver::new(&t, lambda, SolverKind::CgSym)?;
+    let d: Vec<f64> = topo.degrees().iter().map(|&v| v as f64).collect();
+    let db: Vec<f64> = b.iter().enumerate().map(|(j, v)| v * d[j / 3]).collect();
+    if let Some(dir) = export {
+        std::fs::create_dir_all(dir)?;
+        for (name, m) in [
+            ("sql", cg_sql.system_matrix()),
+            ("tl", bicg_tl.system_matrix()),
+            ("tl_sym", cg_tl.system_matrix()),
+        ] {
+            meshlap::io::write_matrix_market(
+                &dir.join(format!("{name}.mtx")),
+                m.to_csc().as_ref(),
+            )?;
+        }
+        let bm = faer::Mat::from_fn(n, 3, |i, c| b[3 * i + c]);
+        meshlap::io::write_npy(&dir.join("b.npy"), bm.as_ref())?;
+        let dm = faer::Mat::from_fn(n, 1, |i, _| d[i]);
+        meshlap::io::write_npy(&dir.join("d.npy"), dm.as_ref())?;
+    }
+    let params = Params {
+        stopping: Stopping::Strong,
+        tolerance: 1e-5,
+        record_history: false,
+        ..Default::default()
+    };
+    out.insert("vertices".into(), n.into());
+    out.insert("lambda".into(), lambda.into());
+    let bw = copy_bandwidth(repeat);
+    out.insert("copy_bandwidth_gb_s".into(), (bw / 1e9).into());
+    for (name, solver, rhs, kind_bicg) in [
+        ("cg_sql", &cg_sql, &b, false),
+        ("bicg_tl", &bicg_tl, &b, true),
+        ("cg_tl_sym", &cg_tl, &db, false),
+    ] {
+        let mut last: Option<Info> = None;
+        // x0 = 0, as scipy's default; cg_tl_sym solves (D + λK)x = Db directly, so
+        // time the cg-sym system through the plain CG on its matrix.
+        let a = solver.system_matrix();
+        let op = meshlap::solve::SparseOperator::from_csr(
+            a.clone(),
+            kind_bicg.then(|| meshlap::solve::CsrMatrix::transpose_of_csc(&a.to_csc())),
+        );
+        let (med, times) = time(repeat, || {
+            let mut x = vec![0.0; rhs.len()];
+            let info = if kind_bicg {
+                meshlap::solve::bicg::bicg(&op, rhs, &mut x, 3, &params, Default::default())
+            } else {
+                meshlap::solve::cg::cg(&op, rhs, &mut x, 3, &params, Default::default())
+            }
+            .expect("solve");
+            last = Some(info);
+        });
+        let info = last.expect("ran");
+        let its = *info.iterations.iter().max().unwrap_or(&1);
+        // Memory traffic per iteration (bytes read + written) in n×3 f64 blocks of 24n
+        // bytes, for the passes the solvers make. CG: q = Ap fused with pᵀq (matrix,
+        // read p, write q: 2) + x, r update (read x, r, p, q; write x, r: 6) + p update
+        // (read r, p; write p: 3) = matrix + 11 blocks. BiCG: p, p̃ update (read r, r̃,
+        // p, p̃; write p, p̃: 6) + q = Ap fused with p̃ᵀq (matrix; read p, p̃; write q: 3)
+        // + q̃ = Aᵀp̃ (matrix; read p̃, write q̃: 2) + x, r, r̃ update (read x, p, r, q,
+        // r̃, q̃; write x, r, r̃: 9) = 2 matrices + 20 blocks.
+        let block = 24.0 * n as f64;
+        let traffic = if kind_bicg {
+            2.0 * a.bytes() as f64 + 20.0 * block
+        } else {
+            a.bytes() as f64 + 11.0 * block
+        };
+        let per_it = med / its as f64;
+        let bound = traffic / bw;
+        out.insert(
+            name.into(),
+            serde_json::json!({
+                "median": med, "times": times, "iterations": info.iterations,
+                "residuals": info.residuals, "nnz": a.nnz(),
+                "seconds_per_iteration": per_it, "bytes_per_iteration": traffic,
+                "bandwidth_bound_per_iteration": bound, "ratio_to_bound": per_it / bound,
+            }),
+        );
+    }
+    // Sparse Cholesky of I + λS: symbolic + numeric factorisation + solve of 3 columns.
+    let a = cg_sql.system_matrix().to_csc();
+    let (med, times) = time(repeat, || {
+        let c = CholeskySolver::new(&a).expect("SPD");
+        let mut x = b.clone();
+        c.solve_in_place(&mut x, 3).expect("solve");
+        x[0]
+    });
+    let chol = CholeskySolver::new(&a)?;
+    let (solve_med, _) = time(repeat, || {
+        let mut x = b.clone();
+        chol.solve_in_place(&mut x, 3).expect("solve");
+        x[0]
+    });
+    out.insert(
+        "cholesky_sql".into(),
+        serde_json::json!({"median": med, "times": times, "solve_only": solve_med}),
+    );
     Ok(())
 }

@@ -11,4 +11,5 @@ pub mod partition;
 pub mod project;
 pub mod render;
 pub mod repair;
+pub mod smooth;
 pub mod spectrum;

@@ -213,14 +213,10 @@ mod tests {
     fn figure_writes_one_panel_per_model() {
         let dir = tempfile::tempdir().unwrap();
         let mut out = Outputs::new(dir.path()).unwrap();
-        let mesh = cube_sphere(3).unwrap();
-        let degrees = crate::mesh::topology::Topology::new(&mesh)
-            .unwrap()
-            .degrees();
-        assert!(degrees.iter().any(|&d| d <= 4) && degrees.iter().any(|&d| d == 6));
-        let input = from_mesh("cube-sphere", mesh, None, &Default::default()).unwrap();
+        let mesh = crate::mesh::builtin::sphere48(4).unwrap();
+        let input = from_mesh("4-8 sphere", mesh, None, &Default::default()).unwrap();
         let models = [FigureModel {
-            name: "Cube sphere".into(),
+            name: "4-8 sphere".into(),
             input,
             keep: 10,
             view: (30.0, 20.0),

@@ -10,9 +10,11 @@
 //! - [`figures`]: the paper's Figs. 1 and 4 — truncated ED reconstructions rendered.
 //! - [`eigen_cost`]: §4.9 — the cost of the ED-transform per operator (Fig. 3) and the
 //!   energy compaction of SSTL, SQL, TL, KL on smooth and sharp models.
+//! - [`fairing`]: §4.10, Table 1 — CG on the SQL vs BiCG on the TL for implicit fairing.
 
 pub mod claims;
 pub mod eigen_cost;
+pub mod fairing;
 pub mod figures;
 
 use serde::Serialize;

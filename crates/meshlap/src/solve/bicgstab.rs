@@ -105,4 +105,21 @@ mod tests {
             .fold(0.0, f64::max);
         assert!(err < 1e-8);
     }
+
+    #[test]
+    fn iteration_cap_is_no_convergence() {
+        let (m, tl, ..) = irregular(3);
+        let a = shifted_system(&tl, None, 100.0).to_csc();
+        let b = flat(&m);
+        let mut x = vec![0.0; b.len()];
+        let p = Params {
+            tolerance: 1e-14,
+            max_iterations: 2,
+            ..Default::default()
+        };
+        assert!(matches!(
+            bicgstab(&a, &b, &mut x, 3, &p),
+            Err(SolveError::NoConvergence { .. })
+        ));
+    }
 }

@@ -112,7 +112,27 @@ impl CsrMatrix {
     /// `y = A x`, and if `dot` is given, also `dot[c] = Σ_i w[i,c]·y[i,c]` for the
     /// block `w` passed with it (the fused `pᵀAp` of CG).
     pub fn apply_dot(&self, x: &[f64], y: &mut [f64], k: usize, dot: Option<(&[f64], &mut [f64])>) {
-        let rows = |start: usize, ys: &mut [f64], w: Option<&[f64]>, acc: &mut [f64; 8]| {
+        match dot {
+            None => self.apply_dot_norm(x, y, k, None),
+            Some((w, out)) => {
+                let mut norm = [0.0; 8];
+                self.apply_dot_norm(x, y, k, Some((w, out, &mut norm[..k])))
+            }
+        }
+    }
+
+    /// `y = A x`, and if `dots` is given, also `dot[c] = Σ_i w[i,c]·y[i,c]` and
+    /// `norm2[c] = Σ_i y[i,c]²` in the same pass (BiCG's `p̃ᵀAp` and `‖Ap‖²`).
+    /// At most 8 columns when `dots` is given.
+    pub fn apply_dot_norm(
+        &self,
+        x: &[f64],
+        y: &mut [f64],
+        k: usize,
+        dots: Option<(&[f64], &mut [f64], &mut [f64])>,
+    ) {
+        type Acc = ([f64; 8], [f64; 8]);
+        let rows = |start: usize, ys: &mut [f64], w: Option<&[f64]>, acc: &mut Acc| {
             let nr = ys.len() / k;
             for r in 0..nr {
                 let i = start + r;
@@ -140,28 +160,39 @@ impl CsrMatrix {
                 }
                 if let Some(w) = w {
                     for c in 0..k {
-                        acc[c] += w[k * i + c] * ys[k * r + c];
+                        let yv = ys[k * r + c];
+                        acc.0[c] += w[k * i + c] * yv;
+                        acc.1[c] += yv * yv;
                     }
                 }
             }
         };
-        match dot {
+        match dots {
             None => y.par_chunks_mut(CHUNK * k).enumerate().for_each(|(b, ys)| {
-                let mut acc = [0.0; 8];
+                let mut acc = ([0.0; 8], [0.0; 8]);
                 rows(b * CHUNK, ys, None, &mut acc)
             }),
-            Some((w, out)) => {
+            Some((w, dot, norm2)) => {
                 assert!(k <= 8, "fused dot supports at most 8 columns");
                 let total = y
                     .par_chunks_mut(CHUNK * k)
                     .enumerate()
                     .map(|(b, ys)| {
-                        let mut acc = [0.0; 8];
+                        let mut acc = ([0.0; 8], [0.0; 8]);
                         rows(b * CHUNK, ys, Some(w), &mut acc);
                         acc
                     })
-                    .reduce(|| [0.0; 8], |a, b| std::array::from_fn(|c| a[c] + b[c]));
-                out[..k].copy_from_slice(&total[..k]);
+                    .reduce(
+                        || ([0.0; 8], [0.0; 8]),
+                        |a, b| {
+                            (
+                                std::array::from_fn(|c| a.0[c] + b.0[c]),
+                                std::array::from_fn(|c| a.1[c] + b.1[c]),
+                            )
+                        },
+                    );
+                dot[..k].copy_from_slice(&total.0[..k]);
+                norm2[..k].copy_from_slice(&total.1[..k]);
             }
         }
     }
@@ -240,6 +271,17 @@ impl CsrMatrix {
             col,
             val,
         }
+    }
+
+    /// `diag(s)·A` (row i scaled by `s[i]`).
+    pub fn scale_rows(&self, s: &[f64]) -> CsrMatrix {
+        let mut out = self.clone();
+        for i in 0..self.nrows {
+            for p in self.row_ptr[i]..self.row_ptr[i + 1] {
+                out.val[p] *= s[i];
+            }
+        }
+        out
     }
 
     /// Linear combination `a·A + b·B` of two matrices of equal shape.

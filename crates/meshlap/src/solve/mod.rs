@@ -43,6 +43,20 @@ pub trait LinearOperator: Sync {
             dot[c] = (0..self.dim()).map(|i| w[i * k + c] * y[i * k + c]).sum();
         }
     }
+    /// `y = A x`, `dot[c] = Σ_i w[i,c]·y[i,c]` and `norm2[c] = Σ_i y[i,c]²`; the
+    /// default does it in separate passes.
+    fn apply_dot_norm(
+        &self,
+        x: &[f64],
+        y: &mut [f64],
+        k: usize,
+        w: &[f64],
+        dot: &mut [f64],
+        norm2: &mut [f64],
+    ) {
+        self.apply_dot(x, y, k, w, dot);
+        norm2[..k].copy_from_slice(&col_norms2(y, k));
+    }
     /// `y = Aᵀ x`, if the operator can (BiCG needs it).
     fn apply_transpose(&self, _x: &[f64], _y: &mut [f64], _k: usize) -> Result<(), SolveError> {
         Err(SolveError::Unsupported(
@@ -91,6 +105,17 @@ impl LinearOperator for SparseOperator {
     }
     fn apply_dot(&self, x: &[f64], y: &mut [f64], k: usize, w: &[f64], dot: &mut [f64]) {
         self.a.apply_dot(x, y, k, Some((w, dot)))
+    }
+    fn apply_dot_norm(
+        &self,
+        x: &[f64],
+        y: &mut [f64],
+        k: usize,
+        w: &[f64],
+        dot: &mut [f64],
+        norm2: &mut [f64],
+    ) {
+        self.a.apply_dot_norm(x, y, k, Some((w, dot, norm2)))
     }
     fn apply_transpose(&self, x: &[f64], y: &mut [f64], k: usize) -> Result<(), SolveError> {
         match &self.at {

@@ -3,6 +3,7 @@
 
 pub mod claims;
 pub mod eigen_cost;
+pub mod fairing;
 pub mod figures;
 
 use clap::Subcommand;
@@ -20,6 +21,7 @@ pub enum Experiment {
     Claims(claims::Args),
     EigenCost(eigen_cost::Args),
     Figures(figures::Args),
+    Fairing(fairing::Args),
 }
 
 pub fn run(args: &Args) -> meshlap::Result<()> {
@@ -27,5 +29,6 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         Experiment::Claims(a) => claims::run(a),
         Experiment::EigenCost(a) => eigen_cost::run(a),
         Experiment::Figures(a) => figures::run(a),
+        Experiment::Fairing(a) => fairing::run(a),
     }
 }

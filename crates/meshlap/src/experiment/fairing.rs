@@ -1,0 +1,616 @@
+//! The paper's Table 1 (Zhang 2004 §4.10): implicit fairing `(I + λF)x = b` of a
+//! mesh's n×3 positions with three solver/system pairs, at several λ, with the weak
+//! stopping criterion ε = 1e-5:
+//!
+//! - **CG (SQL)**: CG on `(I + λS)x = b`, S the symmetric quasi-Laplacian;
+//! - **CG (TL)**: CG on the symmetrised Tutte system `(D + λK)x = Db`;
+//! - **BiCG (TL)**: BiCG on `(I + λT)x = b`.
+//!
+//! Every result is compared with the direct solution of the same system (sparse
+//! Cholesky of `I + λS`, and of `D + λK` for both TL systems — they have the same
+//! solution), so the paper's remark that the weak criterion stops BiCG on a residual
+//! "plateau" is measured: `error` is the largest vertex displacement from the direct
+//! solution over the bounding-box diagonal. The BiCG plateau detector of
+//! [`crate::solve::bicg`] is reported too.
+//!
+//! The SQL can have negative weights (Zhang §3.7), and then `I + λS` may be
+//! indefinite. They are counted; with [`FairingOptions::repair_sql`] they are first
+//! removed by edge swaps ([`crate::analysis::repair`]; the CG (SQL) rows then run on
+//! the swapped connectivity); a CG or Cholesky failure is recorded in the row
+//! (`failure`), never hidden.
+//!
+//! Times are wall-clock seconds of the solve alone (systems assembled beforehand),
+//! the median of [`FairingOptions::repeat`] runs, each from the initial guess x⁰ = b.
+//! Operators use the sign `F = D − W`.
+
+use super::{sig, ExperimentError, Outputs, Table};
+use crate::analysis::repair::{repair_sql, RepairOptions};
+use crate::filter::implicit::{symmetrizer, ImplicitSolver, SolverKind};
+use crate::mesh::{topology::Topology, TriMesh};
+use crate::operator::{sql::sql, tutte::tutte};
+use crate::plot::{Chart, Scale, Series};
+use crate::solve::{direct::CholeskySolver, Info, Params, SolveError};
+use serde::Serialize;
+
+/// Options of [`fairing_table`].
+#[derive(Clone, Debug)]
+pub struct FairingOptions {
+    /// The λ values (paper: 30 and 100).
+    pub lambdas: Vec<f64>,
+    /// Iterative-solver parameters (paper: weak criterion, ε = 1e-5).
+    pub params: Params,
+    /// Timed runs per solve; the median is reported.
+    pub repeat: usize,
+    /// Remove the SQL's negative weights by edge swaps first.
+    pub repair_sql: bool,
+}
+
+impl Default for FairingOptions {
+    fn default() -> Self {
+        FairingOptions {
+            lambdas: vec![30.0, 100.0],
+            params: Params::default(),
+            repeat: 3,
+            repair_sql: false,
+        }
+    }
+}
+
+/// The solver/system pairs of Table 1.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Method {
+    /// CG on `(I + λS)x = b`.
+    CgSql,
+    /// CG on `(D + λK)x = Db`.
+    CgTl,
+    /// BiCG on `(I + λT)x = b`.
+    BicgTl,
+}
+
+impl Method {
+    /// The three, in the paper's column order.
+    pub const ALL: [Method; 3] = [Method::CgSql, Method::CgTl, Method::BicgTl];
+    /// The paper's column heading.
+    pub fn label(self) -> &'static str {
+        match self {
+            Method::CgSql => "CG (SQL)",
+            Method::CgTl => "CG (TL)",
+            Method::BicgTl => "BiCG (TL)",
+        }
+    }
+}
+
+/// One solve of Table 1.
+#[derive(Clone, Debug, Serialize)]
+pub struct Run {
+    /// Which solver and system.
+    pub method: Method,
+    /// λ.
+    pub lambda: f64,
+    /// Median solve seconds.
+    pub seconds: f64,
+    /// Iterations per coordinate column.
+    pub iterations: Vec<usize>,
+    /// Relative residuals `‖(I + λF)x − b‖/‖b‖` per column at the stop.
+    pub residuals: Vec<f64>,
+    /// Largest vertex distance to the direct solution over the bounding-box diagonal.
+    pub error: Option<f64>,
+    /// BiCG: first iteration of a detected plateau, per column.
+    pub plateau_at: Vec<Option<usize>>,
+    /// Relative residual per iteration, per column (for the convergence plot).
+    pub history: Vec<Vec<f64>>,
+    /// Why the solve failed (e.g. not positive definite), if it did.
+    pub failure: Option<String>,
+}
+
+/// Table 1 for one mesh.
+#[derive(Clone, Debug, Serialize)]
+pub struct FairingTable {
+    /// Mesh name (file stem).
+    pub name: String,
+    /// Vertices.
+    pub n: usize,
+    /// Negative SQL weights (edges) of the input connectivity.
+    pub sql_negative_weights: usize,
+    /// Edge swaps made by the repair (when requested).
+    pub sql_repair_flips: Option<usize>,
+    /// Negative SQL weights left after the repair.
+    pub sql_negative_after_repair: Option<usize>,
+    /// The solves, per λ in the order of [`Method::ALL`].
+    pub runs: Vec<Run>,
+    /// The paper's figures for this model, if it is one of the paper's.
+    pub paper: Option<PaperRow>,
+}
+
+/// A row of the paper's Table 1: seconds and iterations at λ = 30, iterations at 100.
+#[derive(Copy, Clone, Debug, Serialize)]
+pub struct PaperRow {
+    /// Model.
+    pub model: &'static str,
+    /// Paper's vertex count.
+    pub vertices: &'static str,
+    /// CG (SQL), λ = 30: seconds, iterations.
+    pub cg_30: (f64, usize),
+    /// CG (TL), λ = 30.
+    pub cg_tl_30: (f64, usize),
+    /// BiCG (TL), λ = 30.
+    pub bicg_30: (f64, usize),
+    /// CG (SQL), λ = 100: iterations.
+    pub cg_100: usize,
+    /// BiCG (TL), λ = 100: iterations.
+    pub bicg_100: usize,
+}
+
+/// The paper's Table 1 (seconds on its 2003 machine, [iterations]).
+pub const PAPER_TABLE1: [PaperRow; 7] = [
+    PaperRow {
+        model: "cow",
+        vertices: "3K",
+        cg_30: (0.56, 15),
+        cg_tl_30: (1.38, 37),
+        bicg_30: (0.99, 15),
+        cg_100: 24,
+        bicg_100: 30,
+    },
+    PaperRow {
+        model: "horse",
+        vertices: "20K",
+        cg_30: (0.97, 15),
+        cg_tl_30: (2.21, 34),
+        bicg_30: (1.81, 15),
+        cg_100: 28,
+        bicg_100: 30,
+    },
+    PaperRow {
+        model: "cube",
+        vertices: "25K",
+        cg_30: (1.04, 12),
+        cg_tl_30: (1.78, 21),
+        bicg_30: (1.33, 9),
+        cg_100: 17,
+        bicg_100: 17,
+    },
+    PaperRow {
+        model: "bunny",
+        vertices: "36K",
+        cg_30: (1.67, 14),
+        cg_tl_30: (3.66, 31),
+        bicg_30: (3.75, 18),
+        cg_100: 24,
+        bicg_100: 28,
+    },
+    PaperRow {
+        model: "teeth",
+        vertices: "116K",
+        cg_30: (4.60, 12),
+        cg_tl_30: (12.65, 31),
+        bicg_30: (9.94, 14),
+        cg_100: 21,
+        bicg_100: 24,
+    },
+    PaperRow {
+        model: "igea",
+        vertices: "134K",
+        cg_30: (4.91, 11),
+        cg_tl_30: (13.07, 29),
+        bicg_30: (9.18, 12),
+        cg_100: 16,
+        bicg_100: 14,
+    },
+    PaperRow {
+        model: "isis",
+        vertices: "187K",
+        cg_30: (9.03, 15),
+        cg_tl_30: (23.56, 33),
+        bicg_30: (11.27, 10),
+        cg_100: 22,
+        bicg_100: 18,
+    },
+];
+
+/// The paper's row for a mesh name (matched on the name containing the model's).
+pub fn paper_row(name: &str) -> Option<PaperRow> {
+    let lower = name.to_ascii_lowercase();
+    PAPER_TABLE1.into_iter().find(|r| lower.contains(r.model))
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n == 0 {
+        0.0
+    } else if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+fn flat(p: &[[f64; 3]]) -> Vec<f64> {
+    p.iter().flat_map(|v| v.iter().copied()).collect()
+}
+
+/// Largest vertex distance between two n×3 blocks over `scale`.
+fn max_vertex_distance(a: &[f64], b: &[f64], scale: f64) -> f64 {
+    a.chunks_exact(3)
+        .zip(b.chunks_exact(3))
+        .map(|(p, q)| {
+            ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
+        })
+        .fold(0.0, f64::max)
+        / scale
+}
+
+/// Times `solver` on `b` (median of `repeat`), returning the last solution and info.
+fn timed(
+    solver: &ImplicitSolver,
+    b: &[f64],
+    params: &Params,
+    repeat: usize,
+) -> Result<(Vec<f64>, Info, f64), SolveError> {
+    let mut times = Vec::with_capacity(repeat.max(1));
+    let mut last = None;
+    for _ in 0..repeat.max(1) {
+        let mut x = b.to_vec();
+        let info = solver.solve(b, &mut x, params)?;
+        times.push(info.seconds);
+        last = Some((x, info));
+    }
+    let (x, info) = last.expect("at least one run");
+    Ok((x, info, median(times)))
+}
+
+fn failed(method: Method, lambda: f64, e: impl std::fmt::Display) -> Run {
+    Run {
+        method,
+        lambda,
+        seconds: f64::NAN,
+        iterations: vec![],
+        residuals: vec![],
+        error: None,
+        plateau_at: vec![],
+        history: vec![],
+        failure: Some(e.to_string()),
+    }
+}
+
+/// Runs Table 1 on one mesh (cleaned, with its connectivity). `progress` is called
+/// with a short description before each solve.
+pub fn fairing_table(
+    name: &str,
+    mesh: &TriMesh,
+    topo: &Topology,
+    opts: &FairingOptions,
+    progress: &dyn Fn(&str),
+) -> crate::Result<FairingTable> {
+    let n = mesh.n_vertices();
+    let b = flat(&mesh.positions);
+    let scale = mesh.bbox_diagonal().max(f64::MIN_POSITIVE);
+    let tl = tutte(topo)?;
+    let s_in = sql(topo, Default::default())?;
+    let negatives = |s: &crate::SparseMatrix| {
+        (0..s.ncols())
+            .map(|j| {
+                s.row_idx_of_col_raw(j)
+                    .iter()
+                    .zip(s.val_of_col(j))
+                    .filter(|(&i, &v)| i > j && v > 0.0)
+                    .count()
+            })
+            .sum::<usize>()
+    };
+    let mut table = FairingTable {
+        name: name.to_string(),
+        n,
+        sql_negative_weights: negatives(&s_in),
+        sql_repair_flips: None,
+        sql_negative_after_repair: None,
+        runs: Vec::new(),
+        paper: paper_row(name),
+    };
+    let s = if opts.repair_sql && table.sql_negative_weights > 0 {
+        progress("repairing SQL negative weights");
+        let (fixed, report) = repair_sql(mesh, &RepairOptions::default())?;
+        table.sql_repair_flips = Some(report.flips);
+        table.sql_negative_after_repair = Some(report.negative_after);
+        sql(&Topology::new(&fixed)?, Default::default())?
+    } else {
+        s_in
+    };
+    let s_tl = symmetrizer(&tl).ok_or_else(|| {
+        crate::Error::InvalidArgument("the Tutte Laplacian has no diagonal symmetrizer".into())
+    })?;
+    for &lambda in &opts.lambdas {
+        // Direct references.
+        progress(&format!("λ = {lambda}: direct solutions"));
+        let cg_sql = ImplicitSolver::new(&s, lambda, SolverKind::Cg);
+        let want_sql = cg_sql.as_ref().ok().and_then(|solver| {
+            let chol = CholeskySolver::new(&solver.system_matrix().to_csc()).ok()?;
+            let mut x = b.clone();
+            chol.solve_in_place(&mut x, 3).ok()?;
+            Some(x)
+        });
+        let cg_tl = ImplicitSolver::new(&tl, lambda, SolverKind::CgSym)?;
+        let want_tl = {
+            let chol = CholeskySolver::new(&cg_tl.system_matrix().to_csc())?;
+            let mut x: Vec<f64> = b.iter().enumerate().map(|(j, v)| v * s_tl[j / 3]).collect();
+            chol.solve_in_place(&mut x, 3)?;
+            x
+        };
+        let bicg = ImplicitSolver::new(&tl, lambda, SolverKind::Bicg)?;
+        for method in Method::ALL {
+            progress(&format!("λ = {lambda}: {}", method.label()));
+            let (solver, want) = match method {
+                Method::CgSql => match &cg_sql {
+                    Ok(s) => (s, want_sql.as_deref()),
+                    Err(e) => {
+                        table.runs.push(failed(method, lambda, e));
+                        continue;
+                    }
+                },
+                Method::CgTl => (&cg_tl, Some(want_tl.as_slice())),
+                Method::BicgTl => (&bicg, Some(want_tl.as_slice())),
+            };
+            match timed(solver, &b, &opts.params, opts.repeat) {
+                Ok((x, info, seconds)) => table.runs.push(Run {
+                    method,
+                    lambda,
+                    seconds,
+                    error: want.map(|w| max_vertex_distance(&x, w, scale)),
+                    iterations: info.iterations,
+                    residuals: info.residuals,
+                    plateau_at: info.plateau_at,
+                    history: info.history,
+                    failure: None,
+                }),
+                Err(SolveError::NoConvergence { info }) => {
+                    let mut r = failed(method, lambda, "no convergence within the cap");
+                    r.iterations = info.iterations;
+                    r.residuals = info.residuals;
+                    r.history = info.history;
+                    r.plateau_at = info.plateau_at;
+                    table.runs.push(r);
+                }
+                Err(e) => table.runs.push(failed(method, lambda, e)),
+            }
+        }
+    }
+    Ok(table)
+}
+
+fn cell(r: Option<&Run>) -> String {
+    match r {
+        None => "–".into(),
+        Some(r) if r.failure.is_some() && r.iterations.is_empty() => "failed".into(),
+        Some(r) => {
+            let it = r.iterations.iter().max().copied().unwrap_or(0);
+            let mut s = format!("{:.4} [{it}]", r.seconds);
+            if r.failure.is_some() {
+                s.push_str(" (no conv.)");
+            }
+            s
+        }
+    }
+}
+
+fn find(t: &FairingTable, m: Method, l: f64) -> Option<&Run> {
+    t.runs.iter().find(|r| r.method == m && r.lambda == l)
+}
+
+/// One [`Table`] per λ: our seconds [max iterations over the columns] with each
+/// result's error against the direct solution, the first BiCG plateau and the paper's
+/// figures; notes list negative SQL weights and failures.
+pub fn tables(results: &[FairingTable], lambdas: &[f64]) -> Vec<Table> {
+    lambdas
+        .iter()
+        .map(|&l| {
+            let mut table = Table::new(
+                format!("Implicit fairing, λ = {l}: seconds [iterations]; err = max vertex distance to the direct solution / bbox diagonal"),
+                &[
+                    "mesh", "n", "CG (SQL)", "err", "CG (TL)", "err", "BiCG (TL)", "err",
+                    "BiCG plateau at", "paper CG", "paper CG (TL)", "paper BiCG",
+                ],
+            );
+            for t in results {
+                let (cs, ct, bi) = (
+                    find(t, Method::CgSql, l),
+                    find(t, Method::CgTl, l),
+                    find(t, Method::BicgTl, l),
+                );
+                let err = |r: Option<&Run>| sig(r.and_then(|r| r.error), 2);
+                let plateau = bi
+                    .and_then(|r| r.plateau_at.iter().flatten().min().copied())
+                    .map_or("none".to_string(), |p| p.to_string());
+                let paper = |f: &dyn Fn(&PaperRow) -> String| t.paper.as_ref().map_or("–".into(), f);
+                let (p1, p2, p3) = if l == 30.0 {
+                    (
+                        paper(&|p| format!("{} [{}]", p.cg_30.0, p.cg_30.1)),
+                        paper(&|p| format!("{} [{}]", p.cg_tl_30.0, p.cg_tl_30.1)),
+                        paper(&|p| format!("{} [{}]", p.bicg_30.0, p.bicg_30.1)),
+                    )
+                } else if l == 100.0 {
+                    (
+                        paper(&|p| format!("[{}]", p.cg_100)),
+                        "–".into(),
+                        paper(&|p| format!("[{}]", p.bicg_100)),
+                    )
+                } else {
+                    ("–".into(), "–".into(), "–".into())
+                };
+                table.push(vec![
+                    t.name.clone(),
+                    t.n.to_string(),
+                    cell(cs),
+                    err(cs),
+                    cell(ct),
+                    err(ct),
+                    cell(bi),
+                    err(bi),
+                    plateau,
+                    p1,
+                    p2,
+                    p3,
+                ]);
+                if t.sql_negative_weights > 0 {
+                    table.notes.push(match (t.sql_repair_flips, t.sql_negative_after_repair) {
+                        (Some(f), Some(a)) => format!(
+                            "{}: {} negative SQL weights, repaired by {f} edge swaps ({a} left)",
+                            t.name, t.sql_negative_weights
+                        ),
+                        _ => format!(
+                            "{}: {} negative SQL weights (not repaired)",
+                            t.name, t.sql_negative_weights
+                        ),
+                    });
+                }
+                for r in t.runs.iter().filter(|r| r.failure.is_some() && r.lambda == l) {
+                    table.notes.push(format!(
+                        "{} {}: {}",
+                        t.name,
+                        r.method.label(),
+                        r.failure.as_deref().unwrap_or("")
+                    ));
+                }
+            }
+            table
+        })
+        .collect()
+}
+
+/// Writes `table1-lambdaL.md`/`.csv` per λ, `table1.json` (`extra` and the results)
+/// and `convergence-MESH-lambdaL.png` per mesh and λ.
+pub fn write_outputs<T: Serialize>(
+    out: &mut Outputs,
+    results: &[FairingTable],
+    lambdas: &[f64],
+    extra: &T,
+) -> Result<Vec<Table>, ExperimentError> {
+    #[derive(Serialize)]
+    struct Json<'a, T: Serialize> {
+        #[serde(flatten)]
+        extra: &'a T,
+        tables: &'a [FairingTable],
+    }
+    let tabs = tables(results, lambdas);
+    for (t, l) in tabs.iter().zip(lambdas) {
+        out.table(&format!("table1-lambda{l}"), t)?;
+    }
+    for r in results {
+        for &l in lambdas {
+            out.chart(
+                &format!("convergence-{}-lambda{l}.png", r.name),
+                &convergence_chart(r, l),
+            )?;
+        }
+    }
+    out.json(
+        "table1.json",
+        &Json {
+            extra,
+            tables: results,
+        },
+    )?;
+    Ok(tabs)
+}
+
+/// Convergence chart of one mesh at one λ: relative residual per iteration of each
+/// method (the largest over the three coordinate columns still iterating).
+pub fn convergence_chart(t: &FairingTable, lambda: f64) -> Chart {
+    let series = t
+        .runs
+        .iter()
+        .filter(|r| r.lambda == lambda && !r.history.is_empty())
+        .map(|r| {
+            let len = r.history.iter().map(Vec::len).max().unwrap_or(0);
+            let pts = (0..len)
+                .map(|i| {
+                    let v = r
+                        .history
+                        .iter()
+                        .filter_map(|h| h.get(i))
+                        .fold(0.0f64, |a, &b| a.max(b));
+                    (i as f64, v)
+                })
+                .collect();
+            Series::new(r.method.label(), pts)
+        })
+        .collect();
+    Chart {
+        title: format!(
+            "{} (n = {}), λ = {lambda}: implicit fairing convergence",
+            t.name, t.n
+        ),
+        x_label: "iteration".into(),
+        y_label: "relative residual ||Bx - b|| / ||b|| (max over x, y, z)".into(),
+        y_scale: Scale::Log,
+        series,
+        ..Chart::default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::builtin;
+
+    #[test]
+    fn table_on_a_small_mesh_is_complete_and_accurate() {
+        let m = builtin::icosphere(3).unwrap();
+        let t = Topology::new(&m).unwrap();
+        let opts = FairingOptions {
+            lambdas: vec![30.0],
+            repeat: 1,
+            ..Default::default()
+        };
+        let tab = fairing_table("icosphere", &m, &t, &opts, &|_| {}).unwrap();
+        assert_eq!(tab.runs.len(), 3);
+        assert!(tab.paper.is_none());
+        for r in &tab.runs {
+            assert!(r.failure.is_none(), "{r:?}");
+            assert_eq!(r.iterations.len(), 3);
+            assert!(r.iterations.iter().all(|&i| i > 0));
+            // weak criterion ε = 1e-5: close to the direct solution, not exact
+            let e = r.error.unwrap();
+            assert!(e < 1e-3 && e > 0.0, "{:?}: {e}", r.method);
+            assert_eq!(r.history.len(), 3);
+        }
+        let tabs = tables(std::slice::from_ref(&tab), &[30.0]);
+        assert_eq!(tabs.len(), 1);
+        assert_eq!(
+            tabs[0].rows[0][..2],
+            ["icosphere".to_string(), "642".to_string()]
+        );
+        assert_eq!(tabs[0].rows[0].len(), tabs[0].header.len());
+        let chart = convergence_chart(&tab, 30.0);
+        assert_eq!(chart.series.len(), 3);
+        assert!(chart.render_rgb().is_ok());
+    }
+
+    #[test]
+    fn paper_rows_are_found_by_name() {
+        assert_eq!(paper_row("stanford-bunny").unwrap().cg_30.1, 14);
+        assert_eq!(paper_row("Igea").unwrap().bicg_100, 14);
+        assert!(paper_row("teapot").is_none());
+    }
+
+    #[test]
+    fn repair_option_removes_the_cow_sql_negative_weights_first() {
+        let path = format!("{}/../../tests/data/cow.obj", env!("CARGO_MANIFEST_DIR"));
+        let input = crate::input::open(&path, &Default::default()).unwrap();
+        let opts = FairingOptions {
+            lambdas: vec![30.0],
+            repeat: 1,
+            repair_sql: true,
+            ..Default::default()
+        };
+        let tab = fairing_table("cow", &input.mesh, &input.topology, &opts, &|_| {}).unwrap();
+        assert_eq!(tab.sql_negative_weights, 7);
+        assert!(tab.sql_repair_flips.unwrap() > 0);
+        assert!(tab.sql_negative_after_repair.unwrap() < 7);
+        assert!(tab.runs.iter().all(|r| r.failure.is_none()));
+        assert_eq!(tab.paper.unwrap().cg_30, (0.56, 15));
+        let notes = &tables(&[tab], &[30.0])[0].notes;
+        assert!(notes[0].contains("repaired by"), "{notes:?}");
+    }
+}
