@@ -6,7 +6,7 @@ if [ ! -x "$here/.venv/bin/python" ]; then
   python3 -m venv "$here/.venv"
 fi
 "$here/.venv/bin/python" -m pip install --quiet --upgrade pip
-"$here/.venv/bin/python" -m pip install --quiet numpy scipy libigl trimesh DracoPy threadpoolctl
+"$here/.venv/bin/python" -m pip install --quiet numpy scipy libigl trimesh DracoPy threadpoolctl pymetis
 # CHOLMOD for bench/solvers.py: needs the SuiteSparse headers first
 #   apt-get install libsuitesparse-dev        (Debian 12 ships SuiteSparse 5.12)
 # scikit-sparse 0.4.13+ needs SuiteSparse 7, so pin 0.4.12 and build it against the

@@ -30,6 +30,12 @@ pub enum Error {
     /// A distortion metric could not be computed.
     #[error(transparent)]
     Metric(#[from] crate::metric::MetricError),
+    /// Partitioning a mesh into patches failed.
+    #[error(transparent)]
+    Partition(#[from] crate::spectral::partition::PartitionError),
+    /// A partial (shift-invert) eigensolve failed.
+    #[error(transparent)]
+    PartialSpectrum(#[from] crate::spectral::partial::PartialError),
     /// Rendering a chart failed.
     #[error(transparent)]
     Plot(#[from] crate::plot::PlotError),

@@ -9,7 +9,10 @@
 //! solves of `(I + λS)`, `(I + λT)`, `(D + λK)` with CG/BiCG/Cholesky, a streaming-copy
 //! bandwidth measurement and the memory-traffic bound per iteration; `--lambda L`, and
 //! `--export DIR` writes the matrices and right-hand side for the scipy side), `codec`
-//! (compress and decompress, default settings, non-manifold vertices split first).
+//! (compress and decompress, default settings, non-manifold vertices split first),
+//! `partial` (the `--count` smallest eigenpairs by banded shift-invert), `partition`
+//! (METIS patches of `--patch-size`), `project-patches` (partition + patch-wise
+//! truncated ED reconstruction, end to end, with the peak RSS).
 
 use meshlap::input::{open, OpenOptions};
 use meshlap::operator::{Operator, OperatorKind, OperatorOptions};
@@ -36,6 +39,19 @@ fn time<T>(repeat: usize, mut f: impl FnMut() -> T) -> (f64, Vec<f64>) {
     (median(times.clone()), times)
 }
 
+/// The value after `name` in the arguments.
+fn flag<'a>(args: &'a [String], name: &str) -> Option<&'a str> {
+    let p = args.iter().position(|a| a == name)?;
+    args.get(p + 1).map(String::as_str)
+}
+
+/// Peak resident set size of this process (VmHWM, Linux), in KiB.
+fn peak_rss_kb() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+    line.split_whitespace().nth(1)?.parse().ok()
+}
+
 fn main() {
     if let Err(e) = run() {
         eprintln!("meshlap-bench: error: {e}");
@@ -45,8 +61,8 @@ fn main() {
 
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let usage = "usage: meshlap-bench load|operators|topology|io|read|spectrum|solvers|codec MESH \
-                 [--repeat N] [--kind K] [--general] [--lambda L] [--export DIR] \
+    let usage = "usage: meshlap-bench load|operators|topology|io|read|spectrum|solvers|codec|partial|partition|project-patches MESH \
+                 [--repeat N] [--kind K] [--general] [--lambda L] [--export DIR] [--count K] [--patch-size P] \
                  | dump MESH DIR | write MESH OUT [--repeat N]";
     let task = args.first().ok_or(usage)?.clone();
     let mesh = args.get(1).ok_or(usage)?.clone();
@@ -242,6 +258,105 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                 let (m, t) = time(repeat, || EigenBasis::compute(&op, &opts).map(|b| b.len()));
                 out.insert(name.into(), serde_json::json!({"median": m, "times": t}));
             }
+        }
+        "partial" => {
+            // The `--count` smallest eigenpairs of `--kind` (default sql) by banded
+            // shift-invert; the time includes assembly.
+            let count: usize = flag(&args, "--count").unwrap_or("50").parse()?;
+            let kind: OperatorKind = flag(&args, "--kind").unwrap_or("sql").parse()?;
+            let input = open(&mesh, &OpenOptions::default())?;
+            out.insert("vertices".into(), input.mesh.n_vertices().into());
+            let mut last = None;
+            let (m, t) = time(repeat, || {
+                let op = Operator::assemble(
+                    kind,
+                    &input.mesh,
+                    &input.topology,
+                    &OperatorOptions::default(),
+                )
+                .unwrap();
+                let mut opts = meshlap::spectral::partial::PartialOptions::new(count);
+                if let Some(t) = flag(&args, "--tol") {
+                    opts.tolerance = t.parse().unwrap();
+                }
+                if let Some(b) = flag(&args, "--band") {
+                    opts.band_size = b.parse().unwrap();
+                }
+                last = Some(
+                    meshlap::spectral::partial::operator_partial_spectrum(
+                        &op,
+                        true,
+                        &opts,
+                        &mut |_, _| {},
+                    )
+                    .unwrap(),
+                );
+            });
+            let ps = last.ok_or("no run")?;
+            let max_res = ps.residuals.iter().fold(0.0f64, |a, &b| a.max(b));
+            out.insert(
+                "partial".into(),
+                serde_json::json!({"median": m, "times": t, "count": count,
+                    "bands": ps.bands.len(), "max_residual": max_res,
+                    "eigenvalues": ps.eigenvalues}),
+            );
+        }
+        "partition" => {
+            let p: usize = flag(&args, "--patch-size").unwrap_or("300").parse()?;
+            let input = open(&mesh, &OpenOptions::default())?;
+            out.insert("vertices".into(), input.mesh.n_vertices().into());
+            let opts = meshlap::spectral::partition::PartitionOptions::new(p);
+            let mut stats = None;
+            let (m, t) = time(repeat, || {
+                let part = meshlap::spectral::partition::partition(&input.topology, &opts).unwrap();
+                stats = Some(part.stats().clone());
+            });
+            out.insert(
+                "partition".into(),
+                serde_json::json!({"median": m, "times": t, "stats": stats}),
+            );
+        }
+        "project-patches" => {
+            // End to end: generate/read, clean, partition, per-patch operator and
+            // dense ED, truncated reconstruction (all patches in parallel).
+            let p: usize = flag(&args, "--patch-size").unwrap_or("300").parse()?;
+            let keep: f64 = flag(&args, "--keep").unwrap_or("0.1").parse()?;
+            let kind: OperatorKind = flag(&args, "--kind").unwrap_or("sql").parse()?;
+            let mut info = serde_json::Value::Null;
+            let (m, t) = time(repeat, || {
+                let t0 = Instant::now();
+                let input = open(&mesh, &OpenOptions::default()).unwrap();
+                let t_open = t0.elapsed().as_secs_f64();
+                let opts = meshlap::spectral::partition::PartitionOptions::new(p);
+                let part = meshlap::spectral::partition::partition(&input.topology, &opts).unwrap();
+                let t_part = t0.elapsed().as_secs_f64() - t_open;
+                let rec = meshlap::spectral::partition::patchwise_reconstruction(
+                    &input.mesh,
+                    &part,
+                    kind,
+                    keep,
+                    &|_, _| {},
+                )
+                .unwrap();
+                let t_all = t0.elapsed().as_secs_f64();
+                let err = rec
+                    .iter()
+                    .zip(&input.mesh.positions)
+                    .map(|(a, b)| {
+                        ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2))
+                            .sqrt()
+                    })
+                    .fold(0.0f64, f64::max);
+                info = serde_json::json!({"vertices": input.mesh.n_vertices(),
+                    "patches": part.n_patches(), "open_s": t_open, "partition_s": t_part,
+                    "transform_s": t_all - t_open - t_part, "max_displacement": err,
+                    "bbox_diagonal": input.mesh.bbox_diagonal()});
+            });
+            out.insert(
+                "project_patches".into(),
+                serde_json::json!({"median": m, "times": t, "info": info,
+                    "peak_rss_kb": peak_rss_kb()}),
+            );
         }
         _ => return Err(usage.into()),
     }

@@ -10,6 +10,7 @@ pub mod experiment;
 pub mod info;
 pub mod iterate;
 pub mod operator;
+pub mod partition;
 pub mod project;
 pub mod render;
 pub mod repair;

@@ -20,6 +20,9 @@ pub use basis::{BasisOptions, EigenBasis, EigenPath, Normalization, DENSE_LIMIT}
 pub use compaction::{energy_compaction, Compaction};
 pub use transform::{forward, inverse, mat_to_positions, positions_to_mat, truncated};
 
+pub mod partial;
+pub mod partition;
+
 /// Errors of spectral computations.
 #[derive(Debug, thiserror::Error)]
 pub enum SpectralError {

@@ -1,0 +1,119 @@
+//! `meshlap partition`.
+
+use crate::common::{print_json, MeshArgs};
+use meshlap::io::{write_mesh, WriteOptions};
+use meshlap::spectral::partition::{partition_mesh, PartitionOptions, PartitionStats};
+use serde::Serialize;
+use std::path::PathBuf;
+
+/// Split a mesh into connected patches of about P vertices for patch-wise spectral
+/// transforms (Zhang 2004 §4.9, Karni–Gotsman 2000), with METIS's multilevel k-way
+/// partitioner. Every vertex lands in exactly one patch; a face whose corners lie in
+/// different patches is a seam and belongs to no patch; every vertex keeps at least one
+/// face of its own patch, and every patch is connected. Reports the patch sizes
+/// (min/mean/max) and the edge cut (edges between patches).
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    #[command(flatten)]
+    pub mesh: MeshArgs,
+    /// Target vertices per patch (the paper: "several hundred").
+    #[arg(long, short = 'p', value_name = "P")]
+    pub patch_size: usize,
+    /// METIS random seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: i32,
+    /// Write the mesh as PLY with per-vertex colours by patch and a `patch` scalar.
+    #[arg(long, short, value_name = "OUT.ply")]
+    pub output: Option<PathBuf>,
+    /// Print machine-readable JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Serialize)]
+struct Report<'a> {
+    vertices: usize,
+    faces: usize,
+    patch_size: usize,
+    #[serde(flatten)]
+    stats: &'a PartitionStats,
+    output: Option<String>,
+}
+
+/// A well-spread colour for patch `p` (golden-ratio hue walk, HSV with s = 0.65, v = 0.95).
+fn colour(p: u32) -> [u8; 3] {
+    let h = (p as f64 * 0.618_033_988_75).fract() * 6.0;
+    let (s, v) = (0.65, 0.95);
+    let c = v * s;
+    let x = c * (1.0 - ((h % 2.0) - 1.0).abs());
+    let (r, g, b) = match h as u32 {
+        0 => (c, x, 0.0),
+        1 => (x, c, 0.0),
+        2 => (0.0, c, x),
+        3 => (0.0, x, c),
+        4 => (x, 0.0, c),
+        _ => (c, 0.0, x),
+    };
+    let m = v - c;
+    [r, g, b].map(|t| ((t + m) * 255.0).round() as u8)
+}
+
+pub fn run(args: &Args) -> meshlap::Result<()> {
+    if let Some(out) = &args.output {
+        let ext = out.extension().and_then(|e| e.to_str()).unwrap_or("");
+        if !ext.eq_ignore_ascii_case("ply") {
+            return Err(meshlap::Error::InvalidArgument(format!(
+                "--output must be a .ply file (patch colours), got {}",
+                out.display()
+            )));
+        }
+    }
+    let input = args.mesh.open()?;
+    let opts = PartitionOptions {
+        seed: args.seed,
+        ..PartitionOptions::new(args.patch_size)
+    };
+    let part = partition_mesh(&input.mesh, &input.topology, &opts)?;
+    if let Some(out) = &args.output {
+        let colours: Vec<[u8; 3]> = part.patch_of().iter().map(|&p| colour(p)).collect();
+        let scalar: Vec<f64> = part.patch_of().iter().map(|&p| p as f64).collect();
+        write_mesh(
+            out,
+            &input.mesh,
+            &WriteOptions {
+                vertex_colors: Some(&colours),
+                vertex_scalar: Some(("patch", &scalar)),
+                ..Default::default()
+            },
+        )?;
+    }
+    let s = part.stats();
+    if args.json {
+        return print_json(&Report {
+            vertices: input.mesh.n_vertices(),
+            faces: input.mesh.n_faces(),
+            patch_size: args.patch_size,
+            stats: s,
+            output: args.output.as_ref().map(|p| p.display().to_string()),
+        });
+    }
+    println!(
+        "{} vertices, {} faces → {} patches (METIS asked for {})",
+        input.mesh.n_vertices(),
+        input.mesh.n_faces(),
+        s.patches,
+        s.metis_parts
+    );
+    println!(
+        "patch size: min {}, mean {:.1}, max {}",
+        s.min_size, s.mean_size, s.max_size
+    );
+    println!(
+        "edge cut: {} (METIS raw partition: {}); seam faces: {}",
+        s.edge_cut, s.metis_edge_cut, s.straddling_faces
+    );
+    if let Some(out) = &args.output {
+        println!("wrote {}", out.display());
+    }
+    Ok(())
+}
