@@ -588,3 +588,31 @@ fn experiment_claims_writes_its_tables_and_chart() {
     ]);
     assert_one_line_error(&bad, "nonexistent");
 }
+
+#[test]
+fn experiment_all_quick_writes_every_experiment_and_an_index() {
+    let meshes = format!("{}/../../../shared/data/meshes", env!("CARGO_MANIFEST_DIR"));
+    if !std::path::Path::new(&meshes).join("cow.obj").is_file() {
+        panic!("the shared meshes are expected beside the repository at {meshes}");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("exp");
+    let o = meshlap(&[
+        "experiment",
+        "all",
+        "--quick",
+        "--meshes",
+        &meshes,
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let index = std::fs::read_to_string(out.join("README.md")).unwrap();
+    for d in ["claims", "figures", "eigen-cost", "fairing", "compression"] {
+        assert!(index.contains(&format!("]({d}/)")), "{index}");
+        let n = std::fs::read_dir(out.join(d)).unwrap().count();
+        assert!(n >= 3, "{d}: {n} files");
+    }
+    assert!(out.join("figures/fig4_4_8_sphere.png").is_file());
+    assert!(out.join("claims/erratum.md").is_file());
+}

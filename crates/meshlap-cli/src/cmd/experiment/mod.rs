@@ -1,6 +1,7 @@
 //! `meshlap experiment …`: reproductions of the paper's experiments, one file per
 //! experiment (siblings add their own variants here).
 
+pub mod all;
 pub mod claims;
 pub mod compression;
 pub mod eigen_cost;
@@ -19,6 +20,7 @@ pub struct Args {
 /// The experiments.
 #[derive(Subcommand, Debug)]
 pub enum Experiment {
+    All(all::Args),
     Claims(claims::Args),
     Compression(compression::Args),
     EigenCost(eigen_cost::Args),
@@ -28,6 +30,7 @@ pub enum Experiment {
 
 pub fn run(args: &Args) -> meshlap::Result<()> {
     match &args.command {
+        Experiment::All(a) => all::run(a),
         Experiment::Claims(a) => claims::run(a),
         Experiment::Compression(a) => compression::run(a),
         Experiment::EigenCost(a) => eigen_cost::run(a),
