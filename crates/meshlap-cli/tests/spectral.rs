@@ -234,3 +234,37 @@ fn help_on_spectral_commands() {
         assert!(out.stdout.len() > 200, "{cmd:?} help too short");
     }
 }
+
+#[test]
+fn project_patch_by_patch() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("p.ply");
+    let o = out.to_str().unwrap();
+    let run = |keep: &str| {
+        let r = Command::new(env!("CARGO_BIN_EXE_meshlap"))
+            .args([
+                "project",
+                "builtin:icosphere:3",
+                "--kind",
+                "sql",
+                "--keep",
+                keep,
+                "--patch-size",
+                "100",
+                "-o",
+                o,
+                "--json",
+            ])
+            .output()
+            .unwrap();
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+        serde_json::from_slice::<serde_json::Value>(&r.stdout).unwrap()
+    };
+    let full = run("100%");
+    assert!(full["partition"]["patches"].as_u64().unwrap() >= 5);
+    assert!(full["relative_error"].as_f64().unwrap() < 1e-10);
+    let low = run("10%");
+    let e = low["relative_error"].as_f64().unwrap();
+    assert!(e > 1e-4 && e < 0.1, "{e}");
+    assert!(out.is_file());
+}
