@@ -128,38 +128,18 @@ fn operator_from_code(c: u8) -> Result<OperatorKind, CodecError> {
     })
 }
 
-/// Breadth-first patches of about `p` vertices, in vertex order (deterministic). Each
-/// vertex belongs to exactly one patch. Private adapter until the partitioner lands.
-pub(crate) fn partition(topo: &Topology, p: usize) -> Vec<Vec<u32>> {
-    let n = topo.n_vertices();
-    let p = p.max(1);
-    let mut assigned = vec![false; n];
-    let mut patches = Vec::new();
-    let mut queue = std::collections::VecDeque::new();
-    for s in 0..n {
-        if assigned[s] {
-            continue;
-        }
-        let mut patch = Vec::with_capacity(p);
-        assigned[s] = true;
-        queue.clear();
-        queue.push_back(s as u32);
-        while let Some(v) = queue.pop_front() {
-            patch.push(v);
-            if patch.len() + queue.len() >= p {
-                // Finish with what is queued, then stop growing.
-                continue;
-            }
-            for &w in topo.neighbors(crate::mesh::VertexId(v)) {
-                if !assigned[w as usize] && patch.len() + queue.len() < p {
-                    assigned[w as usize] = true;
-                    queue.push_back(w);
-                }
-            }
-        }
-        patches.push(patch);
-    }
-    patches
+/// Patches of about `p` vertices from the multilevel partitioner
+/// ([`crate::spectral::partition`]: METIS k-way with a fixed seed, connected patches,
+/// every vertex on a face of its own patch). Deterministic for a given connectivity, so
+/// the decoder, which has the same connectivity in the same order, gets the same
+/// patches. Each vertex belongs to exactly one patch.
+pub(crate) fn partition(topo: &Topology, p: usize) -> Result<Vec<Vec<u32>>, CodecError> {
+    use crate::spectral::partition::{partition as metis_patches, PartitionOptions};
+    let part = metis_patches(topo, &PartitionOptions::new(p.max(3)))
+        .map_err(|e| CodecError::Parameter(format!("partitioning into patches: {e}")))?;
+    Ok((0..part.n_patches())
+        .map(|i| part.patch_vertices(i).to_vec())
+        .collect())
 }
 
 /// A patch's basis ([`crate::spectral::EigenBasis`]: canonical, deterministic
@@ -240,7 +220,7 @@ fn patch_basis(pt: &Topology, kind: OperatorKind, keep: Keep) -> Result<PatchBas
 
 /// The bases of every patch (in parallel; each decomposition is sequential).
 fn bases(topo: &Topology, params: &GeometryParams) -> Result<Vec<PatchBasis>, CodecError> {
-    let patches = partition(topo, params.patch_size);
+    let patches = partition(topo, params.patch_size)?;
     let n = topo.n_vertices();
     let mut patch_of = vec![0u32; n];
     for (p, patch) in patches.iter().enumerate() {
