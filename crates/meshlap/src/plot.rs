@@ -279,18 +279,7 @@ impl Chart {
     /// Renders the chart and writes it as a PNG file, atomically.
     pub fn write_png(&self, path: &Path) -> Result<(), PlotError> {
         let rgb = self.render_rgb()?;
-        let (w, h) = (self.width, self.height);
-        crate::io::write_atomic(path, |out| {
-            let mut enc = png::Encoder::new(out, w, h);
-            enc.set_color(png::ColorType::Rgb);
-            enc.set_depth(png::BitDepth::Eight);
-            enc.set_compression(png::Compression::Best);
-            let mut writer = enc.write_header().map_err(std::io::Error::other)?;
-            writer
-                .write_image_data(&rgb)
-                .map_err(std::io::Error::other)?;
-            writer.finish().map_err(std::io::Error::other)
-        })?;
+        crate::render::write_rgb_png(path, self.width, self.height, &rgb)?;
         Ok(())
     }
 }

@@ -128,20 +128,30 @@ impl Image {
 
     /// Writes the image as a PNG, atomically.
     pub fn write_png(&self, path: &Path) -> Result<(), RenderError> {
-        let (w, h) = (self.width, self.height);
-        crate::io::write_atomic(path, |out| {
-            let mut enc = png::Encoder::new(out, w, h);
-            enc.set_color(png::ColorType::Rgb);
-            enc.set_depth(png::BitDepth::Eight);
-            enc.set_compression(png::Compression::Best);
-            let mut writer = enc.write_header().map_err(std::io::Error::other)?;
-            writer
-                .write_image_data(&self.rgb)
-                .map_err(std::io::Error::other)?;
-            writer.finish().map_err(std::io::Error::other)
-        })?;
+        write_rgb_png(path, self.width, self.height, &self.rgb)?;
         Ok(())
     }
+}
+
+/// Encodes an RGB8 buffer (`width·height·3` bytes, top row first) as PNG and writes it
+/// through [`crate::io::write_atomic`].
+pub(crate) fn write_rgb_png(
+    path: &Path,
+    width: u32,
+    height: u32,
+    rgb: &[u8],
+) -> Result<(), crate::io::IoError> {
+    crate::io::write_atomic(path, |out| {
+        let mut enc = png::Encoder::new(out, width, height);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        enc.set_compression(png::Compression::Best);
+        let mut writer = enc.write_header().map_err(std::io::Error::other)?;
+        writer
+            .write_image_data(rgb)
+            .map_err(std::io::Error::other)?;
+        writer.finish().map_err(std::io::Error::other)
+    })
 }
 
 const BACKGROUND: [f64; 3] = [1.0, 1.0, 1.0];
