@@ -1,29 +1,7 @@
 //! End-to-end tests of `meshlap compress`, `decompress` and `compare`.
 
-use std::process::{Command, Output};
-
-fn meshlap(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_meshlap"))
-        .args(args)
-        .output()
-        .expect("run meshlap")
-}
-
-fn json(out: &Output) -> serde_json::Value {
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).expect("valid JSON")
-}
-
-fn assert_one_line_error(out: &Output, needle: &str) {
-    assert_eq!(out.status.code(), Some(1), "{out:?}");
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(err.lines().count(), 1, "{err}");
-    assert!(err.contains(needle), "{err} should mention {needle}");
-}
+mod common;
+use common::*;
 
 #[test]
 fn compress_decompress_compare_round_trip() {

@@ -1,29 +1,7 @@
 //! End-to-end tests of `spectrum`, `project`, `compaction` and `experiment eigen-cost`.
 
-use std::process::{Command, Output};
-
-fn meshlap(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_meshlap"))
-        .args(args)
-        .output()
-        .expect("run meshlap")
-}
-
-fn json(out: &Output) -> serde_json::Value {
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).expect("valid JSON")
-}
-
-fn assert_one_line_error(out: &Output, needle: &str) {
-    assert_eq!(out.status.code(), Some(1), "{out:?}");
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(err.lines().count(), 1, "{err}");
-    assert!(err.contains(needle), "{err} should mention {needle}");
-}
+mod common;
+use common::*;
 
 #[test]
 fn spectrum_json_and_vectors() {
@@ -241,24 +219,19 @@ fn project_patch_by_patch() {
     let out = dir.path().join("p.ply");
     let o = out.to_str().unwrap();
     let run = |keep: &str| {
-        let r = Command::new(env!("CARGO_BIN_EXE_meshlap"))
-            .args([
-                "project",
-                "builtin:icosphere:3",
-                "--kind",
-                "sql",
-                "--keep",
-                keep,
-                "--patch-size",
-                "100",
-                "-o",
-                o,
-                "--json",
-            ])
-            .output()
-            .unwrap();
-        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
-        serde_json::from_slice::<serde_json::Value>(&r.stdout).unwrap()
+        json(&meshlap(&[
+            "project",
+            "builtin:icosphere:3",
+            "--kind",
+            "sql",
+            "--keep",
+            keep,
+            "--patch-size",
+            "100",
+            "-o",
+            o,
+            "--json",
+        ]))
     };
     let full = run("100%");
     assert!(full["partition"]["patches"].as_u64().unwrap() >= 5);
