@@ -366,7 +366,7 @@ pub fn limits(
         ));
     }
     let chart = Chart {
-        title: format!("Limits of Hᵖx on {}", short_name(&input.source)),
+        title: format!("Limits of H^p x on {}", short_name(&input.source)),
         x_label: "step p".into(),
         y_label: "max distance / bbox diagonal".into(),
         y_scale: Scale::Log,
