@@ -302,6 +302,29 @@ pub fn entry(f: &SparseMatrix, i: usize, j: usize) -> f64 {
     }
 }
 
+/// The dense symmetric matrix `S^{1/2} F S^{-1/2}` (n×n) similar to `F`, for a positive
+/// diagonal symmetrizer `s` of `F` (see [`diagonal_symmetrizer`]); rounding asymmetry is
+/// averaged away so a symmetric eigensolver may read either triangle. Its eigenvectors
+/// `u` give F's as `S^{-1/2} u`.
+pub fn symmetrized_dense(f: &SparseMatrix, s: &[f64]) -> faer::Mat<f64> {
+    let n = f.nrows();
+    let r: Vec<f64> = s.iter().map(|x| x.sqrt()).collect();
+    let mut d = f.to_dense();
+    for j in 0..n {
+        for i in 0..n {
+            d[(i, j)] *= r[i] / r[j];
+        }
+    }
+    for j in 0..n {
+        for i in 0..j {
+            let a = 0.5 * (d[(i, j)] + d[(j, i)]);
+            d[(i, j)] = a;
+            d[(j, i)] = a;
+        }
+    }
+    d
+}
+
 /// A positive diagonal `s` with `diag(s)·F` symmetric, if one exists: requires a
 /// symmetric pattern with `F_ij·F_ji > 0` and consistent ratios `s_j/s_i = F_ij/F_ji`
 /// around every cycle (checked on every stored pair, relative tolerance 1e-12).
@@ -366,21 +389,7 @@ fn spectrum(
                 None,
             );
         }
-        let r: Vec<f64> = s.iter().map(|x| x.sqrt()).collect();
-        let mut d = f.to_dense();
-        for j in 0..n {
-            for i in 0..n {
-                d[(i, j)] *= r[i] / r[j];
-            }
-        }
-        // Symmetrize away rounding before the symmetric solver.
-        for j in 0..n {
-            for i in 0..j {
-                let a = 0.5 * (d[(i, j)] + d[(j, i)]);
-                d[(i, j)] = a;
-                d[(j, i)] = a;
-            }
-        }
+        let d = symmetrized_dense(f, &s);
         return match d.self_adjoint_eigenvalues(Side::Lower) {
             Ok(ev) => ("dense-symmetrized".into(), Some(ev), Some(0.0)),
             Err(e) => (format!("failed: {e:?}"), None, None),

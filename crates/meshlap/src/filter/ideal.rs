@@ -11,7 +11,7 @@
 //! projection). Positions are the n×3 row-major block.
 
 use super::FilterError;
-use crate::analysis::properties::diagonal_symmetrizer;
+use crate::analysis::properties::{diagonal_symmetrizer, symmetrized_dense};
 use crate::SparseMatrix;
 use faer::Mat;
 
@@ -31,20 +31,7 @@ pub fn ideal_lowpass(f: &SparseMatrix, x: &[f64], passband: f64) -> Result<Vec<f
         FilterError::Spectrum("the ideal filter needs a symmetric or symmetrizable operator".into())
     })?;
     let r: Vec<f64> = s.iter().map(|v| v.sqrt()).collect();
-    let mut d = f.to_dense();
-    for j in 0..n {
-        for i in 0..n {
-            d[(i, j)] *= r[i] / r[j];
-        }
-    }
-    for j in 0..n {
-        for i in 0..j {
-            let a = 0.5 * (d[(i, j)] + d[(j, i)]);
-            d[(i, j)] = a;
-            d[(j, i)] = a;
-        }
-    }
-    let evd = d
+    let evd = symmetrized_dense(f, &s)
         .self_adjoint_eigen(faer::Side::Lower)
         .map_err(|e| FilterError::Spectrum(format!("eigendecomposition failed: {e:?}")))?;
     let kept = evd
