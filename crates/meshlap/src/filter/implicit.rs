@@ -209,7 +209,7 @@ impl ImplicitSolver {
             None
         };
         let f = CsrMatrix::from_csc(f);
-        let prepared = Self::prepare(&f, lambda, kind, s.as_deref(), None)?;
+        let prepared = Self::prepare(&f, lambda, kind, s.as_deref())?;
         Ok(ImplicitSolver {
             f,
             kind,
@@ -224,7 +224,6 @@ impl ImplicitSolver {
         lambda: f64,
         kind: SolverKind,
         s: Option<&[f64]>,
-        old: Option<Prepared>,
     ) -> Result<Prepared, FilterError> {
         let ones = vec![1.0; f.nrows()];
         let b = f.shifted(&ones, lambda);
@@ -249,25 +248,11 @@ impl ImplicitSolver {
             }
             SolverKind::Bicgstab => Prepared::Bicgstab(b.to_csc()),
             SolverKind::Cholesky => {
-                let csc = b.to_csc();
-                let chol = match old {
-                    Some(Prepared::Cholesky(_, mut c)) => {
-                        c.refactor(&csc)?;
-                        c
-                    }
-                    _ => CholeskySolver::new(&csc)?,
-                };
+                let chol = CholeskySolver::new(&b.to_csc())?;
                 Prepared::Cholesky(SparseOperator::from_csr(b, None), chol)
             }
             SolverKind::Lu => {
-                let csc = b.to_csc();
-                let lu = match old {
-                    Some(Prepared::Lu(_, mut l)) => {
-                        l.refactor(&csc)?;
-                        l
-                    }
-                    _ => Box::new(LuSolver::new(&csc)?),
-                };
+                let lu = Box::new(LuSolver::new(&b.to_csc())?);
                 Prepared::Lu(SparseOperator::from_csr(b, None), lu)
             }
         })
@@ -276,12 +261,23 @@ impl ImplicitSolver {
     /// Changes λ; the direct kinds refactor reusing their symbolic analysis.
     pub fn set_lambda(&mut self, lambda: f64) -> Result<(), FilterError> {
         check_lambda(lambda)?;
-        // Keep a cheap placeholder while the old factorisation is moved into prepare.
-        let old = std::mem::replace(
-            &mut self.prepared,
-            Prepared::Bicgstab(SparseMatrix::try_new_from_triplets(0, 0, &[]).expect("empty")),
-        );
-        self.prepared = Self::prepare(&self.f, lambda, self.kind, self.s.as_deref(), Some(old))?;
+        // The direct kinds refactor in place with their symbolic analysis; a failed
+        // refactorisation leaves the solver as it was.
+        match &mut self.prepared {
+            Prepared::Cholesky(op, chol) => {
+                let b = self.f.shifted(&vec![1.0; self.f.nrows()], lambda);
+                chol.refactor(&b.to_csc())?;
+                *op = SparseOperator::from_csr(b, None);
+            }
+            Prepared::Lu(op, lu) => {
+                let b = self.f.shifted(&vec![1.0; self.f.nrows()], lambda);
+                lu.refactor(&b.to_csc())?;
+                *op = SparseOperator::from_csr(b, None);
+            }
+            _ => {
+                self.prepared = Self::prepare(&self.f, lambda, self.kind, self.s.as_deref())?;
+            }
+        }
         self.lambda = lambda;
         Ok(())
     }
