@@ -911,6 +911,33 @@ pub fn canonical_sign(v: &mut [f64]) {
     }
 }
 
+/// Classical Gram–Schmidt, applied twice: removes from the column `w` its components
+/// along the orthonormal columns of `basis` (n×j), using `coef` (≥ j rows) as
+/// workspace. Returns the total coefficient along the last basis column (the Lanczos
+/// α when `w = A·basis_last`).
+fn orthogonalize_twice(
+    basis: MatRef<'_, f64>,
+    mut w: MatMut<'_, f64>,
+    mut coef: MatMut<'_, f64>,
+    par: Par,
+) -> f64 {
+    let j = basis.ncols();
+    let mut last = 0.0;
+    for _ in 0..2 {
+        let mut c = coef.rb_mut().subrows_mut(0, j);
+        matmul(
+            c.rb_mut(),
+            Accum::Replace,
+            basis.transpose(),
+            w.rb(),
+            1.0,
+            par,
+        );
+        last += c[(j - 1, 0)];
+        matmul(w.rb_mut(), Accum::Add, basis, c.rb(), -1.0, par);
+    }
+    last
+}
 /// Extends the Lanczos basis `V` (n×(max_dim+1)) from column `start` to `end`
 /// (inclusive), writing α into `H[(j−1, j−1)]` and β into `H[(j, j−1)]`.
 /// Re-orthogonalisation is classical Gram–Schmidt applied twice ("twice is
@@ -942,21 +969,7 @@ fn lanczos_extend(
             MemStack::new(buf),
         );
         let norm_in = w.col(0).norm_l2();
-        let mut alpha = 0.0;
-        for _ in 0..2 {
-            let basis = v.as_ref().subcols(0, j);
-            let mut c = coef.as_mut().subrows_mut(0, j);
-            matmul(
-                c.rb_mut(),
-                Accum::Replace,
-                basis.transpose(),
-                w.as_ref(),
-                1.0,
-                par,
-            );
-            alpha += c[(j - 1, 0)];
-            matmul(w.as_mut(), Accum::Add, basis, c.rb(), -1.0, par);
-        }
+        let alpha = orthogonalize_twice(v.as_ref().subcols(0, j), w.as_mut(), coef.as_mut(), par);
         h[(j - 1, j - 1)] = alpha;
         let mut beta = w.col(0).norm_l2();
         if beta.is_nan() || beta <= 1e3 * f64::EPSILON * norm_in {
@@ -965,19 +978,7 @@ fn lanczos_extend(
             *rng = rng.wrapping_add(0x2545_F491_4F6C_DD1D);
             let r = start_vector(n, *rng);
             w.col_mut(0).copy_from(&r);
-            for _ in 0..2 {
-                let basis = v.as_ref().subcols(0, j);
-                let mut c = coef.as_mut().subrows_mut(0, j);
-                matmul(
-                    c.rb_mut(),
-                    Accum::Replace,
-                    basis.transpose(),
-                    w.as_ref(),
-                    1.0,
-                    par,
-                );
-                matmul(w.as_mut(), Accum::Add, basis, c.rb(), -1.0, par);
-            }
+            orthogonalize_twice(v.as_ref().subcols(0, j), w.as_mut(), coef.as_mut(), par);
         }
         let nw = w.col(0).norm_l2();
         let inv = if nw > 0.0 { 1.0 / nw } else { 0.0 };
