@@ -282,6 +282,9 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                 if let Some(b) = flag(&args, "--band") {
                     opts.band_size = b.parse().unwrap();
                 }
+                if let Some(b) = flag(&args, "--block") {
+                    opts.block_size = b.parse().unwrap();
+                }
                 last = Some(
                     meshlap::spectral::partial::operator_partial_spectrum(
                         &op,

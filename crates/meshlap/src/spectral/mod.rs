@@ -20,6 +20,7 @@ pub use basis::{BasisOptions, EigenBasis, EigenPath, Normalization, DENSE_LIMIT}
 pub use compaction::{energy_compaction, Compaction};
 pub use transform::{forward, inverse, mat_to_positions, positions_to_mat, truncated};
 
+pub mod krylov_schur;
 pub mod partial;
 pub mod partition;
 
