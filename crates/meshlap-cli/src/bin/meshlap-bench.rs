@@ -300,7 +300,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             out.insert(
                 "partial".into(),
                 serde_json::json!({"median": m, "times": t, "count": count,
-                    "bands": ps.bands.len(), "max_residual": max_res,
+                    "bands": ps.bands.len(), "band_info": ps.bands, "max_residual": max_res,
                     "eigenvalues": ps.eigenvalues}),
             );
         }

@@ -828,6 +828,15 @@ fn shift_invert_pairs(
         .collect())
 }
 
+/// Size of a band after the first when `need` eigenpairs are still missing: the full
+/// band size, or — for the last band — enough for `need` (an interior band keeps
+/// about 3/4 of its pairs, the rest overlap the previous window or lie beyond its
+/// edge) instead of a full band for a handful of pairs.
+fn next_band_size(need: usize, b_max: usize, block: usize) -> usize {
+    let enough = need * 3 / 2 + 2 * block.max(1);
+    enough.min(b_max).max(1)
+}
+
 /// Block size and basis size for `b` wanted pairs.
 fn krylov_params(opts: &PartialOptions, b: usize, seed: u64) -> KrylovSchurParams {
     let p = opts.block_size.max(1);
@@ -918,10 +927,10 @@ fn banded(
     }
     let mut band_no = 0usize;
     loop {
-        let b = if kept.is_empty() && count <= b_max {
-            count
+        let b = if kept.is_empty() {
+            count.min(b_max)
         } else {
-            b_max
+            next_band_size(count - kept.len(), b_max, opts.block_size)
         };
         let values = match first.take() {
             Some(values) => values,
@@ -1036,7 +1045,8 @@ fn banded(
         below_upper = below_new;
         // The next band's b eigenvalues nearest σ span about ±(b/2)·spacing: place σ
         // so that its window reaches 30 % of that radius below the edge.
-        let step = 0.7 * 0.5 * b as f64 * spacing;
+        let b_next = next_band_size(count - kept.len(), b_max, opts.block_size);
+        let step = 0.7 * 0.5 * b_next as f64 * spacing;
         sigma = upper
             + if step.is_finite() && step > 2.0 * delta {
                 step.min(0.55 * r)
