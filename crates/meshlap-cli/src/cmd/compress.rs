@@ -47,6 +47,10 @@ pub struct Args {
     /// truncated basis errs most (useful with a keep ratio below 1).
     #[arg(long)]
     pub border_residuals: bool,
+    /// Turn off inter-patch prediction (each patch codes its coordinates instead of
+    /// their difference from the smoothest continuation of earlier patches).
+    #[arg(long)]
+    pub no_prediction: bool,
     /// Also measure the distortion of the decoded mesh against the input (the
     /// metrics of `meshlap compare`, through the coder's vertex order).
     #[arg(long)]
@@ -78,6 +82,7 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
             keep,
             border_residuals: args.border_residuals,
             band_slope: args.band_slope,
+            predicted: !args.no_prediction,
         },
         quantisation,
         preserve_order: args.preserve_order,
