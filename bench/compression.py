@@ -1,6 +1,6 @@
 """Rate–distortion race: meshlap's spectral codec vs Google Draco (DracoPy).
 
-Run: bench/.venv/bin/python bench/compression.py [MESH ...] [--operators sstl,sql]
+Run: bench/.venv/bin/python bench/compression.py [MESH ...] [--operators kirchhoff,sstl]
      [--bpv 3,4,5,6,7,8] [--samples N] [--json-out FILE] [--no-timing]
 (default meshes: stanford-bunny.obj igea.ply, read from /work/shared/data/meshes).
 
@@ -100,7 +100,7 @@ def ours(clean, ops, bpvs, samples):
 def main():
     args = sys.argv[1:]
     opt = lambda name, default: args[args.index(name) + 1] if name in args else default
-    ops = opt("--operators", "sstl").split(",")
+    ops = opt("--operators", "kirchhoff").split(",")
     bpvs = [float(x) for x in opt("--bpv", "3,4,5,6,7,8").split(",")]
     samples = int(opt("--samples", "100000"))
     json_out = opt("--json-out", None)

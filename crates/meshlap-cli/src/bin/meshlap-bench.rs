@@ -9,7 +9,8 @@
 //! solves of `(I + λS)`, `(I + λT)`, `(D + λK)` with CG/BiCG/Cholesky, a streaming-copy
 //! bandwidth measurement and the memory-traffic bound per iteration; `--lambda L`, and
 //! `--export DIR` writes the matrices and right-hand side for the scipy side), `codec`
-//! (compress and decompress, default settings, non-manifold vertices split first),
+//! (compress and decompress, default settings or `--patch-size P`, non-manifold
+//! vertices split first),
 //! `partial` (the `--count` smallest eigenpairs by banded shift-invert), `partition`
 //! (METIS patches of `--patch-size`), `project-patches` (partition + patch-wise
 //! truncated ED reconstruction, end to end, with the peak RSS).
@@ -213,7 +214,11 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             let (mesh_c, _) = meshlap::mesh::clean::split_non_manifold(&input.mesh)?;
             let topo = meshlap::mesh::topology::Topology::new(&mesh_c)?;
             out.insert("vertices".into(), mesh_c.n_vertices().into());
-            let opts = meshlap::codec::CompressOptions::default();
+            let mut opts = meshlap::codec::CompressOptions::default();
+            if let Some(p) = flag(&args, "--patch-size") {
+                opts.geometry.patch_size = p.parse()?;
+            }
+            out.insert("patch_size".into(), opts.geometry.patch_size.into());
             let c = meshlap::codec::compress(&mesh_c, &topo, &opts)?;
             let (e, te) = time(repeat, || {
                 meshlap::codec::compress(&mesh_c, &topo, &opts).map(|c| c.bytes.len())

@@ -20,10 +20,10 @@ pub struct Args {
     #[arg(short, long)]
     pub output: PathBuf,
     /// Operator whose eigenvectors form the basis: sstl, sql, tutte, kirchhoff, graph.
-    #[arg(long, default_value = "sstl")]
+    #[arg(long, default_value = "kirchhoff")]
     pub operator: OperatorKind,
     /// Patch size in vertices (each patch is eigen-decomposed densely).
-    #[arg(long, default_value_t = 300)]
+    #[arg(long, default_value_t = 150)]
     pub patch_size: usize,
     /// Fraction of each patch's coefficients kept (low frequencies first).
     #[arg(long, conflicts_with = "coefficients")]
@@ -47,6 +47,15 @@ pub struct Args {
     /// truncated basis errs most (useful with a keep ratio below 1).
     #[arg(long)]
     pub border_residuals: bool,
+    /// Dead-zone rounding offset θ in [0.2, 0.5] of the coefficient quantiser,
+    /// q = sign(c)·floor(|c|/step + θ) (0.5: plain rounding; smaller values zero more
+    /// small coefficients, trading a little error for rate).
+    #[arg(long, default_value_t = 0.4)]
+    pub dead_zone: f64,
+    /// Turn off inter-patch prediction (each patch codes its coordinates instead of
+    /// their difference from the smoothest continuation of earlier patches).
+    #[arg(long)]
+    pub no_prediction: bool,
     /// Also measure the distortion of the decoded mesh against the input (the
     /// metrics of `meshlap compare`, through the coder's vertex order).
     #[arg(long)]
@@ -78,6 +87,8 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
             keep,
             border_residuals: args.border_residuals,
             band_slope: args.band_slope,
+            predicted: !args.no_prediction,
+            dead_zone: args.dead_zone,
         },
         quantisation,
         preserve_order: args.preserve_order,

@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! magic      4 bytes  "MLZ\x1a"
-//! version    u16 LE   (1)
+//! version    u16 LE   (2: inter-patch prediction in the geometry section)
 //! sections   u16 LE   count (≤ 16)
 //! per section:
 //!   kind     u8       1 header, 2 connectivity, 3 permutation, 4 geometry
@@ -21,7 +21,7 @@ use super::CodecError;
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"MLZ\x1a";
 /// Current format version.
-pub const VERSION: u16 = 1;
+pub const VERSION: u16 = 2;
 const MAX_SECTIONS: u16 = 16;
 
 /// Section kinds.

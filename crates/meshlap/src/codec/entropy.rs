@@ -2,8 +2,13 @@
 //! small alphabets and unbounded integers.
 //!
 //! Every symbol is coded as a sequence of binary decisions, each with its own adaptive
-//! probability (11-bit, updated by `p += (1 − p)/32` — an exponentially forgetting
-//! estimate). A multi-symbol alphabet is a binary tree of such decisions
+//! probability: the mean of two exponentially forgetting estimates, a fast one
+//! (`p += (1 − p)/16`) and a slow one (`p += (1 − p)/64`), used at 12 bits (format
+//! version 2; version 1 had a single `1/32` estimate at 11 bits). The pair tracks
+//! both short bursts and stable statistics: at 10.5 quantisation bits, bunny
+//! connectivity 1.406 → 1.367 and geometry 6.443 → 6.363 bits/vertex, Igea 1.473 →
+//! 1.417 and 4.146 → 4.092; single rates of 1/16 or 1/64 and pairs (1/16, 1/32),
+//! (1/16, 1/128), (1/32, 1/128), (1/8, 1/64) were all worse. A multi-symbol alphabet is a binary tree of such decisions
 //! ([`BitTree`]); an integer is its Elias-gamma bit length coded by a bit tree plus
 //! its mantissa, the first bits adaptive and the rest equiprobable ([`UintModel`]).
 //!
@@ -19,18 +24,48 @@
 
 use super::CodecError;
 
-const PROB_BITS: u32 = 11;
-const PROB_ONE: u16 = 1 << PROB_BITS;
-const ADAPT_SHIFT: u32 = 5;
+/// Bits of the probability used for coding.
+const PROB_BITS: u32 = 12;
+/// Scale of the two internal estimates (15 bits each; their sum has 16).
+const EST_ONE: u32 = 1 << 15;
+/// Adaptation shifts of the fast and slow estimates (windows of about 16 and 64 bits).
+const FAST_SHIFT: u32 = 4;
+const SLOW_SHIFT: u32 = 6;
 const TOP: u32 = 1 << 24;
 
 /// An adaptive probability that the next bit is 0 (initially ½).
 #[derive(Clone, Copy, Debug)]
-pub struct BitModel(u16);
+pub struct BitModel {
+    fast: u16,
+    slow: u16,
+}
 
 impl Default for BitModel {
     fn default() -> Self {
-        BitModel(PROB_ONE / 2)
+        BitModel {
+            fast: (EST_ONE / 2) as u16,
+            slow: (EST_ONE / 2) as u16,
+        }
+    }
+}
+
+impl BitModel {
+    /// Probability of a 0, in `1..2^PROB_BITS`: the mean of the two estimates.
+    #[inline]
+    fn p0(&self) -> u32 {
+        (self.fast as u32 + self.slow as u32) >> (16 - PROB_BITS)
+    }
+    #[inline]
+    fn update(&mut self, bit: bool) {
+        let (f, s) = (FAST_SHIFT, SLOW_SHIFT);
+        let (a, b) = (self.fast as u32, self.slow as u32);
+        if !bit {
+            self.fast = (a + ((EST_ONE - a) >> f)) as u16;
+            self.slow = (b + ((EST_ONE - b) >> s)) as u16;
+        } else {
+            self.fast = (a - (a >> f)) as u16;
+            self.slow = (b - (b >> s)) as u16;
+        }
     }
 }
 
@@ -90,15 +125,14 @@ impl RangeEncoder {
     /// Codes `bit` with the adaptive probability `m`.
     #[inline]
     pub fn bit(&mut self, m: &mut BitModel, bit: bool) {
-        let bound = (self.range >> PROB_BITS) * m.0 as u32;
+        let bound = (self.range >> PROB_BITS) * m.p0();
         if !bit {
             self.range = bound;
-            m.0 += (PROB_ONE - m.0) >> ADAPT_SHIFT;
         } else {
             self.low += bound as u64;
             self.range -= bound;
-            m.0 -= m.0 >> ADAPT_SHIFT;
         }
+        m.update(bit);
         self.normalize();
     }
 
@@ -181,17 +215,16 @@ impl<'a> RangeDecoder<'a> {
     /// Decodes a bit with the adaptive probability `m`.
     #[inline]
     pub fn bit(&mut self, m: &mut BitModel) -> bool {
-        let bound = (self.range >> PROB_BITS) * m.0 as u32;
+        let bound = (self.range >> PROB_BITS) * m.p0();
         let bit = if self.code < bound {
             self.range = bound;
-            m.0 += (PROB_ONE - m.0) >> ADAPT_SHIFT;
             false
         } else {
             self.code -= bound;
             self.range -= bound;
-            m.0 -= m.0 >> ADAPT_SHIFT;
             true
         };
+        m.update(bit);
         self.normalize();
         bit
     }

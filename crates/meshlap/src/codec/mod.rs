@@ -359,6 +359,32 @@ mod tests {
     }
 
     #[test]
+    fn decoding_does_not_depend_on_the_thread_count() {
+        // Encoder on 2 threads, decoder on 1 and 3: the bases, the inter-patch
+        // predictors and the synthesis must agree bit for bit.
+        let (m, t) = open("builtin:torus:40:24");
+        let opts = CompressOptions {
+            geometry: GeometryParams {
+                patch_size: 60,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let pool = |k| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(k)
+                .build()
+                .unwrap()
+        };
+        let c = pool(2).install(|| compress(&m, &t, &opts).unwrap());
+        assert!(c.report.geometry.patches >= 10);
+        for k in [1, 3] {
+            let d = pool(k).install(|| decompress(&c.bytes).unwrap());
+            assert_eq!(d, c.decoded, "{k} threads");
+        }
+    }
+
+    #[test]
     fn rate_control_meets_the_target() {
         let (m, t) = open("builtin:icosphere:4");
         for b in [4.0, 8.0] {
