@@ -208,7 +208,7 @@ struct PartialJson<'a> {
     seconds: f64,
 }
 
-/// Large meshes: the k smallest eigenpairs by banded shift-invert Lanczos
+/// Large meshes: the k smallest eigenpairs by banded shift-invert block Krylov–Schur
 /// (`meshlap::spectral::partial`), with a progress bar over the pairs found.
 fn run_partial(args: &Args, input: &Input, count: usize) -> meshlap::Result<()> {
     use meshlap::spectral::partial::{operator_partial_spectrum, PartialOptions};
