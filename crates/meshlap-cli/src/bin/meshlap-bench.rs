@@ -11,7 +11,8 @@
 //! `--export DIR` writes the matrices and right-hand side for the scipy side), `codec`
 //! (compress and decompress, default settings or `--patch-size P`, non-manifold
 //! vertices split first),
-//! `partial` (the `--count` smallest eigenpairs by banded shift-invert), `partition`
+//! `partial` (the `--count` smallest eigenpairs by banded shift-invert block
+//! Krylov–Schur; `--tol`, `--band`, `--block` override `PartialOptions`), `partition`
 //! (METIS patches of `--patch-size`), `project-patches` (partition + patch-wise
 //! truncated ED reconstruction, end to end, with the peak RSS).
 
@@ -63,7 +64,7 @@ fn main() {
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let usage = "usage: meshlap-bench load|operators|topology|io|read|spectrum|solvers|codec|partial|partition|project-patches MESH \
-                 [--repeat N] [--kind K] [--general] [--lambda L] [--export DIR] [--count K] [--patch-size P] \
+                 [--repeat N] [--kind K] [--general] [--lambda L] [--export DIR] [--count K] [--tol T] [--band B] [--block P] [--patch-size P] \
                  | dump MESH DIR | write MESH OUT [--repeat N]";
     let task = args.first().ok_or(usage)?.clone();
     let mesh = args.get(1).ok_or(usage)?.clone();
