@@ -177,7 +177,7 @@ fn row_threads(n: usize) -> usize {
 /// `Aᵀ B` for tall `A` (n×s) and `B` (n×p), by row chunks on the rayon threads, each
 /// a sequential faer product. (faer's own parallel products spin-wait in their
 /// thread pool; on two shared cores that costs more than it gains.)
-pub(crate) fn tn_product(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> Mat<f64> {
+fn tn_product(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> Mat<f64> {
     fn go(a: MatRef<'_, f64>, b: MatRef<'_, f64>, threads: usize) -> Mat<f64> {
         if threads <= 1 {
             let mut c = Mat::<f64>::zeros(a.ncols(), b.ncols());
@@ -198,7 +198,7 @@ pub(crate) fn tn_product(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> Mat<f64> {
 }
 
 /// `out ← β·out + α·A C` for tall `A` (n×s), by row chunks (see [`tn_product`]).
-pub(crate) fn nn_product(
+fn nn_product(
     out: MatMut<'_, f64>,
     accum: Accum,
     a: MatRef<'_, f64>,
@@ -283,8 +283,8 @@ fn col_norm(w: MatRef<'_, f64>, j: usize) -> f64 {
 /// Orthonormalises the block `w` (n×p) against `deflate`, the basis `v` (n×s) and
 /// itself. Writes the basis coefficients into `coef` (s×p, accumulated) and the
 /// intra-block factor into `r` (p×p upper triangular; a zero diagonal marks a
-/// breakdown column replaced by a random one). `raw` are the column norms before any
-/// orthogonalisation (the breakdown test is relative to them).
+/// breakdown column replaced by a random one). The breakdown test is relative to the
+/// column norms before any orthogonalisation.
 ///
 /// `local_from`: in exact arithmetic `w = A V_j` has components only along the
 /// columns `local_from..s` (the previous and current blocks of a Lanczos
@@ -300,13 +300,13 @@ fn orthonormalize_block(
     mut w: MatMut<'_, f64>,
     mut coef: MatMut<'_, f64>,
     mut r: MatMut<'_, f64>,
-    raw: &[f64],
     rng: &mut u64,
     breakdowns: &mut usize,
     skipped: &mut usize,
 ) {
     let p = w.ncols();
     let s = v.ncols();
+    let raw: Vec<f64> = (0..p).map(|j| col_norm(w.rb(), j)).collect();
     if let Some(d) = deflate {
         project_out(d, w.rb_mut(), None);
     }
@@ -428,7 +428,6 @@ pub fn largest_magnitude(
     {
         let mut w = Mat::<f64>::zeros(n, p);
         random_fill(w.as_mut(), params.seed);
-        let raw: Vec<f64> = (0..p).map(|j| col_norm(w.as_ref(), j)).collect();
         let mut c = Mat::<f64>::zeros(0, p);
         let mut r = Mat::<f64>::zeros(p, p);
         orthonormalize_block(
@@ -438,7 +437,6 @@ pub fn largest_magnitude(
             w.as_mut(),
             c.as_mut(),
             r.as_mut(),
-            &raw,
             &mut rng,
             &mut info.breakdowns,
             &mut info.skipped_updates,
@@ -470,7 +468,6 @@ pub fn largest_magnitude(
         while s + p <= target {
             op.apply_block(v.as_ref().subcols(s, p), w.as_mut());
             info.applications += p;
-            let raw: Vec<f64> = (0..p).map(|j| col_norm(w.as_ref(), j)).collect();
             let mut c = Mat::<f64>::zeros(s + p, p);
             // Lanczos locality: the first block after a restart couples to the kept
             // Ritz vectors, later ones only to the previous block.
@@ -482,7 +479,6 @@ pub fn largest_magnitude(
                 w.as_mut(),
                 c.as_mut(),
                 r.as_mut(),
-                &raw,
                 &mut rng,
                 &mut info.breakdowns,
                 &mut info.skipped_updates,
