@@ -303,10 +303,21 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             });
             let ps = last.ok_or("no run")?;
             let max_res = ps.residuals.iter().fold(0.0f64, |a, &b| a.max(b));
+            // Orthonormality of the eigenvectors (untimed): max |VᵀV − I|.
+            let v = ps.eigenvectors.as_ref();
+            let g = v.transpose() * v;
+            let mut ortho = 0.0f64;
+            for j in 0..g.ncols() {
+                for i in 0..g.nrows() {
+                    let e = g[(i, j)] - if i == j { 1.0 } else { 0.0 };
+                    ortho = ortho.max(e.abs());
+                }
+            }
             out.insert(
                 "partial".into(),
                 serde_json::json!({"median": m, "times": t, "count": count,
                     "bands": ps.bands.len(), "band_info": ps.bands, "max_residual": max_res,
+                    "orthogonality": ortho,
                     "eigenvalues": ps.eigenvalues}),
             );
         }

@@ -1,0 +1,478 @@
+//! Products of a tall basis with a thin block, the Gram–Schmidt kernels of
+//! [`super::krylov_schur`]:
+//!
+//! - [`tn`]: `C = Vᵀ W` for `V` n×s and `W` n×p (p small: the block size),
+//! - [`sub_nn`]: `W ← W − V C` for `C` s×p.
+//!
+//! Both stream `V` once and are memory-bound: `V` is hundreds of basis vectors (the
+//! bunny's 200-pair bands hold up to 500 vectors of 34,817 entries, 140 MB), far
+//! beyond the caches, while `W` is a few MB. The kernels split the rows between the
+//! rayon threads, walk each thread's rows in chunks of [`CHUNK`] rows (the chunk of
+//! `W`, at most 16×2048×8 B = 256 KiB, stays in L2) and, within a chunk, go down the
+//! contiguous columns of `V`: every byte of `V` is read once, in runs of 16 KiB that
+//! the hardware prefetchers follow. faer's general GEMM packs `V` into panels for
+//! these shapes and reaches about a third of the streaming bandwidth on the 2-core
+//! development machine (5.6 GB/s per core at s = 400 against 17–22 GB/s for a
+//! streaming sum; `examples`-style measurement in BENCHMARKS.md); these loops reach
+//! the streaming rate. They are written with fixed-width accumulator arrays that
+//! LLVM vectorises, compiled for AVX2 + FMA when the CPU has them (dispatched at run
+//! time, as faer does), and fall back to faer's `matmul` for strided views.
+//!
+//! Rounding: each thread sums its rows in its own order and the halves are added, so
+//! results depend on the thread count at the level of rounding (as any parallel
+//! reduction does).
+
+use faer::linalg::matmul::matmul;
+use faer::reborrow::{Reborrow, ReborrowMut};
+use faer::{Accum, Mat, MatMut, MatRef, Par};
+
+/// Rows per cache chunk.
+const CHUNK: usize = 512;
+/// Minimum rows per thread before a product is split between threads.
+const MIN_ROWS_PER_THREAD: usize = 4096;
+
+fn threads_for(n: usize) -> usize {
+    rayon::current_num_threads()
+        .min(n / MIN_ROWS_PER_THREAD)
+        .max(1)
+}
+
+fn unit_rows(m: MatRef<'_, f64>) -> bool {
+    m.row_stride() == 1 || m.nrows() <= 1
+}
+
+/// `Vᵀ W` (s×p) for tall `V` (n×s) and `W` (n×p).
+pub fn tn(v: MatRef<'_, f64>, w: MatRef<'_, f64>) -> Mat<f64> {
+    assert_eq!(v.nrows(), w.nrows(), "tn: row counts differ");
+    fn go(v: MatRef<'_, f64>, w: MatRef<'_, f64>, threads: usize) -> Mat<f64> {
+        if threads <= 1 {
+            let mut c = Mat::<f64>::zeros(v.ncols(), w.ncols());
+            tn_seq(v, w, c.as_mut());
+            return c;
+        }
+        let h = v.nrows() / 2;
+        let (v1, v2) = v.split_at_row(h);
+        let (w1, w2) = w.split_at_row(h);
+        let (mut c1, c2) = rayon::join(
+            || go(v1, w1, threads / 2),
+            || go(v2, w2, threads - threads / 2),
+        );
+        c1 += &c2;
+        c1
+    }
+    go(v, w, threads_for(v.nrows()))
+}
+
+/// `W ← W − V C` for tall `V` (n×s), `C` (s×p), `W` (n×p).
+pub fn sub_nn(w: MatMut<'_, f64>, v: MatRef<'_, f64>, c: MatRef<'_, f64>) {
+    assert_eq!(v.nrows(), w.nrows(), "sub_nn: row counts differ");
+    assert_eq!(v.ncols(), c.nrows(), "sub_nn: inner dimensions differ");
+    assert_eq!(w.ncols(), c.ncols(), "sub_nn: column counts differ");
+    fn go(w: MatMut<'_, f64>, v: MatRef<'_, f64>, c: MatRef<'_, f64>, threads: usize) {
+        if threads <= 1 {
+            sub_nn_seq(w, v, c);
+            return;
+        }
+        let h = v.nrows() / 2;
+        let (w1, w2) = w.split_at_row_mut(h);
+        let (v1, v2) = v.split_at_row(h);
+        rayon::join(
+            || go(w1, v1, c, threads / 2),
+            || go(w2, v2, c, threads - threads / 2),
+        );
+    }
+    go(w, v, c, threads_for(v.nrows()))
+}
+
+/// One thread's `C += Vᵀ W`.
+fn tn_seq(v: MatRef<'_, f64>, w: MatRef<'_, f64>, mut c: MatMut<'_, f64>) {
+    if !unit_rows(v) || !unit_rows(w) || v.ncols() == 0 || w.ncols() == 0 {
+        matmul(c, Accum::Add, v.transpose(), w, 1.0, Par::Seq);
+        return;
+    }
+    let mut j0 = 0;
+    while j0 < w.ncols() {
+        let left = w.ncols() - j0;
+        let g = if left >= 8 {
+            8
+        } else if left >= 4 {
+            4
+        } else if left >= 2 {
+            2
+        } else {
+            1
+        };
+        let wg = w.subcols(j0, g);
+        let cg = c.rb_mut().subcols_mut(j0, g);
+        match g {
+            8 => dispatch_tn::<8>(v, wg, cg),
+            4 => dispatch_tn::<4>(v, wg, cg),
+            2 => dispatch_tn::<2>(v, wg, cg),
+            _ => dispatch_tn::<1>(v, wg, cg),
+        }
+        j0 += g;
+    }
+}
+
+/// One thread's `W −= V C`.
+fn sub_nn_seq(mut w: MatMut<'_, f64>, v: MatRef<'_, f64>, c: MatRef<'_, f64>) {
+    if !unit_rows(v) || !unit_rows(w.rb()) || v.ncols() == 0 || w.ncols() == 0 {
+        matmul(w, Accum::Add, v, c, -1.0, Par::Seq);
+        return;
+    }
+    let mut j0 = 0;
+    while j0 < w.ncols() {
+        let left = w.ncols() - j0;
+        let g = if left >= 8 {
+            8
+        } else if left >= 4 {
+            4
+        } else if left >= 2 {
+            2
+        } else {
+            1
+        };
+        let wg = w.rb_mut().subcols_mut(j0, g);
+        let cg = c.subcols(j0, g);
+        match g {
+            8 => dispatch_nn::<8>(wg, v, cg),
+            4 => dispatch_nn::<4>(wg, v, cg),
+            2 => dispatch_nn::<2>(wg, v, cg),
+            _ => dispatch_nn::<1>(wg, v, cg),
+        }
+        j0 += g;
+    }
+}
+
+fn dispatch_tn<const G: usize>(v: MatRef<'_, f64>, w: MatRef<'_, f64>, c: MatMut<'_, f64>) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        #[target_feature(enable = "avx2,fma")]
+        fn avx2<const G: usize>(v: MatRef<'_, f64>, w: MatRef<'_, f64>, c: MatMut<'_, f64>) {
+            x86::tn_kernel::<G>(v, w, c)
+        }
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
+            // SAFETY: the CPU supports the features `avx2` is compiled for.
+            unsafe { avx2::<G>(v, w, c) };
+            return;
+        }
+    }
+    tn_kernel::<G, false>(v, w, c)
+}
+
+fn dispatch_nn<const G: usize>(w: MatMut<'_, f64>, v: MatRef<'_, f64>, c: MatRef<'_, f64>) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        #[target_feature(enable = "avx2,fma")]
+        fn avx2<const G: usize>(w: MatMut<'_, f64>, v: MatRef<'_, f64>, c: MatRef<'_, f64>) {
+            x86::nn_kernel::<G>(w, v, c)
+        }
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
+            // SAFETY: the CPU supports the features `avx2` is compiled for.
+            unsafe { avx2::<G>(w, v, c) };
+            return;
+        }
+    }
+    nn_kernel::<G, false>(w, v, c)
+}
+
+#[inline(always)]
+fn fma<const FMA: bool>(a: f64, b: f64, c: f64) -> f64 {
+    if FMA {
+        a.mul_add(b, c)
+    } else {
+        a * b + c
+    }
+}
+
+/// Column `j` of a unit-row-stride view, rows `r0..r1`.
+#[inline(always)]
+fn col_slice<'a>(m: MatRef<'a, f64>, j: usize, r0: usize, r1: usize) -> &'a [f64] {
+    let col = m.col(j);
+    // SAFETY: rows have unit stride (checked by the callers), so the column's
+    // entries r0..r1 are contiguous and inside the matrix.
+    unsafe { std::slice::from_raw_parts(col.as_ptr().add(r0), r1 - r0) }
+}
+
+/// `C += Vᵀ W` for `G` columns of `W`: per chunk of rows, one pass down each column
+/// of `V` with `4·G` accumulators.
+#[inline(always)]
+fn tn_kernel<const G: usize, const FMA: bool>(
+    v: MatRef<'_, f64>,
+    w: MatRef<'_, f64>,
+    mut c: MatMut<'_, f64>,
+) {
+    let n = v.nrows();
+    let s = v.ncols();
+    let mut r0 = 0;
+    while r0 < n {
+        let r1 = (r0 + CHUNK).min(n);
+        let len = r1 - r0;
+        let quads = len / 4 * 4;
+        let ws: [&[f64]; G] = std::array::from_fn(|j| col_slice(w, j, r0, r1));
+        for i in 0..s {
+            let vi = col_slice(v, i, r0, r1);
+            let mut acc = [[0.0f64; 4]; G];
+            let mut k = 0;
+            while k < quads {
+                let x: [f64; 4] = vi[k..k + 4].try_into().unwrap();
+                for j in 0..G {
+                    let y: [f64; 4] = ws[j][k..k + 4].try_into().unwrap();
+                    for l in 0..4 {
+                        acc[j][l] = fma::<FMA>(x[l], y[l], acc[j][l]);
+                    }
+                }
+                k += 4;
+            }
+            for j in 0..G {
+                let mut t = (acc[j][0] + acc[j][1]) + (acc[j][2] + acc[j][3]);
+                for kk in quads..len {
+                    t = fma::<FMA>(vi[kk], ws[j][kk], t);
+                }
+                c[(i, j)] += t;
+            }
+        }
+        r0 = r1;
+    }
+}
+
+/// `W −= V C` for `G` columns of `W`: per chunk of rows, four columns of `V` at a time.
+#[inline(always)]
+fn nn_kernel<const G: usize, const FMA: bool>(
+    mut w: MatMut<'_, f64>,
+    v: MatRef<'_, f64>,
+    c: MatRef<'_, f64>,
+) {
+    let n = v.nrows();
+    let s = v.ncols();
+    let mut r0 = 0;
+    while r0 < n {
+        let r1 = (r0 + CHUNK).min(n);
+        let len = r1 - r0;
+        let mut i = 0;
+        while i < s {
+            let t = (s - i).min(4);
+            // −C rows i..i+t, zero-padded to four.
+            let mut neg = [[0.0f64; G]; 4];
+            for (a, row) in neg.iter_mut().enumerate().take(t) {
+                for (j, x) in row.iter_mut().enumerate() {
+                    *x = -c[(i + a, j)];
+                }
+            }
+            let vs: [&[f64]; 4] = std::array::from_fn(|a| col_slice(v, i + a.min(t - 1), r0, r1));
+            for j in 0..G {
+                let col = w.rb_mut().col_mut(j);
+                // SAFETY: unit row stride (checked by the caller); rows r0..r1 exist.
+                let wj = unsafe { std::slice::from_raw_parts_mut(col.as_ptr_mut().add(r0), len) };
+                let (n0, n1, n2, n3) = (neg[0][j], neg[1][j], neg[2][j], neg[3][j]);
+                let rows = wj.iter_mut().zip(vs[0]).zip(vs[1]).zip(vs[2]).zip(vs[3]);
+                for ((((y, &x0), &x1), &x2), &x3) in rows {
+                    let mut a = *y;
+                    a = fma::<FMA>(n0, x0, a);
+                    a = fma::<FMA>(n1, x1, a);
+                    a = fma::<FMA>(n2, x2, a);
+                    a = fma::<FMA>(n3, x3, a);
+                    *y = a;
+                }
+            }
+            i += t;
+        }
+        r0 = r1;
+    }
+}
+
+/// The AVX2 + FMA kernels (4 doubles per register), same loops as the portable ones.
+#[cfg(target_arch = "x86_64")]
+mod x86 {
+    use super::{col_slice, CHUNK};
+    use faer::reborrow::ReborrowMut;
+    use faer::{MatMut, MatRef};
+    use std::arch::x86_64::*;
+
+    /// `C += Vᵀ W` for `G` columns of `W`. Per chunk of rows: four columns of `V`
+    /// against two of `W` at a time (8 accumulators; each loaded vector of `V` feeds
+    /// two FMAs and each of `W` four), so `W`'s chunk is re-read from L1 twice per
+    /// four columns of `V` rather than once per column.
+    #[inline(always)]
+    pub(super) fn tn_kernel<const G: usize>(
+        v: MatRef<'_, f64>,
+        w: MatRef<'_, f64>,
+        mut c: MatMut<'_, f64>,
+    ) {
+        let n = v.nrows();
+        let s = v.ncols();
+        let mut r0 = 0;
+        while r0 < n {
+            let r1 = (r0 + CHUNK).min(n);
+            let len = r1 - r0;
+            let quads = len / 4 * 4;
+            let ws: [&[f64]; G] = std::array::from_fn(|j| col_slice(w, j, r0, r1));
+            let mut i = 0;
+            while i < s {
+                let t = (s - i).min(4);
+                let vs: [&[f64]; 4] =
+                    std::array::from_fn(|a| col_slice(v, i + a.min(t - 1), r0, r1));
+                let mut j = 0;
+                while j < G {
+                    let j1 = (j + 1).min(G - 1);
+                    // SAFETY: every slice has `len` entries and `k + 4 <= quads <= len`;
+                    // the caller is compiled with AVX2 + FMA.
+                    unsafe {
+                        let mut acc0 = [_mm256_setzero_pd(); 4];
+                        let mut acc1 = [_mm256_setzero_pd(); 4];
+                        let mut k = 0;
+                        while k < quads {
+                            let y0 = _mm256_loadu_pd(ws[j].as_ptr().add(k));
+                            let y1 = _mm256_loadu_pd(ws[j1].as_ptr().add(k));
+                            for a in 0..4 {
+                                let x = _mm256_loadu_pd(vs[a].as_ptr().add(k));
+                                acc0[a] = _mm256_fmadd_pd(x, y0, acc0[a]);
+                                acc1[a] = _mm256_fmadd_pd(x, y1, acc1[a]);
+                            }
+                            k += 4;
+                        }
+                        for a in 0..t {
+                            for (jj, acc) in [(j, &acc0), (j1, &acc1)] {
+                                if jj == j1 && j1 == j && !std::ptr::eq(acc, &acc0) {
+                                    continue;
+                                }
+                                let mut lanes = [0.0f64; 4];
+                                _mm256_storeu_pd(lanes.as_mut_ptr(), acc[a]);
+                                let mut sum = (lanes[0] + lanes[1]) + (lanes[2] + lanes[3]);
+                                for kk in quads..len {
+                                    sum = vs[a][kk].mul_add(ws[jj][kk], sum);
+                                }
+                                c[(i + a, jj)] += sum;
+                            }
+                        }
+                    }
+                    j += 2;
+                }
+                i += t;
+            }
+            r0 = r1;
+        }
+    }
+
+    #[inline(always)]
+    pub(super) fn nn_kernel<const G: usize>(
+        mut w: MatMut<'_, f64>,
+        v: MatRef<'_, f64>,
+        c: MatRef<'_, f64>,
+    ) {
+        let n = v.nrows();
+        let s = v.ncols();
+        let mut r0 = 0;
+        while r0 < n {
+            let r1 = (r0 + CHUNK).min(n);
+            let len = r1 - r0;
+            let quads = len / 4 * 4;
+            let mut i = 0;
+            while i < s {
+                let t = (s - i).min(4);
+                let vs: [&[f64]; 4] =
+                    std::array::from_fn(|a| col_slice(v, i + a.min(t - 1), r0, r1));
+                for j in 0..G {
+                    let coef: [f64; 4] =
+                        std::array::from_fn(|a| if a < t { -c[(i + a, j)] } else { 0.0 });
+                    let col = w.rb_mut().col_mut(j);
+                    // SAFETY: unit row stride (checked by the caller); rows r0..r1
+                    // exist; every slice has `len` entries and `k + 4 <= quads`.
+                    unsafe {
+                        let y = col.as_ptr_mut().add(r0);
+                        let n0 = _mm256_set1_pd(coef[0]);
+                        let n1 = _mm256_set1_pd(coef[1]);
+                        let n2 = _mm256_set1_pd(coef[2]);
+                        let n3 = _mm256_set1_pd(coef[3]);
+                        let mut k = 0;
+                        while k < quads {
+                            let mut a = _mm256_loadu_pd(y.add(k));
+                            a = _mm256_fmadd_pd(n0, _mm256_loadu_pd(vs[0].as_ptr().add(k)), a);
+                            a = _mm256_fmadd_pd(n1, _mm256_loadu_pd(vs[1].as_ptr().add(k)), a);
+                            a = _mm256_fmadd_pd(n2, _mm256_loadu_pd(vs[2].as_ptr().add(k)), a);
+                            a = _mm256_fmadd_pd(n3, _mm256_loadu_pd(vs[3].as_ptr().add(k)), a);
+                            _mm256_storeu_pd(y.add(k), a);
+                            k += 4;
+                        }
+                        for kk in quads..len {
+                            let mut a = *y.add(kk);
+                            for (q, x) in coef.iter().zip(vs) {
+                                a = q.mul_add(x[kk], a);
+                            }
+                            *y.add(kk) = a;
+                        }
+                    }
+                }
+                i += t;
+            }
+            r0 = r1;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn filled(n: usize, m: usize, seed: u64) -> Mat<f64> {
+        let mut x = Mat::<f64>::zeros(n, m);
+        crate::spectral::krylov_schur::random_fill(x.as_mut(), seed);
+        x
+    }
+
+    #[test]
+    fn products_match_faer_for_every_width_and_length() {
+        // Lengths around the chunk and quad boundaries, widths through every group
+        // size and a remainder, and a row count large enough to split threads.
+        for &(n, s) in &[(1usize, 1usize), (7, 3), (2051, 5), (9000, 9), (20_000, 17)] {
+            for &p in &[1usize, 2, 3, 7, 8, 13] {
+                let v = filled(n, s, 1 + n as u64);
+                let w = filled(n, p, 2 + p as u64);
+                let c = tn(v.as_ref(), w.as_ref());
+                let want = v.transpose() * &w;
+                let scale = (n as f64).sqrt();
+                assert!(
+                    (&c - &want).norm_max() <= 1e-13 * scale,
+                    "tn n={n} s={s} p={p}"
+                );
+                let mut got = w.clone();
+                sub_nn(got.as_mut(), v.as_ref(), c.as_ref());
+                let want = &w - &v * &c;
+                assert!(
+                    (&got - &want).norm_max() <= 1e-12 * scale,
+                    "sub_nn n={n} s={s} p={p}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn portable_kernels_match_faer() {
+        // The kernels used when the CPU lacks AVX2 + FMA (always compiled).
+        let (n, s) = (1500usize, 6usize);
+        let v = filled(n, s, 11);
+        let w8 = filled(n, 8, 12);
+        let w1 = filled(n, 1, 13);
+        let mut c8 = Mat::<f64>::zeros(s, 8);
+        tn_kernel::<8, false>(v.as_ref(), w8.as_ref(), c8.as_mut());
+        assert!((&c8 - v.transpose() * &w8).norm_max() <= 1e-12);
+        let mut c1 = Mat::<f64>::zeros(s, 1);
+        tn_kernel::<1, true>(v.as_ref(), w1.as_ref(), c1.as_mut());
+        assert!((&c1 - v.transpose() * &w1).norm_max() <= 1e-12);
+        let mut got = w8.clone();
+        nn_kernel::<8, false>(got.as_mut(), v.as_ref(), c8.as_ref());
+        assert!((&got - (&w8 - &v * &c8)).norm_max() <= 1e-12);
+    }
+
+    #[test]
+    fn strided_views_fall_back_to_faer() {
+        let v = filled(300, 4, 3);
+        let w = filled(4, 300, 4);
+        // wᵀ is a 300×4 view with non-unit row stride.
+        let c = tn(v.as_ref(), w.transpose());
+        let want = v.transpose() * w.transpose();
+        assert!((&c - &want).norm_max() <= 1e-12);
+    }
+}
