@@ -337,6 +337,10 @@ fn orthonormalize_block(
         }
     }
     r.fill(0.0);
+    if p > 1 && cholesky_qr2(w.rb_mut(), r.rb_mut(), &raw) {
+        return;
+    }
+    r.fill(0.0);
     for j in 0..p {
         for _ in 0..2 {
             for i in 0..j {
@@ -372,6 +376,92 @@ fn orthonormalize_block(
             w.rb_mut().col_mut(j).iter_mut().for_each(|x| *x *= inv);
         }
     }
+}
+
+/// The intra-block factorization `W = Q R` by Cholesky QR applied twice (Stathopoulos
+/// & Wu 2002; Fukaya et al. 2014): `G = WᵀW = R₁ᵀR₁`, `W ← W R₁⁻¹`, again with `R₂`,
+/// `R = R₂R₁`. Two products over the n×p block per pass, split between the threads,
+/// instead of the p(p−1) sequential dot products and updates of modified
+/// Gram–Schmidt. Returns `false` and leaves `w` and `r` untouched when the block is
+/// ill-conditioned — a pivot of the first pass below `10⁻³` of its column's raw norm
+/// (heavy cancellation or a breakdown, which the caller's Gram–Schmidt path handles
+/// with its extra re-orthogonalisation and random replacement columns) or a failed
+/// Cholesky.
+fn cholesky_qr2(mut w: MatMut<'_, f64>, mut r: MatMut<'_, f64>, raw: &[f64]) -> bool {
+    let p = w.ncols();
+    let first = match cholesky_upper(&thin_products::tn(w.rb(), w.rb())) {
+        Some(r1) => r1,
+        None => return false,
+    };
+    let well_conditioned = (0..p).all(|j| first[(j, j)] > 1e-3 * raw[j].max(f64::MIN_POSITIVE));
+    if !well_conditioned {
+        return false;
+    }
+    let mut q = Mat::<f64>::zeros(w.nrows(), p);
+    nn_product(
+        q.as_mut(),
+        Accum::Replace,
+        w.rb(),
+        upper_inverse(&first).as_ref(),
+        1.0,
+    );
+    let second = match cholesky_upper(&thin_products::tn(q.as_ref(), q.as_ref())) {
+        Some(r2) => r2,
+        None => return false,
+    };
+    nn_product(
+        w.rb_mut(),
+        Accum::Replace,
+        q.as_ref(),
+        upper_inverse(&second).as_ref(),
+        1.0,
+    );
+    r.copy_from(&second * &first);
+    true
+}
+
+/// Upper Cholesky factor `R` (`G = RᵀR`) of a small symmetric matrix; `None` unless
+/// every pivot is positive and finite. (p×p with p the block size: written out here
+/// to get the failure as a value, without faer's allocation and error plumbing.)
+fn cholesky_upper(g: &Mat<f64>) -> Option<Mat<f64>> {
+    let p = g.nrows();
+    let mut r = Mat::<f64>::zeros(p, p);
+    for j in 0..p {
+        let mut d = g[(j, j)];
+        for k in 0..j {
+            d -= r[(k, j)] * r[(k, j)];
+        }
+        if !(d > 0.0 && d.is_finite()) {
+            return None;
+        }
+        let rjj = d.sqrt();
+        r[(j, j)] = rjj;
+        for i in j + 1..p {
+            let mut x = g[(j, i)];
+            for k in 0..j {
+                x -= r[(k, j)] * r[(k, i)];
+            }
+            r[(j, i)] = x / rjj;
+        }
+    }
+    Some(r)
+}
+
+/// Inverse of a small upper triangular matrix with a nonzero diagonal.
+fn upper_inverse(r: &Mat<f64>) -> Mat<f64> {
+    let p = r.nrows();
+    let mut x = Mat::<f64>::zeros(p, p);
+    for j in 0..p {
+        x[(j, j)] = 1.0 / r[(j, j)];
+        for i in (0..j).rev() {
+            let mut s = 0.0;
+            for k in i + 1..=j {
+                s += r[(i, k)] * x[(k, j)];
+            }
+            x[(i, j)] = -s / r[(i, i)];
+        }
+    }
+    x
 }
 
 /// Column `j` of `w` projected against `deflate`, `v` and the columns `0..j` of `w`.

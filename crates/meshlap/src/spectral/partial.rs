@@ -581,14 +581,16 @@ impl ShiftInvert<'_> {
                     .try_as_col_major()
                     .expect("contiguous supernode")
                     .as_slice();
-                for (i, &lij) in col[j + 1..w].iter().enumerate() {
-                    let row = &mut x[start + j + 1 + i];
+                for (row, &lij) in x[start + j + 1..start + w].iter_mut().zip(&col[j + 1..w]) {
                     for t in 0..W {
                         row[t] -= lij * xj[t];
                     }
                 }
                 for (&pi, &lij) in pattern.iter().zip(&col[w..]) {
-                    let row = &mut x[pi];
+                    debug_assert!(pi < n);
+                    // SAFETY: supernode patterns hold row indices below n (faer's
+                    // symbolic factorization of an n×n matrix).
+                    let row = unsafe { x.get_unchecked_mut(pi) };
                     for t in 0..W {
                         row[t] -= lij * xj[t];
                     }
@@ -621,14 +623,15 @@ impl ShiftInvert<'_> {
                     .try_as_col_major()
                     .expect("contiguous supernode")
                     .as_slice();
-                for (i, &lij) in col[j + 1..w].iter().enumerate() {
-                    let row = &x[start + j + 1 + i];
+                for (row, &lij) in x[start + j + 1..start + w].iter().zip(&col[j + 1..w]) {
                     for t in 0..W {
                         acc[t] += lij * row[t];
                     }
                 }
                 for (&pi, &lij) in pattern.iter().zip(&col[w..]) {
-                    let row = &x[pi];
+                    debug_assert!(pi < n);
+                    // SAFETY: as in the forward pass.
+                    let row = unsafe { x.get_unchecked(pi) };
                     for t in 0..W {
                         acc[t] += lij * row[t];
                     }
