@@ -25,8 +25,8 @@
 //!    second pass subtracts only the significant range. The products of the tall
 //!    basis with a thin block are memory-bound and use the streaming kernels of
 //!    [`super::thin_products`]. The coefficients are stored as column block j of the
-//!    projected matrix `H`; the remainder is factored `W = V_{j+1} R` by Gram–Schmidt
-//!    inside the block. Full re-orthogonalisation makes `H` the Rayleigh quotient
+//!    projected matrix `H`; the remainder is factored `W = V_{j+1} R` by Cholesky QR
+//!    twice (modified Gram–Schmidt when the block is ill-conditioned). Full re-orthogonalisation makes `H` the Rayleigh quotient
 //!    `VᵀAV` up to rounding, so no Lanczos-specific structure has to be trusted: `H` is
 //!    read from its upper triangle (the computed coefficients) and symmetrised.
 //! 2. **Breakdown** (a column of `W` lies in the span of the basis to 10⁻¹⁰ — an
@@ -798,6 +798,37 @@ mod tests {
         for j in 0..5 {
             assert!((got.values[j] - 1.0 / (4.0 + j as f64)).abs() < 1e-12);
         }
+    }
+
+    #[test]
+    fn cholesky_qr2_factors_and_declines_ill_conditioned_blocks() {
+        let n = 5000;
+        let mut w = Mat::<f64>::zeros(n, 6);
+        random_fill(w.as_mut(), 9);
+        let raw: Vec<f64> = (0..6).map(|j| col_norm(w.as_ref(), j)).collect();
+        let orig = w.clone();
+        let mut r = Mat::<f64>::zeros(6, 6);
+        assert!(cholesky_qr2(w.as_mut(), r.as_mut(), &raw));
+        let gram = w.transpose() * &w;
+        assert!((&gram - Mat::<f64>::identity(6, 6)).norm_max() < 1e-14);
+        assert!((&w * &r - &orig).norm_max() < 1e-13);
+        for i in 0..6 {
+            for j in 0..i {
+                assert_eq!(r[(i, j)], 0.0, "R is upper triangular");
+            }
+        }
+        // Column 3 nearly a combination of columns 0 and 1 (relative 1e-6): the
+        // block is handed back, untouched, to the Gram–Schmidt path.
+        let mut bad = orig.clone();
+        for i in 0..n {
+            bad[(i, 3)] = orig[(i, 0)] - 2.0 * orig[(i, 1)] + 1e-6 * orig[(i, 3)];
+        }
+        let raw: Vec<f64> = (0..6).map(|j| col_norm(bad.as_ref(), j)).collect();
+        let keep = bad.clone();
+        let mut r = Mat::<f64>::zeros(6, 6);
+        assert!(!cholesky_qr2(bad.as_mut(), r.as_mut(), &raw));
+        assert_eq!(bad, keep);
+        assert_eq!(r, Mat::<f64>::zeros(6, 6));
     }
 
     #[test]
