@@ -237,8 +237,8 @@ type EncodedGeo = (Vec<u8>, Vec<[f64; 3]>, GeometryStats);
 /// fits `budget` bytes (`q = 1` if none does). The size grows with `q`, nearly
 /// linearly; regula falsi (Illinois variant) on a bracket `[lo, hi]` with `lo`
 /// fitting and `hi` not, each guess kept at least 5 % of the bracket from either
-/// end, stopping when the bracket is below 1e-3 bits or `size(lo)` is within 0.1 %
-/// of the budget: 6–9 encodes instead of bisection's 15.
+/// end, stopping when the bracket is below 2e-4 bits or `size(lo)` is within 0.05 %
+/// of the budget: 6–10 encodes instead of bisection's 15.
 fn fit_bits(
     mut size: impl FnMut(f64) -> Result<usize, CodecError>,
     budget: usize,
@@ -257,7 +257,7 @@ fn fit_bits(
     let (mut w_lo, mut w_hi) = (1.0f64, 1.0f64);
     let mut last_side = 0i8;
     for _ in 0..40 {
-        if hi - lo < 1e-3 || (b - s_lo as f64) < 1e-3 * b {
+        if hi - lo < 2e-4 || (b - s_lo as f64) < 5e-4 * b {
             break;
         }
         let (f_lo, f_hi) = (

@@ -35,9 +35,13 @@
 //!
 //! **Contexts.** Each coordinate's integer is coded with an adaptive
 //! [`super::entropy::IntModel`] chosen by the coordinate, the parallelogram count
-//! (0, 1, 2, ≥ 3), the activity of the decoded neighbours (bit length of
-//! `4·Σ|q|/count` over their three coordinates, capped at 7) and whether an earlier
-//! coordinate of the same vertex was non-zero: 3·4·8·2 = 192 models.
+//! (0, 1, 2, ≥ 3), the activity of the decoded neighbours (whether their mean
+//! `Σ_k |q_k|` reaches 2) and whether an earlier coordinate of the same vertex was
+//! non-zero: 3·4·2·2 = 48 models. Fewer contexts learn faster, which matters on a
+//! 35k-vertex mesh: eight activity buckets (bit length of `4·mean Σ|q|`) instead of
+//! two cost 11 % in vertex RMS at equal rate on the bunny (8 bpv) and 2.6 % on Igea;
+//! no activity context at all, or one set of models for the three coordinates, were
+//! in between.
 //!
 //! The decoder repeats the same floating-point operations in the same order, so it
 //! reproduces the encoder's reconstruction bit for bit; no eigenbasis is needed,
@@ -51,7 +55,7 @@ use crate::mesh::VertexId;
 /// Candidate predictions per vertex at most (the mean and three single parallelograms).
 const MAX_CANDIDATES: usize = 4;
 /// Activity buckets of the contexts.
-const ACTIVITY: usize = 8;
+const ACTIVITY: usize = 2;
 
 /// Parameters of the spatial coder.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -171,7 +175,8 @@ impl Plan {
     }
 }
 
-/// Activity bucket of `v`: bit length of `4·Σ|q|/count` over its decoded neighbours.
+/// Activity bucket of `v`: 1 when the mean `Σ_k |q_k|` of its decoded neighbours is
+/// at least 2 (or it has none), else 0.
 fn activity(topo: &Topology, v: usize, q: &[[i32; 3]]) -> usize {
     let mut s = 0u64;
     let mut c = 0u64;
@@ -183,11 +188,7 @@ fn activity(topo: &Topology, v: usize, q: &[[i32; 3]]) -> usize {
         s += (t[0].unsigned_abs() + t[1].unsigned_abs() + t[2].unsigned_abs()) as u64;
         c += 1;
     }
-    if c == 0 {
-        return ACTIVITY - 1;
-    }
-    let t = 4 * s / c;
-    ((u64::BITS - t.leading_zeros()) as usize).min(ACTIVITY - 1)
+    (c == 0 || s >= 2 * c) as usize
 }
 
 fn context(k: usize, npara: usize, act: usize, earlier: &[i64]) -> usize {
