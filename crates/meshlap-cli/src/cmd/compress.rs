@@ -25,8 +25,8 @@ pub struct Args {
     #[arg(short, long)]
     pub output: PathBuf,
     /// Geometry coder: auto (code both, keep the lower error — under `--target-bpv`
-    /// the lower vertex RMS, under `--bits` the lower log2(RMS) + geometry bpv/3),
-    /// spectral or spatial.
+    /// the lower product of vertex RMS and normal RMS, under `--bits` the lower
+    /// log2(vertex RMS · normal RMS) + 2·geometry bpv/3), spectral or spatial.
     #[arg(long, default_value = "auto")]
     pub mode: GeometryMode,
     /// Spatial coder: rate–distortion multiplier μ (step² per bit) of the rounding
@@ -158,8 +158,8 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         r.step, r.quantisation_bits
     );
     println!(
-        "geometry        {} coder, vertex RMS {:.4e} of the diagonal",
-        r.geometry_mode, r.vertex_rms
+        "geometry        {} coder, vertex RMS {:.4e}, normal RMS {:.4e} (of the diagonal)",
+        r.geometry_mode, r.vertex_rms, r.normal_rms
     );
     if r.geometry_mode == GeometryMode::Spectral {
         println!(
