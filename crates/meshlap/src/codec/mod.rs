@@ -243,29 +243,60 @@ type EncodedGeo = (Vec<u8>, Vec<[f64; 3]>, GeometryStats);
 
 /// Rate control: the largest `q ∈ [1, 30]` (step `diag·2^{−q}`) whose file `size(q)`
 /// fits `budget` bytes (`q = 1` if none does). The size grows with `q`, nearly
-/// linearly; regula falsi (Illinois variant) on a bracket `[lo, hi]` with `lo`
-/// fitting and `hi` not, each guess kept at least 5 % of the bracket from either
-/// end, stopping when the bracket is below 2e-4 bits or `size(lo)` is within 0.05 %
-/// of the budget: 6–10 encodes instead of bisection's 15.
+/// linearly. A bracket `[lo, hi]` (`lo` fits, `hi` does not) is found by steps of 1,
+/// 2, 4, … bits from `guess`, then narrowed by regula falsi (Illinois variant), each
+/// guess kept at least 5 % of the bracket from either end, until the bracket is below
+/// 1e-3 bits or `size(lo)` is within 0.1 % of the budget. With a guess within a bit
+/// or two this takes 5–7 encodes (Igea at 8 bpv: 6 spectral, then 6 spatial from the
+/// spectral answer + ½; bisection on [1, 30] took 15).
 fn fit_bits(
     mut size: impl FnMut(f64) -> Result<usize, CodecError>,
     budget: usize,
+    guess: f64,
 ) -> Result<f64, CodecError> {
-    let (mut lo, mut hi) = (1.0f64, 30.0f64);
-    let mut s_lo = size(lo)?;
-    if s_lo > budget {
-        return Ok(lo);
-    }
-    let mut s_hi = size(hi)?;
-    if s_hi <= budget {
-        return Ok(hi);
+    const MIN: f64 = 1.0;
+    const MAX: f64 = 30.0;
+    let q0 = guess.clamp(MIN, MAX);
+    let s0 = size(q0)?;
+    let (mut lo, mut s_lo, mut hi, mut s_hi);
+    let mut d = 1.0;
+    if s0 <= budget {
+        (lo, s_lo) = (q0, s0);
+        loop {
+            if lo >= MAX {
+                return Ok(MAX);
+            }
+            let q = (lo + d).min(MAX);
+            let s = size(q)?;
+            if s > budget {
+                (hi, s_hi) = (q, s);
+                break;
+            }
+            (lo, s_lo) = (q, s);
+            d *= 2.0;
+        }
+    } else {
+        (hi, s_hi) = (q0, s0);
+        loop {
+            if hi <= MIN {
+                return Ok(MIN);
+            }
+            let q = (hi - d).max(MIN);
+            let s = size(q)?;
+            if s <= budget {
+                (lo, s_lo) = (q, s);
+                break;
+            }
+            (hi, s_hi) = (q, s);
+            d *= 2.0;
+        }
     }
     let b = budget as f64;
     // Illinois weights of the two ends (halved when an end is kept twice).
     let (mut w_lo, mut w_hi) = (1.0f64, 1.0f64);
     let mut last_side = 0i8;
     for _ in 0..40 {
-        if hi - lo < 2e-4 || (b - s_lo as f64) < 5e-4 * b {
+        if hi - lo < 1e-3 || (b - s_lo as f64) < 1e-3 * b {
             break;
         }
         let (f_lo, f_hi) = (
@@ -321,7 +352,7 @@ pub fn compress(
     let dtopo = Topology::from_faces(n, &conn.faces)?;
     let diag = mesh.bbox_diagonal().max(f64::MIN_POSITIVE);
     let modes: &[GeometryMode] = match opts.mode {
-        GeometryMode::Auto => &[GeometryMode::Spatial, GeometryMode::Spectral],
+        GeometryMode::Auto => &[GeometryMode::Spectral, GeometryMode::Spatial],
         GeometryMode::Spectral => &[GeometryMode::Spectral],
         GeometryMode::Spatial => &[GeometryMode::Spatial],
     };
@@ -434,6 +465,7 @@ pub fn compress(
     };
     // Per mode: (step, geometry section, decoded positions, stats).
     let mut best: Option<(f64, GeometryMode, f64, EncodedGeo)> = None;
+    let mut last_q = None;
     for &mode in modes {
         let step = match opts.quantisation {
             Quantisation::Bits(q) => {
@@ -458,7 +490,15 @@ pub fn compress(
                         Err(e) => Err(e),
                     }
                 };
-                diag * (-fit_bits(size, budget)?).exp2()
+                // The spatial coder runs at about half a bit finer than the spectral
+                // one for the same rate (bunny, Igea at 6–8 bpv).
+                let guess = match (mode, last_q) {
+                    (GeometryMode::Spatial, Some(q)) => q + 0.5,
+                    _ => 10.0,
+                };
+                let q = fit_bits(size, budget, guess)?;
+                last_q = Some(q);
+                diag * (-q).exp2()
             }
         };
         let g = encode_geo(mode, step, true)?;
@@ -679,7 +719,19 @@ mod tests {
                 GeometryMode::Spatial
             };
             assert_eq!(auto.geometry_mode, better, "{b} bpv");
-            assert!(auto.vertex_rms == spec.vertex_rms || auto.vertex_rms == spat.vertex_rms);
+            // Rate control may land a hair apart (the spatial search starts from the
+            // spectral answer in auto mode, from 10 bits alone).
+            let kept = if better == GeometryMode::Spectral {
+                &spec
+            } else {
+                &spat
+            };
+            assert!(
+                (auto.vertex_rms / kept.vertex_rms - 1.0).abs() < 0.1,
+                "{} vs {}",
+                auto.vertex_rms,
+                kept.vertex_rms
+            );
             assert!(auto.normal_rms <= auto.vertex_rms);
         }
         let low = run(GeometryMode::Auto, 3.0);
