@@ -219,6 +219,12 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             if let Some(p) = flag(&args, "--patch-size") {
                 opts.geometry.patch_size = p.parse()?;
             }
+            if let Some(m) = flag(&args, "--mode") {
+                opts.mode = m.parse()?;
+            }
+            if let Some(b) = flag(&args, "--target-bpv") {
+                opts.quantisation = meshlap::codec::Quantisation::TargetBpv(b.parse()?);
+            }
             out.insert("patch_size".into(), opts.geometry.patch_size.into());
             let c = meshlap::codec::compress(&mesh_c, &topo, &opts)?;
             let (e, te) = time(repeat, || {
@@ -228,6 +234,10 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                 meshlap::codec::decompress(&c.bytes).map(|m| m.n_faces())
             });
             out.insert("bits_per_vertex".into(), c.report.bits_per_vertex.into());
+            out.insert(
+                "geometry_mode".into(),
+                c.report.geometry_mode.to_string().into(),
+            );
             out.insert(
                 "encode".into(),
                 serde_json::json!({"median": e, "times": te}),

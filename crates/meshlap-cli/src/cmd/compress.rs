@@ -2,16 +2,21 @@
 
 use crate::common::{print_json, MeshArgs};
 use meshlap::codec::geometry::{GeometryParams, Keep};
-use meshlap::codec::{compress, CompressOptions, Quantisation};
+use meshlap::codec::spatial::SpatialParams;
+use meshlap::codec::{compress, CompressOptions, GeometryMode, Quantisation};
 use meshlap::operator::OperatorKind;
 use std::path::PathBuf;
 
 /// Compress a mesh to a `.mlz` file: connectivity losslessly (cut-border machine,
-/// range-coded), geometry by Karni–Gotsman spectral coding — per patch of about
-/// `--patch-size` vertices, the eigenvectors of a combinatorial Laplacian
-/// (F = D − W, positive semi-definite) are the frequencies; the lowest are kept,
-/// quantised and range-coded. The decoder rebuilds the bases from the connectivity.
-/// The mesh must be manifold and consistently oriented (see `meshlap clean`).
+/// range-coded), geometry by one of two coders (`--mode`): Karni–Gotsman spectral
+/// coding — per patch of about `--patch-size` vertices, the eigenvectors of a
+/// combinatorial Laplacian (F = D − W, positive semi-definite) are the frequencies;
+/// the lowest are kept, quantised and range-coded, and the decoder rebuilds the bases
+/// from the connectivity — or spatial coding — each vertex, in the connectivity
+/// coder's order, predicted from already decoded ones (parallelograms), its residual
+/// quantised in the loop and range-coded. By default both are tried and the better
+/// kept (spectral wins at low rates, spatial at high rates). The mesh must be
+/// manifold and consistently oriented (see `meshlap clean`).
 #[derive(clap::Args, Debug)]
 pub struct Args {
     #[command(flatten)]
@@ -19,6 +24,21 @@ pub struct Args {
     /// Output file (.mlz).
     #[arg(short, long)]
     pub output: PathBuf,
+    /// Geometry coder: auto (code both, keep the lower error — under `--target-bpv`
+    /// the lower product of vertex RMS and normal RMS, under `--bits` the lower
+    /// log2(vertex RMS · normal RMS) + 2·geometry bpv/3), spectral or spatial.
+    #[arg(long, default_value = "auto")]
+    pub mode: GeometryMode,
+    /// Spatial coder: rate–distortion multiplier μ (step² per bit) of the rounding
+    /// (each residual is rounded to the nearest integer or the next one towards zero,
+    /// whichever has the lower squared error + μ·bits) and of the predictor choice;
+    /// 0: plain rounding.
+    #[arg(long, default_value_t = SpatialParams::default().lambda)]
+    pub rdo_lambda: f64,
+    /// Spatial coder: always predict by the mean of the parallelograms instead of
+    /// letting the encoder choose per vertex between it and single parallelograms.
+    #[arg(long)]
+    pub no_select: bool,
     /// Operator whose eigenvectors form the basis: sstl, sql, tutte, kirchhoff, graph.
     #[arg(long, default_value = "kirchhoff")]
     pub operator: OperatorKind,
@@ -81,6 +101,11 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         (None, None) => Quantisation::Bits(10.0),
     };
     let opts = CompressOptions {
+        mode: args.mode,
+        spatial: SpatialParams {
+            select: !args.no_select,
+            lambda: args.rdo_lambda,
+        },
         geometry: GeometryParams {
             operator: args.operator,
             patch_size: args.patch_size,
@@ -133,13 +158,19 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         r.step, r.quantisation_bits
     );
     println!(
-        "geometry        {} patches, {} coefficients, {} residual vertices",
-        r.geometry.patches, r.geometry.coefficients, r.geometry.residual_vertices
+        "geometry        {} coder, vertex RMS {:.4e}, normal RMS {:.4e} (of the diagonal)",
+        r.geometry_mode, r.vertex_rms, r.normal_rms
     );
-    println!(
-        "patch borders   spectral RMS {:.4e} on borders vs {:.4e} inside",
-        r.geometry.border_rms_before, r.geometry.interior_rms
-    );
+    if r.geometry_mode == GeometryMode::Spectral {
+        println!(
+            "spectral        {} patches, {} coefficients, {} residual vertices",
+            r.geometry.patches, r.geometry.coefficients, r.geometry.residual_vertices
+        );
+        println!(
+            "patch borders   spectral RMS {:.4e} on borders vs {:.4e} inside",
+            r.geometry.border_rms_before, r.geometry.interior_rms
+        );
+    }
     if let Some(d) = distortion {
         println!(
             "distortion      vertex RMS {:.4e}  Metro RMS {:.4e}/{:.4e}  Hausdorff {:.4e} (of the diagonal)",

@@ -55,6 +55,12 @@ impl BitModel {
     fn p0(&self) -> u32 {
         (self.fast as u32 + self.slow as u32) >> (16 - PROB_BITS)
     }
+    /// Cost in bits of coding `bit` now (`−log2` of its probability; no update).
+    #[inline]
+    pub fn cost(&self, bit: bool) -> f32 {
+        let p0 = self.p0() as usize;
+        cost_table()[if bit { (1 << PROB_BITS) - p0 } else { p0 }]
+    }
     #[inline]
     fn update(&mut self, bit: bool) {
         let (f, s) = (FAST_SHIFT, SLOW_SHIFT);
@@ -67,6 +73,19 @@ impl BitModel {
             self.slow = (b - (b >> s)) as u16;
         }
     }
+}
+
+/// `−log2(p / 2^PROB_BITS)` for every probability `p` (index 0 unused).
+fn cost_table() -> &'static [f32; 1 << PROB_BITS] {
+    static TABLE: std::sync::OnceLock<Box<[f32; 1 << PROB_BITS]>> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        let mut t = Box::new([0f32; 1 << PROB_BITS]);
+        for (p, c) in t.iter_mut().enumerate().skip(1) {
+            *c = -((p as f64) / (1u32 << PROB_BITS) as f64).log2() as f32;
+        }
+        t[0] = PROB_BITS as f32;
+        t
+    })
 }
 
 /// Range encoder producing a byte vector.
@@ -283,6 +302,18 @@ impl BitTree {
         }
     }
 
+    /// Cost in bits of coding `sym` now (no update).
+    pub fn cost(&self, sym: u32) -> f32 {
+        let mut node = 1usize;
+        let mut c = 0.0;
+        for i in (0..self.bits).rev() {
+            let b = (sym >> i) & 1 == 1;
+            c += self.probs[node].cost(b);
+            node = (node << 1) | b as usize;
+        }
+        c
+    }
+
     /// Decodes a symbol.
     pub fn decode(&mut self, dec: &mut RangeDecoder) -> u32 {
         let mut node = 1usize;
@@ -338,6 +369,22 @@ impl UintModel {
         }
     }
 
+    /// Cost in bits of coding `v` now (no update).
+    pub fn cost(&self, v: u32) -> f32 {
+        let w = v as u64 + 1;
+        let len = 63 - w.leading_zeros();
+        let mut c = self.len.cost(len);
+        let rest = w - (1u64 << len);
+        let na = len.min(ADAPTIVE_MANTISSA);
+        let mut node = 1usize;
+        for i in 0..na {
+            let b = (rest >> (len - 1 - i)) & 1 == 1;
+            c += self.mant[((len as usize) << ADAPTIVE_MANTISSA) | node].cost(b);
+            node = (node << 1) | b as usize;
+        }
+        c + (len - na) as f32
+    }
+
     /// Decodes a value; an error if the coded length exceeds 32 bits.
     pub fn decode(&mut self, dec: &mut RangeDecoder) -> Result<u32, CodecError> {
         let len = self.len.decode(dec);
@@ -378,6 +425,18 @@ impl IntModel {
             enc.bit(&mut self.sign, v < 0);
             self.mag.encode(enc, (v.unsigned_abs() - 1) as u32);
         }
+    }
+
+    /// Cost in bits of coding `v` now (no update).
+    pub fn cost(&self, v: i64) -> f32 {
+        if v == 0 {
+            return self.zero.cost(false);
+        }
+        self.zero.cost(true)
+            + self.sign.cost(v < 0)
+            + self
+                .mag
+                .cost((v.unsigned_abs() - 1).min(u32::MAX as u64) as u32)
     }
 
     /// Decodes a value.
@@ -459,6 +518,37 @@ mod tests {
         let h = -(p1 * p1.log2() + (1.0 - p1) * (1.0 - p1).log2());
         let ideal = n as f64 * h / 8.0;
         assert!(bytes < ideal * 1.08, "{bytes} bytes vs ideal {ideal}");
+    }
+
+    #[test]
+    fn costs_predict_the_coded_size() {
+        // The summed costs of a stream of adaptive symbols match its coded size.
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let mut enc = RangeEncoder::new();
+        let mut im = IntModel::default();
+        let mut total = 0.0f64;
+        for _ in 0..50_000 {
+            let v: i64 = if rng.gen_bool(0.6) {
+                0
+            } else {
+                rng.gen_range(-40..40)
+            };
+            total += im.cost(v) as f64;
+            im.encode(&mut enc, v);
+        }
+        let bits = enc.finish().len() as f64 * 8.0;
+        assert!(
+            (bits - total).abs() < 0.01 * bits + 64.0,
+            "{bits} vs {total}"
+        );
+        // A fresh bit costs one bit; a well-predicted one much less.
+        let mut m = BitModel::default();
+        assert!((m.cost(true) - 1.0).abs() < 1e-3);
+        let mut e = RangeEncoder::new();
+        for _ in 0..200 {
+            e.bit(&mut m, false);
+        }
+        assert!(m.cost(false) < 0.05 && m.cost(true) > 4.0);
     }
 
     #[test]

@@ -484,8 +484,12 @@ fn coef_context(j: usize, k: usize, hist: &[[i64; 3]; 4], row: &[i64; 3]) -> usi
         32..=63 => 6,
         _ => 7,
     };
-    let band = ((usize::BITS - j.leading_zeros()) as usize).min(FREQ_BANDS - 1);
-    band * MAG_BUCKETS + mag
+    octave(j) * MAG_BUCKETS + mag
+}
+
+/// Frequency octave `⌈log2(j+1)⌉` of coefficient `j`, capped at `FREQ_BANDS − 1`.
+fn octave(j: usize) -> usize {
+    ((usize::BITS - j.leading_zeros()) as usize).min(FREQ_BANDS - 1)
 }
 
 fn quantise(v: f64, s: f64) -> Result<i64, CodecError> {
@@ -534,6 +538,10 @@ pub struct GeometryStats {
     pub border_rms_before: f64,
     /// The same on interior vertices.
     pub interior_rms: f64,
+    /// Bits per vertex spent on the coefficients of each frequency octave `⌈log2(j+1)⌉`
+    /// of the coefficient index `j` (0, 1, 2–3, 4–7, …, 64 and above), from the
+    /// adaptive models' costs (empty when not measured).
+    pub octave_bpv: Vec<f64>,
     /// Geometry stream bytes.
     pub bytes: usize,
 }
@@ -642,6 +650,15 @@ impl<'a> GeometryEncoder<'a> {
     /// Codes the geometry with global step `step`; returns the stream, the
     /// reconstruction the decoder will produce, and statistics.
     pub fn encode(&self, step: f64) -> Result<EncodedGeometry, CodecError> {
+        self.encode_measured(step, true)
+    }
+
+    /// [`Self::encode`] without the per-octave cost measurement (rate control).
+    pub(crate) fn encode_fast(&self, step: f64) -> Result<EncodedGeometry, CodecError> {
+        self.encode_measured(step, false)
+    }
+
+    fn encode_measured(&self, step: f64, measure: bool) -> Result<EncodedGeometry, CodecError> {
         if !(step.is_finite() && step > 0.0) {
             return Err(CodecError::Parameter(format!(
                 "invalid quantisation step {step}"
@@ -668,6 +685,7 @@ impl<'a> GeometryEncoder<'a> {
         let mut models = GeoModels::new();
         let n = self.topo.n_vertices();
         let mut rec = vec![[0.0f64; 3]; n];
+        let mut octave_bits = [0.0f64; FREQ_BANDS];
         for (b, c) in self.bases.iter().zip(&self.coefs) {
             let m = c.nrows();
             let (xhat, chat) = match &b.pred {
@@ -686,7 +704,11 @@ impl<'a> GeometryEncoder<'a> {
                 for k in 0..3 {
                     let base = chat.as_ref().map_or(0.0, |ch| ch[(j, k)]);
                     let qi = quantise_dz(c[(j, k)] - base, s, self.params.dead_zone)?;
-                    models.coef[coef_context(j, k, &hist, &row)].encode(&mut enc, qi);
+                    let model = &mut models.coef[coef_context(j, k, &hist, &row)];
+                    if measure {
+                        octave_bits[octave(j)] += model.cost(qi) as f64;
+                    }
+                    model.encode(&mut enc, qi);
                     q[(j, k)] = qi as f64 * s;
                     row[k] = qi;
                 }
@@ -697,6 +719,11 @@ impl<'a> GeometryEncoder<'a> {
         let mut stats = GeometryStats {
             patches: self.bases.len(),
             coefficients: self.coefs.iter().map(|c| c.nrows()).sum(),
+            octave_bpv: if measure {
+                octave_bits.iter().map(|b| b / n.max(1) as f64).collect()
+            } else {
+                Vec::new()
+            },
             ..Default::default()
         };
         let (mut be, mut bn, mut ie, mut inn) = (0.0, 0usize, 0.0, 0usize);

@@ -114,6 +114,9 @@ pub fn rate_distortion(
                         },
                         quantisation: Quantisation::Bits(opts.bits),
                         preserve_order: false,
+                        // This experiment compares the operators' bases.
+                        mode: crate::codec::GeometryMode::Spectral,
+                        ..Default::default()
                     },
                 )
                 .map_err(|e| input_err(&input.source, e))?;
