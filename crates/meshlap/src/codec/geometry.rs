@@ -917,17 +917,9 @@ pub fn decode(topo: &Topology, data: &[u8]) -> Result<Vec<[f64; 3]>, CodecError>
 
 #[cfg(test)]
 mod tests {
+    use super::super::test_util::rms;
     use super::*;
     use crate::mesh::builtin;
-
-    fn rms(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
-        let s: f64 = a
-            .iter()
-            .zip(b)
-            .map(|(p, q)| (0..3).map(|k| (p[k] - q[k]).powi(2)).sum::<f64>())
-            .sum();
-        (s / a.len() as f64).sqrt()
-    }
 
     #[test]
     fn decoder_reproduces_encoder_exactly_with_repeated_eigenvalues() {

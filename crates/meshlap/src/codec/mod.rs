@@ -610,6 +610,20 @@ pub fn decompress(bytes: &[u8]) -> Result<TriMesh, CodecError> {
     }
 }
 
+/// Helpers shared by the codec's unit tests.
+#[cfg(test)]
+pub(crate) mod test_util {
+    /// Root-mean-square vertex distance between two position lists (absolute).
+    pub(crate) fn rms(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
+        let s: f64 = a
+            .iter()
+            .zip(b)
+            .map(|(p, q)| (0..3).map(|k| (p[k] - q[k]).powi(2)).sum::<f64>())
+            .sum();
+        (s / a.len() as f64).sqrt()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -344,17 +344,9 @@ pub fn decode(
 
 #[cfg(test)]
 mod tests {
+    use super::super::test_util::rms;
     use super::*;
     use crate::mesh::builtin;
-
-    fn rms(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
-        let s: f64 = a
-            .iter()
-            .zip(b)
-            .map(|(p, q)| (0..3).map(|k| (p[k] - q[k]).powi(2)).sum::<f64>())
-            .sum();
-        (s / a.len() as f64).sqrt()
-    }
 
     fn mesh(spec: &str) -> (Vec<[f64; 3]>, Topology) {
         let m = builtin::from_spec(spec).unwrap();

@@ -214,6 +214,14 @@ fn nn_product(
     go(out, accum, a, c, alpha, row_threads(a.nrows()))
 }
 
+/// The Ritz vectors `V Q[:, which]` (n×|which|) for the listed columns of `Q`.
+fn ritz_vectors(v: MatRef<'_, f64>, q: MatRef<'_, f64>, which: &[usize]) -> Mat<f64> {
+    let qsel = Mat::from_fn(q.nrows(), which.len(), |i, j| q[(i, which[j])]);
+    let mut y = Mat::<f64>::zeros(v.nrows(), which.len());
+    nn_product(y.as_mut(), Accum::Replace, v, qsel.as_ref(), 1.0);
+    y
+}
+
 /// Relative size below which the components a second Gram–Schmidt pass measures
 /// are left in place (the basis stays orthogonal to about this level).
 const REORTH_SKIP: f64 = 1e-13;
@@ -626,15 +634,7 @@ pub fn largest_magnitude(
                     restarts: info.restarts,
                 });
             }
-            let qsel = Mat::from_fn(s, nev, |i, j| q[(i, order[j])]);
-            let mut vectors = Mat::<f64>::zeros(n, nev);
-            nn_product(
-                vectors.as_mut(),
-                Accum::Replace,
-                v.as_ref().subcols(0, s),
-                qsel.as_ref(),
-                1.0,
-            );
+            let vectors = ritz_vectors(v.as_ref().subcols(0, s), q, &order[..nev]);
             return Ok(RitzPairs {
                 values: order[..nev].iter().map(|&i| theta[i]).collect(),
                 vectors,
@@ -649,17 +649,10 @@ pub fn largest_magnitude(
         // Restart: keep k Ritz vectors and the residual block.
         info.restarts += 1;
         let k = (nev + 3 * (m - nev) / 10).clamp(nev, m - p);
-        let qsel = Mat::from_fn(s, k, |i, j| q[(i, order[j])]);
-        let mut y = Mat::<f64>::zeros(n, k);
-        nn_product(
-            y.as_mut(),
-            Accum::Replace,
-            v.as_ref().subcols(0, s),
-            qsel.as_ref(),
-            1.0,
-        );
+        let y = ritz_vectors(v.as_ref().subcols(0, s), q, &order[..k]);
         let resid_block = v.as_ref().subcols(s, p).to_owned();
-        let coupling = r_last * qsel.as_ref().subrows(s - p, p);
+        let q_last = Mat::from_fn(p, k, |i, j| q[(s - p + i, order[j])]);
+        let coupling = r_last * &q_last;
         v.as_mut().subcols_mut(0, k).copy_from(&y);
         v.as_mut().subcols_mut(k, p).copy_from(&resid_block);
         h.fill(0.0);

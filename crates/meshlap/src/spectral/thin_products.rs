@@ -84,6 +84,16 @@ pub fn sub_nn(w: MatMut<'_, f64>, v: MatRef<'_, f64>, c: MatRef<'_, f64>) {
     go(w, v, c, threads_for(v.nrows()))
 }
 
+/// Columns of `W` handled by one kernel call when `left` remain: 8, 4, 2 or 1.
+fn group_width(left: usize) -> usize {
+    match left {
+        8.. => 8,
+        4..=7 => 4,
+        2 | 3 => 2,
+        _ => 1,
+    }
+}
+
 /// One thread's `C += Vᵀ W`.
 fn tn_seq(v: MatRef<'_, f64>, w: MatRef<'_, f64>, mut c: MatMut<'_, f64>) {
     if !unit_rows(v) || !unit_rows(w) || v.ncols() == 0 || w.ncols() == 0 {
@@ -92,16 +102,7 @@ fn tn_seq(v: MatRef<'_, f64>, w: MatRef<'_, f64>, mut c: MatMut<'_, f64>) {
     }
     let mut j0 = 0;
     while j0 < w.ncols() {
-        let left = w.ncols() - j0;
-        let g = if left >= 8 {
-            8
-        } else if left >= 4 {
-            4
-        } else if left >= 2 {
-            2
-        } else {
-            1
-        };
+        let g = group_width(w.ncols() - j0);
         let wg = w.subcols(j0, g);
         let cg = c.rb_mut().subcols_mut(j0, g);
         match g {
@@ -122,16 +123,7 @@ fn sub_nn_seq(mut w: MatMut<'_, f64>, v: MatRef<'_, f64>, c: MatRef<'_, f64>) {
     }
     let mut j0 = 0;
     while j0 < w.ncols() {
-        let left = w.ncols() - j0;
-        let g = if left >= 8 {
-            8
-        } else if left >= 4 {
-            4
-        } else if left >= 2 {
-            2
-        } else {
-            1
-        };
+        let g = group_width(w.ncols() - j0);
         let wg = w.rb_mut().subcols_mut(j0, g);
         let cg = c.subcols(j0, g);
         match g {
