@@ -2,8 +2,10 @@
 //!
 //! ```text
 //! magic      4 bytes  "MLZ\x1a"
-//! version    u16 LE   (3: a geometry-mode byte opens the geometry section; 2 added
-//!                     inter-patch prediction; older versions are refused)
+//! version    u16 LE   (4: patch partition and patch eigenbases changed (METIS with
+//!                     one initial partitioning; see `geometry`); 3: a geometry-mode
+//!                     byte opens the geometry section; 2 added inter-patch
+//!                     prediction; other versions are refused)
 //! sections   u16 LE   count (≤ 16)
 //! per section:
 //!   kind     u8       1 header, 2 connectivity, 3 permutation, 4 geometry
@@ -22,7 +24,7 @@ use super::CodecError;
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"MLZ\x1a";
 /// Current format version.
-pub const VERSION: u16 = 3;
+pub const VERSION: u16 = 4;
 const MAX_SECTIONS: u16 = 16;
 
 /// Section kinds.
@@ -222,10 +224,10 @@ mod tests {
         assert!(matches!(read(b"PK\x03\x04...."), Err(CodecError::BadMagic)));
         // Older versions are refused with a message that says what to do.
         let mut old = img.clone();
-        old[4..6].copy_from_slice(&2u16.to_le_bytes());
+        old[4..6].copy_from_slice(&3u16.to_le_bytes());
         let e = read(&old).unwrap_err();
-        assert!(matches!(e, CodecError::Version(2)));
-        assert!(e.to_string().contains("reads version 3"), "{e}");
+        assert!(matches!(e, CodecError::Version(3)));
+        assert!(e.to_string().contains("reads version 4"), "{e}");
         let mut huge = img[..8].to_vec();
         huge.extend_from_slice(&[1, 0xFF, 0xFF, 0xFF, 0xFF, 0, 0, 0, 0]);
         assert!(matches!(read(&huge), Err(CodecError::Truncated(_))));

@@ -11,7 +11,8 @@
 //!    METIS 5's multilevel k-way partitioner (`METIS_PartGraphKway`: heavy-edge
 //!    matching coarsening, greedy growing of the coarsest graph, boundary
 //!    Fiduccia–Mattheyses refinement at every uncoarsening level), through the `metis`
-//!    crate's vendored build (plain C, no system library). METIS is the reference
+//!    crate's vendored build (plain C, no system library), with one initial
+//!    partitioning of the coarsest graph instead of four (see [`metis_parts`]). METIS is the reference
 //!    for this job; re-implementing it by hand would only lose quality.
 //! 2. **Faces and patches.** A face belongs to patch `p` when its three corners do
 //!    (an *interior* face); a face whose corners lie in two or three patches (a
@@ -237,6 +238,9 @@ pub fn partition(topo: &Topology, opts: &PartitionOptions) -> Result<Partition, 
     Ok(finish(part, faces, topo, metis_cut, nparts))
 }
 
+/// Index of `METIS_OPTION_NIPARTS` in METIS 5's options array (`metis.h`).
+const METIS_OPTION_NIPARTS: usize = 6;
+
 /// METIS k-way partition of the vertex graph; returns the part of every vertex and
 /// METIS's edge cut.
 fn metis_parts(
@@ -264,8 +268,16 @@ fn metis_parts(
     // would interleave it and break determinism for a given seed.
     static METIS_LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
     let _guard = METIS_LOCK.lock().unwrap_or_else(|e| e.into_inner());
+    // One initial partitioning instead of METIS's default four (`NIPARTS`, an index
+    // the `metis` crate has no typed option for): with hundreds of parts, k-way
+    // coarsens only to `30·nparts` vertices and the recursive bisections of that
+    // graph are most of the cost. Igea, 896 parts: 0.45 s → 0.17 s, edge cut
+    // 43,121 → 43,032 (the best of four is not better here).
+    let mut options = [-1 as metis::Idx; metis::NOPTIONS];
+    options[METIS_OPTION_NIPARTS] = 1;
     let cut = metis::Graph::new(1, nparts as metis::Idx, &xadj, &adjncy)
         .map_err(|e| PartitionError::Metis(e.to_string()))?
+        .set_options(&options)
         .set_option(metis::option::Seed(seed))
         .part_kway(&mut part)
         .map_err(|e| PartitionError::Metis(e.to_string()))?;
