@@ -4,7 +4,7 @@ use crate::common::{print_json, MeshArgs};
 use indicatif::{ProgressBar, ProgressStyle};
 use meshlap::input::Input;
 use meshlap::operator::{Operator, OperatorKind};
-use meshlap::spectral::{BasisOptions, EigenBasis, EigenPath, Normalization};
+use meshlap::spectral::{BasisOptions, DenseSolver, EigenBasis, EigenPath, Normalization};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -24,6 +24,11 @@ pub struct BasisArgs {
     /// eig + E\x in the paper's Fig. 3).
     #[arg(long, default_value = "auto")]
     pub path: EigenPath,
+    /// Dense symmetric eigensolver: faer (parallel divide and conquer) or
+    /// reproducible (sequential, the same bits on every CPU, faster for n below a
+    /// few hundred; the codec's patch solver).
+    #[arg(long, default_value = "faer")]
+    pub dense_solver: DenseSolver,
     /// Basis scaling: unit (unit-length eigenvectors, as Matlab's eig) or weighted
     /// (orthonormal in the symmetrizer's / mass matrix's inner product).
     #[arg(long, default_value = "unit", value_parser = ["unit", "weighted"])]
@@ -57,6 +62,7 @@ impl BasisArgs {
             } else {
                 Normalization::Unit
             },
+            dense_solver: self.dense_solver,
             ..Default::default()
         }
     }

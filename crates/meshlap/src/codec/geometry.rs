@@ -72,7 +72,7 @@ use super::CodecError;
 use crate::mesh::topology::Topology;
 use crate::mesh::TriMesh;
 use crate::operator::{Operator, OperatorKind, OperatorOptions};
-use crate::spectral::{forward, inverse, BasisOptions, EigenBasis};
+use crate::spectral::{forward, inverse, BasisOptions, DenseSolver, EigenBasis};
 use faer::Mat;
 use rayon::prelude::*;
 
@@ -269,7 +269,11 @@ fn patch_basis(pt: &Topology, kind: OperatorKind, keep: Keep) -> Result<PatchBas
     let st = Topology::new(&sub).map_err(|_| CodecError::Internal("patch topology"))?;
     let op = Operator::assemble(kind, &sub, &st, &OperatorOptions::default())
         .map_err(|e| CodecError::Parameter(format!("operator on a patch: {e}")))?;
-    let basis = EigenBasis::compute(&op, &BasisOptions::default()).map_err(spectral_err)?;
+    let opts = BasisOptions {
+        dense_solver: DenseSolver::Reproducible,
+        ..Default::default()
+    };
+    let basis = EigenBasis::compute(&op, &opts).map_err(spectral_err)?;
     Ok(PatchBasis {
         verts,
         basis: Some(basis),

@@ -142,6 +142,49 @@ pub enum Normalization {
     Weighted,
 }
 
+/// The dense symmetric eigensolver of the symmetric and symmetrized paths.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DenseSolver {
+    /// faer's `self_adjoint_evd` (tridiagonalisation, divide and conquer), parallel.
+    #[default]
+    Faer,
+    /// [`crate::spectral::dense_evd`]: sequential, the same bits on every CPU, and
+    /// faster than faer for n up to a few hundred (the codec's patches).
+    Reproducible,
+}
+
+impl DenseSolver {
+    /// Name used on the command line and in JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            DenseSolver::Faer => "faer",
+            DenseSolver::Reproducible => "reproducible",
+        }
+    }
+}
+
+impl std::fmt::Display for DenseSolver {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for DenseSolver {
+    type Err = SpectralError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Ok(match s.to_ascii_lowercase().as_str() {
+            "faer" => DenseSolver::Faer,
+            "reproducible" => DenseSolver::Reproducible,
+            _ => {
+                return Err(SpectralError::InvalidArgument(format!(
+                    "unknown dense solver {s:?} (faer or reproducible)"
+                )))
+            }
+        })
+    }
+}
+
 /// Options of [`EigenBasis::compute`].
 #[derive(Copy, Clone, Debug)]
 pub struct BasisOptions {
@@ -151,6 +194,9 @@ pub struct BasisOptions {
     pub normalization: Normalization,
     /// Relative gap below which consecutive eigenvalues form one cluster.
     pub cluster_tolerance: f64,
+    /// The dense symmetric eigensolver (symmetric and symmetrized paths; the general
+    /// path always uses faer's non-symmetric solver).
+    pub dense_solver: DenseSolver,
 }
 
 impl Default for BasisOptions {
@@ -159,6 +205,7 @@ impl Default for BasisOptions {
             path: EigenPath::Auto,
             normalization: Normalization::Unit,
             cluster_tolerance: 1e-10,
+            dense_solver: DenseSolver::Faer,
         }
     }
 }
@@ -540,7 +587,16 @@ fn canonicalize(v: &mut Mat<f64>, clusters: &[(usize, usize)], probe_scale: Opti
     }
 }
 
-fn dense_symmetric(a: &Mat<f64>, par: Par) -> Result<(Vec<f64>, Mat<f64>), SpectralError> {
+fn dense_symmetric(
+    a: &Mat<f64>,
+    par: Par,
+    solver: DenseSolver,
+) -> Result<(Vec<f64>, Mat<f64>), SpectralError> {
+    if solver == DenseSolver::Reproducible {
+        return super::dense_evd::symmetric_evd(a.as_ref()).ok_or(SpectralError::NoConvergence {
+            path: "symmetric (reproducible solver)",
+        });
+    }
     let n = a.nrows();
     let mut u = Mat::<f64>::zeros(n, n);
     let mut s = faer::diag::Diag::<f64>::zeros(n);
@@ -602,7 +658,7 @@ fn symmetrized(
             }
         }
     }
-    let (lam, mut u) = dense_symmetric(&a, parallelism())?;
+    let (lam, mut u) = dense_symmetric(&a, parallelism(), opts.dense_solver)?;
     drop(a);
     let cl = clusters(&lam, opts.cluster_tolerance);
     let inv_sqrt: Option<Vec<f64>> = weights
@@ -918,11 +974,17 @@ mod tests {
 
     #[test]
     fn canonical_basis_survives_a_different_computation_order() {
-        // Sequential faer (different blocking and reduction order) and the symmetric
-        // matrix permuted then unpermuted: the same canonical basis up to rounding.
-        // Rounding in the eigensolver perturbs eigenvectors by ≈ ε‖A‖/gap (gaps
-        // between clusters are ≈1e-3 here), so 1e-10, not bitwise.
-        for m in [builtin::icosphere(2).unwrap(), builtin::cube(4).unwrap()] {
+        // Sequential faer (different blocking and reduction order) or the reproducible
+        // solver (a different algorithm), on the symmetric matrix permuted then
+        // unpermuted: the same canonical basis up to rounding. Rounding in the
+        // eigensolver perturbs eigenvectors by ≈ ε‖A‖/gap (gaps between clusters are
+        // ≈1e-3 here), so 1e-10, not bitwise.
+        for (m, solver) in [
+            (builtin::icosphere(2).unwrap(), DenseSolver::Faer),
+            (builtin::cube(4).unwrap(), DenseSolver::Faer),
+            (builtin::icosphere(2).unwrap(), DenseSolver::Reproducible),
+            (builtin::cube(4).unwrap(), DenseSolver::Reproducible),
+        ] {
             let o = op(&m, OperatorKind::Sql);
             let b = EigenBasis::compute(&o, &Default::default()).unwrap();
             let n = b.n();
@@ -930,7 +992,7 @@ mod tests {
             let p = [7, 11, 13].into_iter().find(|p| n % p != 0).unwrap();
             let perm: Vec<usize> = (0..n).map(|i| (i * p + 3) % n).collect();
             let pa = Mat::from_fn(n, n, |i, j| a[(perm[i], perm[j])]);
-            let (lam, pu) = dense_symmetric(&pa, Par::Seq).unwrap();
+            let (lam, pu) = dense_symmetric(&pa, Par::Seq, solver).unwrap();
             let mut u = Mat::<f64>::zeros(n, n);
             for i in 0..n {
                 for j in 0..n {

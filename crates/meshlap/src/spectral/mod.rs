@@ -8,15 +8,18 @@
 //! - [`basis`]: the dense eigenbasis `E` of an operator (symmetric, symmetrized
 //!   through a positive diagonal similarity — the TL through the GL — or general),
 //!   with canonical, deterministic vectors.
+//! - [`dense_evd`]: a bit-reproducible dense symmetric eigensolver for small n (the
+//!   codec's patches), selectable in [`BasisOptions::dense_solver`].
 //! - [`transform`]: the forward ED-transform `X = E⁻¹x`, its inverse and the truncated
 //!   reconstruction `x⁽ᵐ⁾` from the first m coefficients.
 //! - [`compaction`]: the transform efficiency (energy compaction) for every m.
 
 pub mod basis;
 pub mod compaction;
+pub mod dense_evd;
 pub mod transform;
 
-pub use basis::{BasisOptions, EigenBasis, EigenPath, Normalization, DENSE_LIMIT};
+pub use basis::{BasisOptions, DenseSolver, EigenBasis, EigenPath, Normalization, DENSE_LIMIT};
 pub use compaction::{energy_compaction, Compaction};
 pub use transform::{forward, inverse, mat_to_positions, positions_to_mat, truncated};
 
