@@ -291,94 +291,118 @@ fn ql_eigenvalues(d: &[f64], e: &[f64]) -> Option<Vec<f64>> {
     Some(d)
 }
 
-/// LU factors of a tridiagonal `T − λI` with partial pivoting (LAPACK `dgttrf`):
-/// unit lower multipliers `dl`, reciprocal pivots `dinv`, first and second
-/// superdiagonals `du`, `du2`, row interchanges `swap`.
+/// Eigenvectors computed together by [`tridiagonal_vectors`]: their LU
+/// factorisations and solves run interleaved in one loop, two independent chains of
+/// dependent divisions and FMAs that the CPU overlaps.
+const LANES: usize = 4;
+
+/// LU factors of tridiagonal `T − λ_l I` for [`LANES`] shifts, with partial pivoting
+/// (LAPACK `dgttrf`): unit lower multipliers `dl`, reciprocal pivots `dinv`, first
+/// and second superdiagonals `du`, `du2`, row interchanges `swap`; entry `[i][l]`.
 struct TridiagonalLu {
-    dl: Vec<f64>,
-    dinv: Vec<f64>,
-    du: Vec<f64>,
-    du2: Vec<f64>,
-    swap: Vec<bool>,
+    dl: Vec<[f64; LANES]>,
+    dinv: Vec<[f64; LANES]>,
+    du: Vec<[f64; LANES]>,
+    du2: Vec<[f64; LANES]>,
+    swap: Vec<[bool; LANES]>,
 }
 
 impl TridiagonalLu {
     fn new(n: usize) -> Self {
         Self {
-            dl: vec![0.0; n],
-            dinv: vec![0.0; n],
-            du: vec![0.0; n],
-            du2: vec![0.0; n],
-            swap: vec![false; n],
+            dl: vec![[0.0; LANES]; n],
+            dinv: vec![[0.0; LANES]; n],
+            du: vec![[0.0; LANES]; n],
+            du2: vec![[0.0; LANES]; n],
+            swap: vec![[false; LANES]; n],
         }
     }
 
-    /// Factors `T − λI`; a zero pivot is replaced by `tiny`.
+    /// Factors `T − λ_l I` for every lane; a zero pivot is replaced by `tiny`.
     #[inline(always)]
-    fn factor(&mut self, d0: &[f64], e: &[f64], lam: f64, tiny: f64) {
+    fn factor(&mut self, d0: &[f64], e: &[f64], lam: [f64; LANES], tiny: f64) {
         let n = d0.len();
         let dd = &mut self.dinv;
         for (x, &v) in dd.iter_mut().zip(d0) {
-            *x = v - lam;
-        }
-        self.dl[..n - 1].copy_from_slice(e);
-        self.du[..n - 1].copy_from_slice(e);
-        self.du2.iter_mut().for_each(|x| *x = 0.0);
-        for i in 0..n - 1 {
-            if dd[i].abs() >= self.dl[i].abs() {
-                if dd[i] == 0.0 {
-                    dd[i] = tiny;
-                }
-                let fact = self.dl[i] / dd[i];
-                self.dl[i] = fact;
-                dd[i + 1] = fact.mul_add(-self.du[i], dd[i + 1]);
-                self.swap[i] = false;
-            } else {
-                let fact = dd[i] / self.dl[i];
-                dd[i] = self.dl[i];
-                self.dl[i] = fact;
-                let temp = self.du[i];
-                self.du[i] = dd[i + 1];
-                dd[i + 1] = fact.mul_add(-dd[i + 1], temp);
-                if i + 2 < n {
-                    self.du2[i] = self.du[i + 1];
-                    self.du[i + 1] *= -fact;
-                }
-                self.swap[i] = true;
+            for l in 0..LANES {
+                x[l] = v - lam[l];
             }
         }
-        if dd[n - 1] == 0.0 {
-            dd[n - 1] = tiny;
+        for i in 0..n - 1 {
+            self.dl[i] = [e[i]; LANES];
+            self.du[i] = [e[i]; LANES];
+            self.du2[i] = [0.0; LANES];
         }
-        dd[..n].iter_mut().for_each(|x| *x = 1.0 / *x);
+        // Branch-free over the lanes (selects), so that the lanes vectorise.
+        for i in 0..n - 1 {
+            let next_du = if i + 2 < n {
+                self.du[i + 1]
+            } else {
+                [0.0; LANES]
+            };
+            let mut du2 = [0.0; LANES];
+            let mut ndu = next_du;
+            for l in 0..LANES {
+                let (a, b, c, d1) = (dd[i][l], self.dl[i][l], self.du[i][l], dd[i + 1][l]);
+                let keep = a.abs() >= b.abs();
+                let piv = if keep { a } else { b };
+                let piv = if piv == 0.0 { tiny } else { piv };
+                let fact = (if keep { b } else { a }) / piv;
+                dd[i][l] = piv;
+                self.dl[i][l] = fact;
+                self.du[i][l] = if keep { c } else { d1 };
+                dd[i + 1][l] =
+                    fact.mul_add(-(if keep { c } else { d1 }), if keep { d1 } else { c });
+                du2[l] = if keep { 0.0 } else { next_du[l] };
+                ndu[l] = if keep { next_du[l] } else { -fact * next_du[l] };
+                self.swap[i][l] = !keep;
+            }
+            self.du2[i] = du2;
+            if i + 2 < n {
+                self.du[i + 1] = ndu;
+            }
+        }
+        for l in 0..LANES {
+            if dd[n - 1][l] == 0.0 {
+                dd[n - 1][l] = tiny;
+            }
+        }
+        dd[..n]
+            .iter_mut()
+            .for_each(|x| x.iter_mut().for_each(|x| *x = 1.0 / *x));
     }
 
-    /// Solves `(T − λI) x = b` in place.
+    /// Solves `(T − λ_l I) x_l = b_l` in place for every lane (`b[i][l]`).
     #[inline(always)]
-    fn solve(&self, b: &mut [f64]) {
+    fn solve(&self, b: &mut [[f64; LANES]]) {
         let n = b.len();
         for i in 0..n - 1 {
-            if self.swap[i] {
-                let t = b[i];
-                b[i] = b[i + 1];
-                b[i + 1] = self.dl[i].mul_add(-b[i], t);
-            } else {
-                b[i + 1] = self.dl[i].mul_add(-b[i], b[i + 1]);
+            for l in 0..LANES {
+                let (b0, b1, sw) = (b[i][l], b[i + 1][l], self.swap[i][l]);
+                let p = if sw { b1 } else { b0 };
+                b[i][l] = p;
+                b[i + 1][l] = self.dl[i][l].mul_add(-p, if sw { b0 } else { b1 });
             }
         }
-        b[n - 1] *= self.dinv[n - 1];
-        if n > 1 {
-            b[n - 2] = self.du[n - 2].mul_add(-b[n - 1], b[n - 2]) * self.dinv[n - 2];
+        for l in 0..LANES {
+            b[n - 1][l] *= self.dinv[n - 1][l];
+            if n > 1 {
+                b[n - 2][l] =
+                    self.du[n - 2][l].mul_add(-b[n - 1][l], b[n - 2][l]) * self.dinv[n - 2][l];
+            }
         }
         for i in (0..n.saturating_sub(2)).rev() {
-            let r = self.du[i].mul_add(-b[i + 1], b[i]);
-            b[i] = self.du2[i].mul_add(-b[i + 2], r) * self.dinv[i];
+            for l in 0..LANES {
+                let r = self.du[i][l].mul_add(-b[i + 1][l], b[i][l]);
+                b[i][l] = self.du2[i][l].mul_add(-b[i + 2][l], r) * self.dinv[i][l];
+            }
         }
     }
 }
 
 /// Eigenvectors of the tridiagonal (`d`, `e`) for the ascending eigenvalues `lam`,
-/// by inverse iteration (see the module documentation); row-major n×n.
+/// by inverse iteration (see the module documentation), [`LANES`] at a time;
+/// row-major n×n.
 #[inline(always)]
 fn tridiagonal_vectors(d: &[f64], e: &[f64], lam: &[f64]) -> Vec<f64> {
     let n = d.len();
@@ -398,44 +422,80 @@ fn tridiagonal_vectors(d: &[f64], e: &[f64], lam: &[f64]) -> Vec<f64> {
     let ortol = 1e-3 * tnorm;
     let sep = 10.0 * f64::EPSILON * tnorm;
     let tiny = f64::EPSILON * tnorm;
-    let mut lu = TridiagonalLu::new(n);
-    // Column vectors of the current cluster (contiguous, n each).
-    let mut cluster: Vec<f64> = Vec::with_capacity(4 * n);
-    let mut x = vec![0.0f64; n];
-    let mut shift = lam[0];
+    // Shifts and clusters first: vector j is orthogonalised against the vectors
+    // first[j]..j (eigenvalues chained by gaps ≤ ortol).
+    let mut shift = vec![0.0f64; n];
+    let mut first = vec![0usize; n];
     for j in 0..n {
         if j == 0 || lam[j] - lam[j - 1] > ortol {
-            cluster.clear();
-            shift = lam[j];
+            first[j] = j;
+            shift[j] = lam[j];
         } else {
             // dstein: separate (numerically) equal eigenvalues of one cluster.
-            shift = if lam[j] - shift < sep {
-                shift + sep
+            first[j] = first[j - 1];
+            shift[j] = if lam[j] - shift[j - 1] < sep {
+                shift[j - 1] + sep
             } else {
                 lam[j]
             };
         }
-        lu.factor(d, e, shift, tiny);
-        // Fixed pseudo-random start in [−1, 1) (64-bit LCG seeded by j).
-        let mut state = splitmix(j as u64);
-        for v in x.iter_mut() {
-            state = state
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1_442_695_040_888_963_407);
-            *v = (state >> 11) as f64 * (2.0 / (1u64 << 53) as f64) - 1.0;
+    }
+    let mut lu = TridiagonalLu::new(n);
+    // Finished vectors, column-major (column j contiguous).
+    let mut zc = vec![0.0f64; n * n];
+    let mut x = vec![[0.0f64; LANES]; n];
+    let mut lane = vec![vec![0.0f64; n]; LANES];
+    for j0 in (0..n).step_by(LANES) {
+        // An odd last group repeats its last vector in the spare lane (discarded).
+        let js: [usize; LANES] = std::array::from_fn(|l| (j0 + l).min(n - 1));
+        lu.factor(d, e, js.map(|j| shift[j]), tiny);
+        for (l, &j) in js.iter().enumerate() {
+            // Fixed pseudo-random start in [−1, 1) (64-bit LCG seeded by j).
+            let mut state = splitmix(j as u64);
+            for xi in x.iter_mut() {
+                state = state
+                    .wrapping_mul(6_364_136_223_846_793_005)
+                    .wrapping_add(1_442_695_040_888_963_407);
+                xi[l] = (state >> 11) as f64 * (2.0 / (1u64 << 53) as f64) - 1.0;
+            }
         }
         for _ in 0..2 {
             lu.solve(&mut x);
-            for q in cluster.chunks_exact(n) {
-                let c = dot(q, &x);
-                axpy(&mut x, -c, q);
+            for l in 0..LANES {
+                let (done, cur) = lane.split_at_mut(l);
+                let v = &mut cur[0];
+                for (vi, xi) in v.iter_mut().zip(&x) {
+                    *vi = xi[l];
+                }
+                let j = js[l];
+                for q in zc[first[j].min(j0) * n..j0 * n].chunks_exact(n) {
+                    let c = dot(q, v);
+                    axpy(v, -c, q);
+                }
+                // Earlier lanes of this group in the same cluster.
+                for (m, q) in done.iter().enumerate() {
+                    if js[m] >= first[j] && js[m] < j {
+                        let c = dot(q, v);
+                        axpy(v, -c, q);
+                    }
+                }
+                let inv = 1.0 / dot(v, v).sqrt();
+                v.iter_mut().for_each(|t| *t *= inv);
+                for (xi, &vi) in x.iter_mut().zip(v.iter()) {
+                    xi[l] = vi;
+                }
             }
-            let inv = 1.0 / dot(&x, &x).sqrt();
-            x.iter_mut().for_each(|v| *v *= inv);
         }
-        cluster.extend_from_slice(&x);
-        for (i, &v) in x.iter().enumerate() {
-            z[i * n + j] = v;
+        for (l, &j) in js.iter().enumerate() {
+            if l > 0 && j == js[l - 1] {
+                continue;
+            }
+            zc[j * n..(j + 1) * n].copy_from_slice(&lane[l]);
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            z[i * n + j] = zc[j * n + i];
         }
     }
     z
