@@ -881,9 +881,12 @@ pub fn decode(topo: &Topology, data: &[u8]) -> Result<Vec<[f64; 3]>, CodecError>
     let mut models = GeoModels::new();
     let n = topo.n_vertices();
     let mut rec = vec![[0.0f64; 3]; n];
+    // The coefficients depend on the stream only and the synthesis `E_m X̃` on the
+    // patch only: range-decode every patch in order, synthesise in parallel, then
+    // add the predictions in order (each reads earlier patches' positions).
+    let mut coefs = Vec::with_capacity(bases.len());
     for b in &bases {
         let m = b.m;
-        let xhat = b.pred.as_ref().map(|pr| pr.predict(&rec));
         let mut q = Mat::<f64>::zeros(m, 3);
         let mut hist = [[0i64; 3]; 4];
         for j in 0..m {
@@ -899,7 +902,16 @@ pub fn decode(topo: &Topology, data: &[u8]) -> Result<Vec<[f64; 3]>, CodecError>
         if dec.exhausted() {
             return Err(CodecError::Truncated("geometry stream"));
         }
-        place(b, xhat.as_ref(), &b.synthesise(&q)?, &mut rec);
+        coefs.push(q);
+    }
+    let synth = bases
+        .par_iter()
+        .zip(coefs.par_iter())
+        .map(|(b, q)| b.synthesise(q))
+        .collect::<Result<Vec<_>, _>>()?;
+    for (b, x) in bases.iter().zip(&synth) {
+        let xhat = b.pred.as_ref().map(|pr| pr.predict(&rec));
+        place(b, xhat.as_ref(), x, &mut rec);
     }
     let (border, loose) = border_and_loose(topo, &bases);
     let mut loose_set = vec![false; n];

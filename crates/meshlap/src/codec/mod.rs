@@ -356,15 +356,50 @@ pub fn compress(
         GeometryMode::Spectral => &[GeometryMode::Spectral],
         GeometryMode::Spatial => &[GeometryMode::Spatial],
     };
-    let genc = if modes.contains(&GeometryMode::Spectral) {
-        Some(GeometryEncoder::new(&dtopo, &positions, opts.geometry)?)
-    } else {
-        None
+    if let Quantisation::Bits(q) = opts.quantisation {
+        if !(1.0..=40.0).contains(&q) {
+            return Err(CodecError::Parameter(format!("--bits must be in 1..=40, got {q}")).into());
+        }
+    }
+    // The spatial section of one step (stream, decoded positions, stats).
+    let spatial_geo = |p: &spatial::Plan, step: f64| -> Result<EncodedGeo, CodecError> {
+        let (data, rec) = spatial::encode(&dtopo, p, &positions, step, &opts.spatial)?;
+        let mut out = Vec::with_capacity(data.len() + 10);
+        out.push(MODE_SPATIAL);
+        out.extend_from_slice(&step.to_le_bytes());
+        out.push(opts.spatial.select as u8);
+        out.extend_from_slice(&data);
+        let stats = GeometryStats {
+            bytes: out.len(),
+            ..Default::default()
+        };
+        Ok((out, rec, stats))
     };
-    let plan = if modes.contains(&GeometryMode::Spatial) {
-        Some(spatial::Plan::new(&dtopo))
-    } else {
-        None
+    // The spectral coder's set-up (partition, bases, prediction) is long and starts
+    // with the sequential METIS call; the spatial coder's plan — and, at a fixed
+    // step, its whole encode — runs beside it on the other thread.
+    let (genc, spatial_pre) = rayon::join(
+        || {
+            modes
+                .contains(&GeometryMode::Spectral)
+                .then(|| GeometryEncoder::new(&dtopo, &positions, opts.geometry))
+                .transpose()
+        },
+        || {
+            modes.contains(&GeometryMode::Spatial).then(|| {
+                let plan = spatial::Plan::new(&dtopo);
+                let fixed = match opts.quantisation {
+                    Quantisation::Bits(q) => Some(spatial_geo(&plan, diag * (-q).exp2())),
+                    Quantisation::TargetBpv(_) => None,
+                };
+                (plan, fixed)
+            })
+        },
+    );
+    let genc = genc?;
+    let (plan, mut spatial_fixed) = match spatial_pre {
+        Some((p, f)) => (Some(p), f),
+        None => (None, None),
     };
     // The geometry section of one mode at one step: stream, decoded positions, stats.
     let encode_geo =
@@ -381,19 +416,7 @@ pub fn compress(
                     out.extend_from_slice(&data);
                     Ok((out, rec, stats))
                 }
-                (GeometryMode::Spatial, _, Some(p)) => {
-                    let (data, rec) = spatial::encode(&dtopo, p, &positions, step, &opts.spatial)?;
-                    let mut out = Vec::with_capacity(data.len() + 10);
-                    out.push(MODE_SPATIAL);
-                    out.extend_from_slice(&step.to_le_bytes());
-                    out.push(opts.spatial.select as u8);
-                    out.extend_from_slice(&data);
-                    let stats = GeometryStats {
-                        bytes: out.len(),
-                        ..Default::default()
-                    };
-                    Ok((out, rec, stats))
-                }
+                (GeometryMode::Spatial, _, Some(p)) => spatial_geo(p, step),
                 _ => Err(CodecError::Internal("geometry mode without its encoder")),
             }
         };
@@ -468,15 +491,7 @@ pub fn compress(
     let mut last_q = None;
     for &mode in modes {
         let step = match opts.quantisation {
-            Quantisation::Bits(q) => {
-                if !(1.0..=40.0).contains(&q) {
-                    return Err(CodecError::Parameter(format!(
-                        "--bits must be in 1..=40, got {q}"
-                    ))
-                    .into());
-                }
-                diag * (-q).exp2()
-            }
+            Quantisation::Bits(q) => diag * (-q).exp2(),
             Quantisation::TargetBpv(b) => {
                 if !(b.is_finite() && b > 0.0) {
                     return Err(CodecError::Parameter(format!("invalid --target-bpv {b}")).into());
@@ -501,7 +516,13 @@ pub fn compress(
                 diag * (-q).exp2()
             }
         };
-        let g = encode_geo(mode, step, true)?;
+        let g = match (mode, spatial_fixed.take()) {
+            (GeometryMode::Spatial, Some(pre)) => pre?,
+            (_, pre) => {
+                spatial_fixed = pre;
+                encode_geo(mode, step, true)?
+            }
+        };
         let (e, en) = (rms(&g.1), normal_rms(&g.1));
         // Lower is better: the product of the vertex RMS and the normal RMS (the
         // latter stands in for the surface distance) under rate control; at a fixed
