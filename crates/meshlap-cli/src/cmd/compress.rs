@@ -43,7 +43,7 @@ pub struct Args {
     #[arg(long, default_value = "kirchhoff")]
     pub operator: OperatorKind,
     /// Patch size in vertices (each patch is eigen-decomposed densely).
-    #[arg(long, default_value_t = 150)]
+    #[arg(long, default_value_t = 100)]
     pub patch_size: usize,
     /// Fraction of each patch's coefficients kept (low frequencies first).
     #[arg(long, conflicts_with = "coefficients")]
