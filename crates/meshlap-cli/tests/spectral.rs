@@ -64,6 +64,34 @@ fn spectrum_json_and_vectors() {
     assert_eq!(v["eigenvalues"].as_array().unwrap().len(), 4);
     assert_eq!(v["path"], "symmetrized");
     assert!(v["max_residual"].as_f64().unwrap() < 1e-12);
+    // The reproducible dense solver: the same spectrum and multiplicities as faer's,
+    // residual and orthogonality at rounding level (the TL on a mesh with boundary,
+    // the KL of the icosahedron with its multiplicities).
+    for (mesh, kind) in [("builtin:step:4", "tl"), ("builtin:icosahedron", "kl")] {
+        let run = |solver: &str| {
+            json(&meshlap(&[
+                "spectrum",
+                mesh,
+                "--kind",
+                kind,
+                "--dense-solver",
+                solver,
+                "--json",
+            ]))
+        };
+        let (f, r) = (run("faer"), run("reproducible"));
+        assert_eq!(f["multiplicities"], r["multiplicities"]);
+        for (a, b) in f["eigenvalues"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .zip(r["eigenvalues"].as_array().unwrap())
+        {
+            assert!((a.as_f64().unwrap() - b.as_f64().unwrap()).abs() < 1e-12);
+        }
+        assert!(r["max_residual"].as_f64().unwrap() < 1e-12);
+        assert!(r["orthonormality_error"].as_f64().unwrap() < 1e-12);
+    }
 }
 
 #[test]
@@ -88,6 +116,15 @@ fn spectrum_errors() {
         "exceeds",
     );
     let out = meshlap(&["spectrum", "builtin:grid:3", "--kind", "kl", "--path", "x"]);
+    assert_eq!(out.status.code(), Some(2));
+    let out = meshlap(&[
+        "spectrum",
+        "builtin:grid:3",
+        "--kind",
+        "kl",
+        "--dense-solver",
+        "lapack",
+    ]);
     assert_eq!(out.status.code(), Some(2));
 }
 

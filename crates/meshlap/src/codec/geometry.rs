@@ -64,16 +64,17 @@
 //! grows as `n·P²` (a dense eigendecomposition per patch); with inter-patch
 //! prediction the rate hardly depends on `P` any more (Igea, Kirchhoff, rate control
 //! at 8 bits/vertex: vertex RMS 2.38e-4 at P = 100, 2.28e-4 at 150, 2.23e-4 at 200,
-//! 2.16e-4 at 300). The default is 100, for speed: encode + decode of Igea takes 1.69 s
-//! at P = 100, 1.91 s at 120 and ≈ 2.5 s at 150 (2 threads, reproducible dense
-//! eigensolver), and costs 5–7 % vertex RMS against P = 150 at 3–6 bits/vertex
-//! under rate control (bunny 4 bpv: 1.066e-3 vs 1.007e-3; Igea 4 bpv: 5.77e-4 vs
-//! 5.46e-4). `--patch-size 150` buys that back.
+//! 2.16e-4 at 300). The default is 100, for speed: encode + decode of Igea at the
+//! default 10 bits takes 1.66 s at P = 100, 1.93 s at 120 and 2.24 s at 150 (2
+//! threads, `meshlap-bench codec`), and costs 5–7 % vertex RMS against P = 150 at
+//! 3–6 bits/vertex under rate control (bunny 4 bpv: 1.066e-3 vs 1.007e-3; Igea 4 bpv:
+//! 5.77e-4 vs 5.46e-4). `--patch-size 150` buys that back.
 //!
 //! **Eigensolver.** Bases come from [`crate::spectral::dense_evd`] (selected by
 //! [`crate::spectral::DenseSolver::Reproducible`]): its arithmetic is fixed-order and
 //! correctly rounded, so the eigendecomposition is the same bit for bit on every
-//! CPU, and at n ≈ 100 it takes 0.64 ms against faer's 0.85 ms.
+//! CPU, and it is faster (cow's patches, `cargo bench --bench core patch_bases`:
+//! 0.58 ms per basis at P = 100 against faer's 1.18 ms, 1.36 against 1.97 ms at 150).
 
 use super::container::ByteReader;
 use super::entropy::{IntModel, RangeDecoder, RangeEncoder};

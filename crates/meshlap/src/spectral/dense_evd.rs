@@ -657,6 +657,36 @@ mod tests {
     }
 
     #[test]
+    fn real_patches_match_faer() {
+        // Kirchhoff and SQL operators of the cow's METIS patches (the codec's use),
+        // patches of about 100 vertices; with boundary, irregular valences.
+        use crate::mesh::topology::Topology;
+        use crate::operator::{Operator, OperatorKind};
+        use crate::spectral::partition::{partition, PartitionOptions};
+        let path = format!("{}/../../tests/data/cow.obj", env!("CARGO_MANIFEST_DIR"));
+        let m = crate::io::read_mesh(std::path::Path::new(&path), None)
+            .unwrap()
+            .mesh;
+        let t = Topology::new(&m).unwrap();
+        let part = partition(&t, &PartitionOptions::new(100)).unwrap();
+        for p in (0..part.n_patches()).step_by(3) {
+            let sub = part.submesh(&m, p).mesh;
+            let st = Topology::new(&sub).unwrap();
+            for kind in [OperatorKind::Kirchhoff, OperatorKind::Sql] {
+                let op = Operator::assemble(kind, &sub, &st, &Default::default()).unwrap();
+                let a = op.matrix.to_dense();
+                let (lam, e) = symmetric_evd(a.as_ref()).unwrap();
+                let (res, orth) = quality(&a, &lam, &e);
+                assert!(res < 1e-13 && orth < 1e-13, "patch {p}: {res:e} {orth:e}");
+                let f = faer_values(&a);
+                for (x, y) in lam.iter().zip(&f) {
+                    assert!((x - y).abs() < 1e-12 * f[f.len() - 1], "{x} vs {y}");
+                }
+            }
+        }
+    }
+
+    #[test]
     fn reads_the_lower_triangle_and_rejects_non_finite() {
         let mut a = random_symmetric(8, 10);
         let (l1, e1) = symmetric_evd(a.as_ref()).unwrap();
