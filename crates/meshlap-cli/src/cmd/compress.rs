@@ -61,7 +61,7 @@ pub struct Args {
     #[arg(long)]
     pub preserve_order: bool,
     /// Per-band steps: band b of 4 (low to high frequency) uses step·(1 + slope·b/3).
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = 1.0)]
     pub band_slope: f64,
     /// Border-aware coding: also code the residuals of patch-border vertices, where a
     /// truncated basis errs most (useful with a keep ratio below 1).
@@ -70,7 +70,7 @@ pub struct Args {
     /// Dead-zone rounding offset θ in [0.2, 0.5] of the coefficient quantiser,
     /// q = sign(c)·floor(|c|/step + θ) (0.5: plain rounding; smaller values zero more
     /// small coefficients, trading a little error for rate).
-    #[arg(long, default_value_t = 0.4)]
+    #[arg(long, default_value_t = 0.35)]
     pub dead_zone: f64,
     /// Turn off inter-patch prediction (each patch codes its coordinates instead of
     /// their difference from the smoothest continuation of earlier patches).
