@@ -661,6 +661,7 @@ mod tests {
             g,
             Mat::identity(10, 10),
             diag,
+            wilkinson,
             Mat::zeros(5, 5),
             big,
             small,
