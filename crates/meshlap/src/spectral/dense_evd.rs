@@ -15,7 +15,8 @@
 //! elsewhere it runs the identical portable code.
 //!
 //! **Method** (Golub & Van Loan §8.3, LAPACK `dsytd2`/`dsterf`/`dstein`):
-//! 1. Scale by a power of two (exact) so that `max |a_ij|` is in `[1, 2)`.
+//! 1. Scale by a power of two (exact) so that `max |a_ij|` is in `[1, 2)` (for
+//!    `2^-1000 ≤ max |a_ij| < 2^1001`; beyond, by `2^±1000`).
 //! 2. Householder tridiagonalisation `A = Q T Qᵀ` on the full (both-triangle)
 //!    column-major matrix, one fused pass per step over the trailing matrix: the
 //!    rank-2 update of step k−1 and the product `B v_k` of step k (2n³ flops, all
@@ -37,8 +38,8 @@
 
 /// Eigenvalues (ascending) and eigenvectors of the symmetric matrix whose **lower
 /// triangle** is `a` (n×n, column-major; the upper triangle is not read). Returns
-/// `None` if the QL iteration does not converge (30 sweeps per eigenvalue), the
-/// input is not finite or (never seen) a vector comes out non-finite.
+/// `None` if the QL iteration does not converge (30 sweeps per eigenvalue), or the
+/// input or a result is not finite.
 pub fn symmetric_evd(a: faer::MatRef<'_, f64>) -> Option<(Vec<f64>, faer::Mat<f64>)> {
     let n = a.nrows();
     if a.ncols() != n {
@@ -76,6 +77,9 @@ pub fn symmetric_evd(a: faer::MatRef<'_, f64>) -> Option<(Vec<f64>, faer::Mat<f6
         return None;
     }
     lam.iter_mut().for_each(|x| *x *= unscale);
+    if lam.iter().any(|x| !x.is_finite()) {
+        return None;
+    }
     Some((lam, faer::Mat::from_fn(n, n, |i, j| z[i * n + j])))
 }
 
@@ -179,10 +183,22 @@ fn tridiagonalize(a: &mut [f64], n: usize, d: &mut [f64], e: &mut [f64], tau: &m
         }
         d[k] = ck[k];
         let x = &mut ck[k + 1..n];
+        // As LAPACK's dlarfg: a column far below the matrix's scale is scaled up by an
+        // exact power of two first, so that the squares do not underflow and the
+        // reflector stays orthogonal (v and τ do not depend on the scale).
+        let xmax = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let (up, down) = if xmax < pow2(-400) {
+            (pow2(500), pow2(-500))
+        } else {
+            (1.0, 1.0)
+        };
+        if up != 1.0 {
+            x.iter_mut().for_each(|v| *v *= up);
+        }
         let alpha = x[0];
         let sigma = dot(&x[1..], &x[1..]);
         let t = if sigma == 0.0 {
-            e[k] = alpha;
+            e[k] = alpha * down;
             x[0] = 1.0;
             0.0
         } else {
@@ -191,7 +207,7 @@ fn tridiagonalize(a: &mut [f64], n: usize, d: &mut [f64], e: &mut [f64], tau: &m
             let scal = 1.0 / (alpha - beta);
             x[0] = 1.0;
             x[1..].iter_mut().for_each(|v| *v *= scal);
-            e[k] = beta;
+            e[k] = beta * down;
             (beta - alpha) / beta
         };
         tau[k] = t;
@@ -234,8 +250,8 @@ fn tridiagonalize(a: &mut [f64], n: usize, d: &mut [f64], e: &mut [f64], tau: &m
 /// (LAPACK `dsterf`, QL direction only) on the squared off-diagonal. The two
 /// reciprocals of a step, `1/r` and `1/p` (`γ²/c = γ²·r/p`), are independent, so
 /// they overlap: 37 % faster than the square-root QL (`tqli`) at n ≈ 100–150.
-/// Deflation: `e_m² ≤ ε²(|d_m| + |d_{m+1}|)²`. `None` after 30 iterations on one
-/// eigenvalue.
+/// Deflation: `e_m² ≤ ε² max(|d_m| + |d_{m+1}|, ‖T‖∞)²`. `None` after 30 iterations
+/// on one eigenvalue.
 #[inline(always)]
 fn ql_eigenvalues(d: &[f64], e: &[f64]) -> Option<Vec<f64>> {
     let n = d.len();
@@ -246,12 +262,16 @@ fn ql_eigenvalues(d: &[f64], e: &[f64]) -> Option<Vec<f64>> {
         .chain(std::iter::once(0.0))
         .collect();
     let eps2 = f64::EPSILON * f64::EPSILON;
+    let tnorm = infinity_norm(&d, e);
     for l in 0..n {
         let mut iter = 0;
         loop {
             let mut m = l;
             while m + 1 < n {
-                let dd = d[m].abs() + d[m + 1].abs();
+                // Relative to the neighbouring diagonal or, as EISPACK's tql1, to ‖T‖:
+                // a purely relative test never deflates a noise-level block that is
+                // still coupled to O(1) eigenvalues (low-rank and graded matrices).
+                let dd = (d[m].abs() + d[m + 1].abs()).max(tnorm);
                 if e2[m] <= eps2 * dd * dd {
                     break;
                 }
@@ -331,7 +351,8 @@ impl TridiagonalLu {
         }
     }
 
-    /// Factors `T − λ_l I` for every lane; a zero pivot is replaced by `tiny`.
+    /// Factors `T − λ_l I` for every lane; a pivot smaller than `tiny` in magnitude
+    /// is replaced by `±tiny`.
     #[inline(always)]
     fn factor(&mut self, d0: &[f64], e: &[f64], lam: [f64; LANES], tiny: f64) {
         let n = d0.len();
@@ -359,7 +380,13 @@ impl TridiagonalLu {
                 let (a, b, c, d1) = (dd[i][l], self.dl[i][l], self.du[i][l], dd[i + 1][l]);
                 let keep = a.abs() >= b.abs();
                 let piv = if keep { a } else { b };
-                let piv = if piv == 0.0 { tiny } else { piv };
+                // dlagts: a pivot below `tiny` (not only an exact zero) is floored, or
+                // tiny pivots compound into an overflow.
+                let piv = if piv.abs() < tiny {
+                    tiny.copysign(piv)
+                } else {
+                    piv
+                };
                 let fact = (if keep { b } else { a }) / piv;
                 dd[i][l] = piv;
                 self.dl[i][l] = fact;
@@ -376,8 +403,9 @@ impl TridiagonalLu {
             }
         }
         for l in 0..LANES {
-            if dd[n - 1][l] == 0.0 {
-                dd[n - 1][l] = tiny;
+            let p = dd[n - 1][l];
+            if p.abs() < tiny {
+                dd[n - 1][l] = tiny.copysign(p);
             }
         }
         dd[..n]
@@ -424,14 +452,19 @@ fn tridiagonal_vectors(d: &[f64], e: &[f64], lam: &[f64]) -> Vec<f64> {
         z[0] = 1.0;
         return z;
     }
-    let tnorm = (0..n)
-        .map(|i| {
-            d[i].abs()
-                + if i > 0 { e[i - 1].abs() } else { 0.0 }
-                + if i + 1 < n { e[i].abs() } else { 0.0 }
+    let tnorm = infinity_norm(d, e).max(f64::MIN_POSITIVE);
+    // As dstein works per unreduced block: negligible couplings become exact zeros.
+    let e: Vec<f64> = e
+        .iter()
+        .map(|&x| {
+            if x.abs() <= f64::EPSILON * tnorm {
+                0.0
+            } else {
+                x
+            }
         })
-        .fold(0.0f64, f64::max)
-        .max(f64::MIN_POSITIVE);
+        .collect();
+    let e = &e[..];
     let ortol = 1e-3 * tnorm;
     let sep = 10.0 * f64::EPSILON * tnorm;
     let tiny = f64::EPSILON * tnorm;
@@ -512,6 +545,19 @@ fn tridiagonal_vectors(d: &[f64], e: &[f64], lam: &[f64]) -> Vec<f64> {
         }
     }
     z
+}
+
+/// `‖T‖∞` of the symmetric tridiagonal (`d`, off-diagonal `e`).
+#[inline(always)]
+fn infinity_norm(d: &[f64], e: &[f64]) -> f64 {
+    let n = d.len();
+    (0..n)
+        .map(|i| {
+            d[i].abs()
+                + if i > 0 { e[i - 1].abs() } else { 0.0 }
+                + if i + 1 < n { e[i].abs() } else { 0.0 }
+        })
+        .fold(0.0f64, f64::max)
 }
 
 fn splitmix(mut z: u64) -> u64 {
@@ -656,12 +702,38 @@ mod tests {
         let r9 = random_symmetric(20, 9);
         let big = Mat::<f64>::from_fn(20, 20, |i, j| r8[(i, j)] * 1e200);
         let small = Mat::<f64>::from_fn(20, 20, |i, j| r9[(i, j)] * 1e-200);
+        // Found in review: rank-deficient inputs (underflowing reflectors, QL that
+        // never deflated), tiny non-zero pivots.
+        let ones13 = Mat::<f64>::from_fn(13, 13, |_, _| 1.0);
+        let ones64 = Mat::<f64>::from_fn(64, 64, |_, _| 1.0);
+        let gmat = random_symmetric(100, 12);
+        let gsub = gmat.as_ref().subcols(0, 10);
+        let low_rank = gsub * gsub.transpose();
+        let tiny_coupling = Mat::<f64>::from_fn(2, 2, |i, j| match (i, j) {
+            (0, 0) => 0.0,
+            (1, 1) => 1.0,
+            _ => 1e-300,
+        });
+        let clustered = Mat::<f64>::from_fn(100, 100, |i, j| {
+            if i == j {
+                (i % 3) as f64
+            } else if i.abs_diff(j) == 1 {
+                1e-20
+            } else {
+                0.0
+            }
+        });
         for a in [
             a,
             g,
             Mat::identity(10, 10),
             diag,
             wilkinson,
+            ones13,
+            ones64,
+            low_rank,
+            tiny_coupling,
+            clustered,
             Mat::zeros(5, 5),
             big,
             small,
