@@ -70,16 +70,21 @@
 //! prediction the rate hardly depends on `P` any more (Igea, Kirchhoff, rate control
 //! at 8 bits/vertex: vertex RMS 2.38e-4 at P = 100, 2.28e-4 at 150, 2.23e-4 at 200,
 //! 2.16e-4 at 300). The default is 100, for speed: encode + decode of Igea at the
-//! default 10 bits takes 1.66 s at P = 100, 1.93 s at 120 and 2.24 s at 150 (2
-//! threads, `meshlap-bench codec`), and costs 5–7 % vertex RMS against P = 150 at
-//! 3–6 bits/vertex under rate control (bunny 4 bpv: 1.066e-3 vs 1.007e-3; Igea 4 bpv:
-//! 5.77e-4 vs 5.46e-4). `--patch-size 150` buys that back.
+//! default 10 bits takes about 1.6 s at P = 100 and 2.2 s at 150 (2 threads,
+//! `meshlap-bench codec`, BENCHMARKS.md), and P = 150 has 4–6 % lower vertex and
+//! Metro error at 4–6 bits/vertex under rate control (bunny 4 bpv: vertex 1.007e-3 vs
+//! 1.066e-3, Metro 3.86e-4 vs 4.03e-4; Igea 6 bpv: 3.47e-4 vs 3.62e-4, 1.33e-4 vs
+//! 1.38e-4). Patches are at most 1000 vertices (a hostile file cannot ask for more).
 //!
 //! **Eigensolver.** Bases come from [`crate::spectral::dense_evd`] (selected by
-//! [`crate::spectral::DenseSolver::Reproducible`]): its arithmetic is fixed-order and
-//! correctly rounded, so the eigendecomposition is the same bit for bit on every
-//! CPU, and it is faster (cow's patches, `cargo bench --bench core patch_bases`:
-//! 0.58 ms per basis at P = 100 against faer's 1.18 ms, 1.36 against 1.97 ms at 150).
+//! [`crate::spectral::DenseSolver::Reproducible`]) and the canonicalisation in
+//! `spectral::basis` (plain loops in index order): the arithmetic is fixed-order and
+//! correctly rounded, so the bases are the same bit for bit on every CPU with FMA.
+//! The coefficient products (`forward`/`inverse`) and the prediction's Cholesky use
+//! faer, whose kernels depend on the CPU, so decoded coordinates can differ in their
+//! last bits between machines (never more: the integers are in the file). The solver
+//! is also faster (cow's patches, `cargo bench --bench core patch_bases`: 0.58 ms per
+//! basis at P = 100 against faer's 1.18 ms, 1.36 against 1.97 ms at 150).
 
 use super::container::ByteReader;
 use super::entropy::{IntModel, RangeDecoder, RangeEncoder};
@@ -92,6 +97,11 @@ use faer::Mat;
 use rayon::prelude::*;
 
 const BANDS: usize = 4;
+
+/// Largest patch size: each patch costs a dense O(P³) eigendecomposition with O(P²)
+/// memory on both sides, and a hostile file must not ask for more (P = 1000: about
+/// 1 s per patch).
+const MAX_PATCH: usize = 1000;
 
 /// How many low-frequency coefficients each patch keeps.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -634,9 +644,9 @@ impl<'a> GeometryEncoder<'a> {
                 params.dead_zone
             )));
         }
-        if params.patch_size < 4 || params.patch_size > 5000 {
+        if params.patch_size < 4 || params.patch_size > MAX_PATCH {
             return Err(CodecError::Parameter(format!(
-                "--patch-size must be between 4 and 5000, got {}",
+                "--patch-size must be between 4 and {MAX_PATCH}, got {}",
                 params.patch_size
             )));
         }
@@ -844,7 +854,7 @@ pub fn decode(topo: &Topology, data: &[u8]) -> Result<Vec<[f64; 3]>, CodecError>
     let mut r = ByteReader::new(data, "geometry header");
     let operator = operator_from_code(r.u8()?)?;
     let patch_size = r.u32()? as usize;
-    if !(4..=5000).contains(&patch_size) {
+    if !(4..=MAX_PATCH).contains(&patch_size) {
         return Err(CodecError::Corrupt("patch size out of range"));
     }
     let keep = match r.u8()? {

@@ -548,7 +548,7 @@ fn orthonormalize(a: &mut Mat<f64>) -> bool {
     let (n, k) = (a.nrows(), a.ncols());
     let mut ok = true;
     for j in 0..k {
-        let norm0 = a.col(j).norm_l2();
+        let norm0 = col_norm(a, j);
         for _ in 0..2 {
             for p in 0..j {
                 let d: f64 = (0..n).map(|i| a[(i, p)] * a[(i, j)]).sum();
@@ -558,7 +558,7 @@ fn orthonormalize(a: &mut Mat<f64>) -> bool {
                 }
             }
         }
-        let norm = a.col(j).norm_l2();
+        let norm = col_norm(a, j);
         if norm.is_nan() || norm <= 1e-8 * norm0 || norm == 0.0 {
             ok = false;
         }
@@ -570,20 +570,51 @@ fn orthonormalize(a: &mut Mat<f64>) -> bool {
     ok
 }
 
-/// Replaces each cluster's columns `V_c` (orthonormal, n×k) by `V_c·Q` where
-/// `V_cᵀ·P = Q·R` with `P[i][q] = probe(i, q)·probe_scale[i]`.
+/// Euclidean norm of column `j`, summed in index order (the same bits on every CPU).
+fn col_norm(a: &Mat<f64>, j: usize) -> f64 {
+    (0..a.nrows())
+        .map(|i| a[(i, j)] * a[(i, j)])
+        .fold(0.0, |s, x| s + x)
+        .sqrt()
+}
+
+/// Canonical vectors: a simple eigenvector gets the sign with `e·r_0 ≥ 0` (an exact
+/// ±1 factor); a cluster's columns `V_c` (orthonormal, n×k) become `V_c·Q` where
+/// `V_cᵀ·P = Q·R` with `P[i][q] = probe(i, q)·probe_scale[i]`. Plain loops in index order, not faer's CPU-dispatched kernels,
+/// so that a bit-reproducible decomposition stays bit-reproducible.
 fn canonicalize(v: &mut Mat<f64>, clusters: &[(usize, usize)], probe_scale: Option<&[f64]>) {
     let n = v.nrows();
     let kmax = clusters.iter().map(|c| c.1).max().unwrap_or(0);
     let probes = Mat::from_fn(n, kmax, |i, q| {
         probe(i, q) * probe_scale.map_or(1.0, |s| s[i])
     });
+    let dot = |v: &Mat<f64>, j: usize, q: usize| -> f64 {
+        (0..n)
+            .map(|i| v[(i, j)] * probes[(i, q)])
+            .fold(0.0, |s, x| s + x)
+    };
     for &(start, k) in clusters {
-        let vc = v.as_ref().subcols(start, k);
-        let mut c = vc.transpose() * probes.as_ref().subcols(0, k);
+        if k == 1 {
+            if dot(v, start, 0) < 0.0 {
+                for i in 0..n {
+                    v[(i, start)] = -v[(i, start)];
+                }
+            }
+            continue;
+        }
+        let mut c = Mat::from_fn(k, k, |p, q| dot(v, start + p, q));
         orthonormalize(&mut c);
-        let rotated = vc * &c;
-        v.as_mut().subcols_mut(start, k).copy_from(&rotated);
+        let mut row = vec![0.0; k];
+        for i in 0..n {
+            for (q, r) in row.iter_mut().enumerate() {
+                *r = (0..k)
+                    .map(|p| v[(i, start + p)] * c[(p, q)])
+                    .fold(0.0, |s, x| s + x);
+            }
+            for (q, &r) in row.iter().enumerate() {
+                v[(i, start + q)] = r;
+            }
+        }
     }
 }
 

@@ -238,8 +238,9 @@ pub fn partition(topo: &Topology, opts: &PartitionOptions) -> Result<Partition, 
     Ok(finish(part, faces, topo, metis_cut, nparts))
 }
 
-/// Index of `METIS_OPTION_NIPARTS` in METIS 5's options array (`metis.h`).
-const METIS_OPTION_NIPARTS: usize = 6;
+/// Index of `METIS_OPTION_NIPARTS` in the options array of the METIS that is linked
+/// (6 in the vendored METIS 5.2; not the same in 5.1).
+const METIS_OPTION_NIPARTS: usize = metis_sys::moptions_et_METIS_OPTION_NIPARTS as usize;
 
 /// METIS k-way partition of the vertex graph; returns the part of every vertex and
 /// METIS's edge cut.
