@@ -70,7 +70,7 @@
 //! prediction the rate hardly depends on `P` any more (Igea, Kirchhoff, rate control
 //! at 8 bits/vertex: vertex RMS 2.38e-4 at P = 100, 2.28e-4 at 150, 2.23e-4 at 200,
 //! 2.16e-4 at 300). The default is 100, for speed: encode + decode of Igea at the
-//! default 10 bits takes about 1.6 s at P = 100 and 2.2 s at 150 (2 threads,
+//! default 10 bits takes 1.6–1.8 s at P = 100 and 2.3–2.4 s at 150 (2 threads,
 //! `meshlap-bench codec`, BENCHMARKS.md), and P = 150 has 4–6 % lower vertex and
 //! Metro error at 4–6 bits/vertex under rate control (bunny 4 bpv: vertex 1.007e-3 vs
 //! 1.066e-3, Metro 3.86e-4 vs 4.03e-4; Igea 6 bpv: 3.47e-4 vs 3.62e-4, 1.33e-4 vs
@@ -82,9 +82,9 @@
 //! correctly rounded, so the bases are the same bit for bit on every CPU with FMA.
 //! The coefficient products (`forward`/`inverse`) and the prediction's Cholesky use
 //! faer, whose kernels depend on the CPU, so decoded coordinates can differ in their
-//! last bits between machines (never more: the integers are in the file). The solver
-//! is also faster (cow's patches, `cargo bench --bench core patch_bases`: 0.58 ms per
-//! basis at P = 100 against faer's 1.18 ms, 1.36 against 1.97 ms at 150).
+//! last bits between machines (at rounding level: the integers are in the file). The solver
+//! is also faster (cow's patches, `cargo bench --bench core patch_bases`: 0.53 ms per
+//! basis at P = 100 against faer's 1.30 ms, 1.36 against 2.08 ms at 150).
 
 use super::container::ByteReader;
 use super::entropy::{IntModel, RangeDecoder, RangeEncoder};

@@ -38,7 +38,7 @@
 //! eigenvalues, identity, zero, entries of 1e±200): residuals `‖A e − λ e‖∞ ≤
 //! 10⁻¹³‖A‖`, orthogonality `|EᵀE − I| ≤ 10⁻¹³` and eigenvalues within 10⁻¹² of
 //! faer's. Speed: see `cargo bench -p meshlap --bench core patch_bases` and
-//! BENCHMARKS.md (0.58 ms per basis of ≈ 100 vertices against faer's 1.18 ms).
+//! BENCHMARKS.md (0.53 ms per basis of ≈ 100 vertices against faer's 1.30 ms).
 
 /// Eigenvalues (ascending) and eigenvectors of the symmetric matrix whose **lower
 /// triangle** is `a` (n×n, column-major; the upper triangle is not read). Returns
