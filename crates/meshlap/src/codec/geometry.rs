@@ -40,9 +40,9 @@
 //! θ = 0.35` instead of `s = 0.5, θ = 0.4` lowers the Metro surface RMS by 4–9 % at
 //! vertex RMS within +1.2 % (coarser high bands and more zeros spend the bits on the
 //! low frequencies, which shape the surface; the vertex error is spread along it).
-//! Integers are
-//! range-coded with adaptive models whose context is the coefficient's frequency
-//! octave and the magnitude of its already coded neighbours (see [`coef_context`]).
+//! Integers are range-coded with adaptive models whose context is the coefficient's
+//! frequency octave and the magnitude of its already coded neighbours (see
+//! [`coef_context`]).
 //!
 //! **Inter-patch prediction** (on by default, format version 2). Patches are coded in
 //! index order; patch `p` first predicts its coordinates from the decoded vertices of
@@ -82,9 +82,10 @@
 //! correctly rounded, so the bases are the same bit for bit on every CPU with FMA.
 //! The coefficient products (`forward`/`inverse`) and the prediction's Cholesky use
 //! faer, whose kernels depend on the CPU, so decoded coordinates can differ in their
-//! last bits between machines (at rounding level: the integers are in the file). The solver
-//! is also faster (cow's patches, `cargo bench --bench core patch_bases`: 0.53 ms per
-//! basis at P = 100 against faer's 1.30 ms, 1.36 against 2.08 ms at 150).
+//! last bits between machines (at rounding level: the integers are in the file).
+//! The solver is also faster (cow's patches, `cargo bench --bench core
+//! patch_bases`: 0.53 ms per basis at P = 100 against faer's 1.30 ms, 1.36 against
+//! 2.08 ms at 150).
 
 use super::container::ByteReader;
 use super::entropy::{IntModel, RangeDecoder, RangeEncoder};

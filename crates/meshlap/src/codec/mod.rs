@@ -516,12 +516,13 @@ pub fn compress(
                 diag * (-q).exp2()
             }
         };
-        let g = match (mode, spatial_fixed.take()) {
-            (GeometryMode::Spatial, Some(pre)) => pre?,
-            (_, pre) => {
-                spatial_fixed = pre;
-                encode_geo(mode, step, true)?
-            }
+        let pre = match mode {
+            GeometryMode::Spatial => spatial_fixed.take(),
+            _ => None,
+        };
+        let g = match pre {
+            Some(g) => g?,
+            None => encode_geo(mode, step, true)?,
         };
         let (e, en) = (rms(&g.1), normal_rms(&g.1));
         // Lower is better: the product of the vertex RMS and the normal RMS (the

@@ -580,8 +580,9 @@ fn col_norm(a: &Mat<f64>, j: usize) -> f64 {
 
 /// Canonical vectors: a simple eigenvector gets the sign with `e·r_0 ≥ 0` (an exact
 /// ±1 factor); a cluster's columns `V_c` (orthonormal, n×k) become `V_c·Q` where
-/// `V_cᵀ·P = Q·R` with `P[i][q] = probe(i, q)·probe_scale[i]`. Plain loops in index order, not faer's CPU-dispatched kernels,
-/// so that a bit-reproducible decomposition stays bit-reproducible.
+/// `V_cᵀ·P = Q·R` with `P[i][q] = probe(i, q)·probe_scale[i]`. Plain loops in index
+/// order, not faer's CPU-dispatched kernels, so that a bit-reproducible
+/// decomposition stays bit-reproducible.
 fn canonicalize(v: &mut Mat<f64>, clusters: &[(usize, usize)], probe_scale: Option<&[f64]>) {
     let n = v.nrows();
     let kmax = clusters.iter().map(|c| c.1).max().unwrap_or(0);

@@ -242,13 +242,9 @@ fn tridiagonalize(a: &mut [f64], n: usize, d: &mut [f64], e: &mut [f64], tau: &m
             pending = false;
         }
     }
-    let k = n - 1;
-    if pending {
-        let (left, right) = a.split_at_mut(k * n);
-        let (pv, pw) = (left[(k - 1) * n + k], w[0]);
-        right[k] = pv.mul_add(-pw, pw.mul_add(-pv, right[k]));
-    }
-    d[k] = a[k * n + k];
+    // The last step (k = n − 2) has a one-entry column, so τ = 0 and nothing is
+    // pending: its fused pass has already finished the last diagonal entry.
+    d[n - 1] = a[(n - 1) * n + n - 1];
 }
 
 /// Eigenvalues of the symmetric tridiagonal matrix (`d`, off-diagonal `e`),

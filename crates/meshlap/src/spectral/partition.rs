@@ -12,8 +12,9 @@
 //!    matching coarsening, greedy growing of the coarsest graph, boundary
 //!    Fiduccia–Mattheyses refinement at every uncoarsening level), through the `metis`
 //!    crate's vendored build (plain C, no system library), with one initial
-//!    partitioning of the coarsest graph instead of four (see [`metis_parts`]). METIS is the reference
-//!    for this job; re-implementing it by hand would only lose quality.
+//!    partitioning of the coarsest graph instead of four (see [`metis_parts`]).
+//!    METIS is the reference for this job; re-implementing it by hand would only
+//!    lose quality.
 //! 2. **Faces and patches.** A face belongs to patch `p` when its three corners do
 //!    (an *interior* face); a face whose corners lie in two or three patches (a
 //!    *straddling* face) belongs to no patch: it is a seam, and its vertices are
