@@ -7,7 +7,7 @@
 
 use meshlap::mesh::{builtin, clean, topology::Topology};
 use meshlap::operator::{Operator, OperatorKind, OperatorOptions};
-use meshlap::spectral::partition::{partition, PartitionOptions};
+use meshlap::partition::{partition, PartitionOptions};
 use meshlap::spectral::{BasisOptions, DenseSolver, EigenBasis};
 
 fn main() {

@@ -32,7 +32,7 @@ pub enum Error {
     Metric(#[from] crate::metric::MetricError),
     /// Partitioning a mesh into patches failed.
     #[error(transparent)]
-    Partition(#[from] crate::spectral::partition::PartitionError),
+    Partition(#[from] crate::partition::PartitionError),
     /// A partial (shift-invert) eigensolve failed.
     #[error(transparent)]
     PartialSpectrum(#[from] crate::spectral::partial::PartialError),

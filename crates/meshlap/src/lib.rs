@@ -23,7 +23,10 @@
 //! - [`experiment`]: the paper's experiments as functions returning tables and charts.
 //! - [`plot`]: PNG line charts for the experiments.
 //! - [`render`]: software rendering of meshes to PNG (the paper's figures).
-//! - [`spectral`]: eigenvalue-decomposition (ED) transforms, partial spectra, partitioning.
+//! - [`partition`]: METIS graph partitioning of a mesh into connected patches (used by
+//!   the patch-wise transforms, the codec and watermarking).
+//! - [`spectral`]: eigenvalue-decomposition (ED) transforms, partial spectra, patch-wise
+//!   reconstruction.
 
 // Index loops over vertices read like the formulas they implement.
 #![allow(clippy::needless_range_loop)]
@@ -38,8 +41,10 @@ pub mod io;
 pub mod mesh;
 pub mod metric;
 pub mod operator;
+pub mod partition;
 pub mod plot;
 pub mod render;
+pub mod rng;
 pub mod solve;
 pub mod spectral;
 

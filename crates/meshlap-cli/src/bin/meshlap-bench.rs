@@ -335,10 +335,10 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             let p: usize = flag(&args, "--patch-size").unwrap_or("300").parse()?;
             let input = open(&mesh, &OpenOptions::default())?;
             out.insert("vertices".into(), input.mesh.n_vertices().into());
-            let opts = meshlap::spectral::partition::PartitionOptions::new(p);
+            let opts = meshlap::partition::PartitionOptions::new(p);
             let mut stats = None;
             let (m, t) = time(repeat, || {
-                let part = meshlap::spectral::partition::partition(&input.topology, &opts).unwrap();
+                let part = meshlap::partition::partition(&input.topology, &opts).unwrap();
                 stats = Some(part.stats().clone());
             });
             out.insert(
@@ -357,10 +357,10 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                 let t0 = Instant::now();
                 let input = open(&mesh, &OpenOptions::default()).unwrap();
                 let t_open = t0.elapsed().as_secs_f64();
-                let opts = meshlap::spectral::partition::PartitionOptions::new(p);
-                let part = meshlap::spectral::partition::partition(&input.topology, &opts).unwrap();
+                let opts = meshlap::partition::PartitionOptions::new(p);
+                let part = meshlap::partition::partition(&input.topology, &opts).unwrap();
                 let t_part = t0.elapsed().as_secs_f64() - t_open;
-                let rec = meshlap::spectral::partition::patchwise_reconstruction(
+                let rec = meshlap::spectral::patchwise::patchwise_reconstruction(
                     &input.mesh,
                     &part,
                     kind,

@@ -2,7 +2,7 @@
 
 use crate::common::{print_json, MeshArgs};
 use meshlap::io::{write_mesh, WriteOptions};
-use meshlap::spectral::partition::{partition_mesh, PartitionOptions, PartitionStats};
+use meshlap::partition::{partition_mesh, PartitionOptions, PartitionStats};
 use serde::Serialize;
 use std::path::PathBuf;
 

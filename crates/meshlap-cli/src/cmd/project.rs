@@ -86,7 +86,7 @@ struct PatchJson<'a> {
     vertices: usize,
     patch_size: usize,
     keep_fraction: f64,
-    partition: &'a meshlap::spectral::partition::PartitionStats,
+    partition: &'a meshlap::partition::PartitionStats,
     relative_error: f64,
     max_displacement: f64,
     seconds: f64,
@@ -115,9 +115,8 @@ fn run_patches(
     keep: usize,
     p: usize,
 ) -> meshlap::Result<()> {
-    use meshlap::spectral::partition::{
-        partition_mesh, patchwise_reconstruction, PartitionOptions,
-    };
+    use meshlap::partition::{partition_mesh, PartitionOptions};
+    use meshlap::spectral::patchwise::patchwise_reconstruction;
     let n = input.mesh.n_vertices();
     let t = std::time::Instant::now();
     let part = partition_mesh(&input.mesh, &input.topology, &PartitionOptions::new(p))?;

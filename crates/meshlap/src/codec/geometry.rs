@@ -188,12 +188,12 @@ fn operator_from_code(c: u8) -> Result<OperatorKind, CodecError> {
 }
 
 /// Patches of about `p` vertices from the multilevel partitioner
-/// ([`crate::spectral::partition`]: METIS k-way with a fixed seed, connected patches,
+/// ([`crate::partition`]: METIS k-way with a fixed seed, connected patches,
 /// every vertex on a face of its own patch). Deterministic for a given connectivity, so
 /// the decoder, which has the same connectivity in the same order, gets the same
 /// patches. Each vertex belongs to exactly one patch.
 pub(crate) fn partition(topo: &Topology, p: usize) -> Result<Vec<Vec<u32>>, CodecError> {
-    use crate::spectral::partition::{partition as metis_patches, PartitionOptions};
+    use crate::partition::{partition as metis_patches, PartitionOptions};
     let part = metis_patches(topo, &PartitionOptions::new(p.max(3)))
         .map_err(|e| CodecError::Parameter(format!("partitioning into patches: {e}")))?;
     Ok((0..part.n_patches())

@@ -11,7 +11,7 @@
 //!   step or cube; the differences are slight.
 //!
 //! Patches are grown by breadth-first search ([`bfs_patch`]); the real multilevel
-//! partitioner lives in `spectral::partition`. Sign convention: `F = D − W`, PSD.
+//! partitioner lives in `partition`. Sign convention: `F = D − W`, PSD.
 
 use super::claims::short_name;
 use super::{sig, ExperimentError, Table};

@@ -20,6 +20,7 @@ pub mod bvh;
 use crate::mesh::topology::Topology;
 use crate::mesh::TriMesh;
 use crate::operator::{Operator, OperatorKind, OperatorOptions};
+use crate::rng::SplitMix64;
 use serde::Serialize;
 
 /// Errors of the metrics.
@@ -67,20 +68,6 @@ pub struct Comparison {
     pub samples: usize,
 }
 
-/// SplitMix64: a tiny seeded generator (deterministic sampling without a `rand`
-/// dependency in the library).
-struct SplitMix(u64);
-impl SplitMix {
-    fn next_f64(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
@@ -108,7 +95,7 @@ pub fn sample_surface(m: &TriMesh, count: usize, seed: u64) -> Vec<[f64; 3]> {
     if total <= 0.0 {
         return out;
     }
-    let mut rng = SplitMix(seed);
+    let mut rng = SplitMix64::new(seed);
     for _ in 0..count {
         let t = rng.next_f64() * total;
         let fi = cum.partition_point(|&c| c < t).min(m.n_faces() - 1);
@@ -342,7 +329,7 @@ mod tests {
         let n = m.n_vertices();
         // A seeded random permutation: b's vertex i is a's vertex map[i].
         let mut map: Vec<u32> = (0..n as u32).collect();
-        let mut rng = SplitMix(99);
+        let mut rng = SplitMix64::new(99);
         for i in (1..n).rev() {
             let j = (rng.next_f64() * (i + 1) as f64) as usize;
             map.swap(i, j.min(i));

@@ -514,13 +514,8 @@ impl EigenBasis {
 
 /// Probe vector entry `r_q[i]`, uniform in [−1, 1) (see the module documentation).
 pub fn probe(i: usize, q: usize) -> f64 {
-    let mut z = 0x6d65_7368_6c61_7021u64 ^ ((q as u64) << 32) ^ (i as u64);
-    // splitmix64
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^= z >> 31;
-    2.0 * ((z >> 11) as f64 * (1.0 / (1u64 << 53) as f64)) - 1.0
+    let z = crate::rng::mix(0x6d65_7368_6c61_7021u64 ^ ((q as u64) << 32) ^ (i as u64));
+    2.0 * crate::rng::unit(z) - 1.0
 }
 
 fn parallelism() -> Par {

@@ -499,7 +499,7 @@ fn tridiagonal_vectors(d: &[f64], e: &[f64], lam: &[f64]) -> Vec<f64> {
         lu.factor(d, e, js.map(|j| shift[j]), tiny);
         for (l, &j) in js.iter().enumerate() {
             // Fixed pseudo-random start in [−1, 1) (64-bit LCG seeded by j).
-            let mut state = splitmix(j as u64);
+            let mut state = crate::rng::mix(j as u64);
             for xi in x.iter_mut() {
                 state = state
                     .wrapping_mul(6_364_136_223_846_793_005)
@@ -560,13 +560,6 @@ fn infinity_norm(d: &[f64], e: &[f64]) -> f64 {
                 + if i + 1 < n { e[i].abs() } else { 0.0 }
         })
         .fold(0.0f64, f64::max)
-}
-
-fn splitmix(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
 }
 
 /// `Z ← Q Z` for row-major `z` (n×n), with the reflectors left in `a`'s columns by
@@ -761,7 +754,7 @@ mod tests {
         // patches of about 100 vertices; with boundary, irregular valences.
         use crate::mesh::topology::Topology;
         use crate::operator::{Operator, OperatorKind};
-        use crate::spectral::partition::{partition, PartitionOptions};
+        use crate::partition::{partition, PartitionOptions};
         let path = format!("{}/../../tests/data/cow.obj", env!("CARGO_MANIFEST_DIR"));
         let m = crate::io::read_mesh(std::path::Path::new(&path), None)
             .unwrap()

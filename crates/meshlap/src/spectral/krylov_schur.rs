@@ -156,15 +156,10 @@ pub struct RitzPairs {
 
 /// Deterministic pseudo-random entries in [−1, 1) (SplitMix64).
 pub(crate) fn random_fill(mut x: MatMut<'_, f64>, seed: u64) {
-    let mut state = seed;
+    let mut rng = crate::rng::SplitMix64::new(seed);
     for j in 0..x.ncols() {
         for i in 0..x.nrows() {
-            state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = state;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            z ^= z >> 31;
-            x[(i, j)] = (z >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0;
+            x[(i, j)] = rng.next_f64() * 2.0 - 1.0;
         }
     }
 }

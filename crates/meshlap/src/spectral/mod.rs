@@ -25,7 +25,7 @@ pub use transform::{forward, inverse, mat_to_positions, positions_to_mat, trunca
 
 pub mod krylov_schur;
 pub mod partial;
-pub mod partition;
+pub mod patchwise;
 pub(crate) mod thin_products;
 
 /// Errors of spectral computations.
