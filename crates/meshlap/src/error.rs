@@ -1,8 +1,6 @@
 //! The crate's top-level error type. Each module has its own typed error; this enum
 //! wraps them so that applications can use one `Result`.
 
-use std::path::PathBuf;
-
 /// Every error meshlap can return.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
@@ -45,15 +43,6 @@ pub enum Error {
     /// An experiment failed.
     #[error(transparent)]
     Experiment(#[from] crate::experiment::ExperimentError),
-    /// Writing an output file failed.
-    #[error("cannot write {path}: {source}")]
-    Write {
-        /// The file that could not be written.
-        path: PathBuf,
-        /// The underlying error.
-        #[source]
-        source: std::io::Error,
-    },
     /// A user-supplied argument is invalid.
     #[error("{0}")]
     InvalidArgument(String),

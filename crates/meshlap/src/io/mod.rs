@@ -232,6 +232,17 @@ pub fn read_mesh_from_bytes(bytes: &[u8], format: Format) -> Result<LoadedMesh, 
 }
 
 fn read_named(bytes: &[u8], format: Format, name: &str) -> Result<LoadedMesh, IoError> {
+    let (mesh, info) = read_any(bytes, format, name)?;
+    if mesh.faces.is_empty() {
+        return Err(IoError::Empty {
+            file: name.to_string(),
+        });
+    }
+    Ok(LoadedMesh { mesh, info })
+}
+
+/// Runs the reader of `format` (no check for an empty mesh).
+fn read_any(bytes: &[u8], format: Format, name: &str) -> Result<(TriMesh, ReadInfo), IoError> {
     let mut info = ReadInfo::new(format);
     let mesh = match format {
         Format::Obj => obj::read(bytes, name, &mut info)?,
@@ -239,12 +250,7 @@ fn read_named(bytes: &[u8], format: Format, name: &str) -> Result<LoadedMesh, Io
         Format::Ply => ply::read(bytes, name, &mut info)?,
         Format::Stl => stl::read(bytes, name, &mut info)?,
     };
-    if mesh.faces.is_empty() {
-        return Err(IoError::Empty {
-            file: name.to_string(),
-        });
-    }
-    Ok(LoadedMesh { mesh, info })
+    Ok((mesh, info))
 }
 
 /// Options of [`write_mesh`].

@@ -2,7 +2,7 @@
 //! 1-based, every value in the shortest decimal form that reads back to the same `f64`,
 //! so `scipy.io.mmread` and our reader recover the matrix exactly.
 
-use super::text::{lines, parse_err, parse_f64, parse_usize, tokens};
+use super::text::{lines, parse_err, parse_num, tokens};
 use super::{write_atomic, IoError};
 use crate::SparseMatrix;
 use faer::sparse::{SparseColMatRef, Triplet};
@@ -52,9 +52,9 @@ pub fn read_matrix_market(path: &Path) -> Result<SparseMatrix, IoError> {
         return Err(parse_err(&file, ln, size, "`rows cols nnz`"));
     }
     let (nr, nc, nnz) = (
-        parse_usize(t[0], &file, ln, "a row count")?,
-        parse_usize(t[1], &file, ln, "a column count")?,
-        parse_usize(t[2], &file, ln, "an entry count")?,
+        parse_num::<usize>(t[0], &file, ln, "a row count")?,
+        parse_num::<usize>(t[1], &file, ln, "a column count")?,
+        parse_num::<usize>(t[2], &file, ln, "an entry count")?,
     );
     let mut trip = Vec::with_capacity(nnz.min(bytes.len() / 6));
     for _ in 0..nnz {
@@ -66,12 +66,12 @@ pub fn read_matrix_market(path: &Path) -> Result<SparseMatrix, IoError> {
         if t.len() < 3 {
             return Err(parse_err(&file, ln, l, "`row col value`"));
         }
-        let i = parse_usize(t[0], &file, ln, "a row index")?;
-        let j = parse_usize(t[1], &file, ln, "a column index")?;
+        let i = parse_num::<usize>(t[0], &file, ln, "a row index")?;
+        let j = parse_num::<usize>(t[1], &file, ln, "a column index")?;
         if i == 0 || j == 0 || i > nr || j > nc {
             return Err(parse_err(&file, ln, l, "an in-range 1-based index pair"));
         }
-        let v = parse_f64(t[2], &file, ln, "a value")?;
+        let v = parse_num::<f64>(t[2], &file, ln, "a value")?;
         trip.push(Triplet::new(i - 1, j - 1, v));
         if symmetric && i != j {
             trip.push(Triplet::new(j - 1, i - 1, v));

@@ -3,7 +3,7 @@
 //! other statement (`vt`, `vn`, `o`, `g`, `s`, `usemtl`, `mtllib`, `l`, comments) is
 //! ignored. Lines may end in CRLF.
 
-use super::text::{check_finite, fan, lines, parse_err, parse_f64, parse_i64, tokens};
+use super::text::{check_finite, fan, lines, parse_err, parse_num, tokens};
 use super::{IoError, ReadInfo};
 use crate::mesh::TriMesh;
 use std::io::Write;
@@ -23,7 +23,7 @@ pub(crate) fn read(bytes: &[u8], file: &str, info: &mut ReadInfo) -> Result<TriM
                     let t = toks.next().ok_or_else(|| {
                         parse_err(file, ln, line, "a vertex with three coordinates")
                     })?;
-                    *c = parse_f64(t, file, ln, "a vertex coordinate")?;
+                    *c = parse_num::<f64>(t, file, ln, "a vertex coordinate")?;
                 }
                 positions.push(p);
                 vertex_lines.push(ln as u32);
@@ -33,7 +33,7 @@ pub(crate) fn read(bytes: &[u8], file: &str, info: &mut ReadInfo) -> Result<TriM
                 let n = positions.len() as i64;
                 for t in toks {
                     let idx_tok = t.split(|&b| b == b'/').next().unwrap_or(t);
-                    let i = parse_i64(idx_tok, file, ln, "a face index")?;
+                    let i = parse_num::<i64>(idx_tok, file, ln, "a face index")?;
                     let resolved = if i > 0 { i - 1 } else { n + i };
                     if i == 0 || resolved < 0 || resolved >= n {
                         return Err(IoError::IndexOutOfRange {
@@ -86,8 +86,7 @@ mod tests {
     use super::*;
 
     fn parse(s: &str) -> Result<(TriMesh, ReadInfo), IoError> {
-        let mut info = ReadInfo::new(super::super::Format::Obj);
-        read(s.as_bytes(), "t.obj", &mut info).map(|m| (m, info))
+        crate::io::read_any(s.as_bytes(), crate::io::Format::Obj, "t.obj")
     }
 
     #[test]

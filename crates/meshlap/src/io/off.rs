@@ -5,7 +5,7 @@
 //! Comments (`#` to the end of a line) and blank lines are allowed anywhere. Binary OFF
 //! is not supported.
 
-use super::text::{check_finite, fan, lines, parse_err, parse_f64, parse_usize, tokens};
+use super::text::{check_finite, fan, lines, parse_err, parse_num, tokens};
 use super::{IoError, ReadInfo};
 use crate::mesh::TriMesh;
 use std::io::Write;
@@ -45,8 +45,8 @@ pub(crate) fn read(bytes: &[u8], file: &str, info: &mut ReadInfo) -> Result<TriM
     if counts.len() < 2 {
         return Err(header_err(format!("line {cl}: expected `nv nf ne`")));
     }
-    let nv = parse_usize(counts[0], file, cl, "a vertex count")?;
-    let nf = parse_usize(counts[1], file, cl, "a face count")?;
+    let nv = parse_num::<usize>(counts[0], file, cl, "a vertex count")?;
+    let nf = parse_num::<usize>(counts[1], file, cl, "a face count")?;
     // Every vertex needs at least 6 bytes ("0 0 0\n"), every face 8: cap reservations.
     let cap = bytes.len() / 6;
     if nv > cap || nf > bytes.len() / 8 {
@@ -68,7 +68,7 @@ pub(crate) fn read(bytes: &[u8], file: &str, info: &mut ReadInfo) -> Result<TriM
             let tok = t
                 .next()
                 .ok_or_else(|| parse_err(file, ln, l, "a vertex with three coordinates"))?;
-            *c = parse_f64(tok, file, ln, "a vertex coordinate")?;
+            *c = parse_num::<f64>(tok, file, ln, "a vertex coordinate")?;
         }
         positions.push(p);
         vertex_lines.push(ln);
@@ -83,7 +83,7 @@ pub(crate) fn read(bytes: &[u8], file: &str, info: &mut ReadInfo) -> Result<TriM
         })?;
         let mut t = tokens(l);
         let first = t.next().unwrap_or(b"");
-        let count = parse_usize(first, file, ln, "a polygon size")?;
+        let count = parse_num::<usize>(first, file, ln, "a polygon size")?;
         if count < 3 {
             return Err(parse_err(file, ln, first, "a polygon size of at least 3"));
         }
@@ -92,7 +92,7 @@ pub(crate) fn read(bytes: &[u8], file: &str, info: &mut ReadInfo) -> Result<TriM
             let tok = t.next().ok_or_else(|| {
                 parse_err(file, ln, l, "a polygon with as many indices as its size")
             })?;
-            let i = super::text::parse_i64(tok, file, ln, "a vertex index")?;
+            let i = super::text::parse_num::<i64>(tok, file, ln, "a vertex index")?;
             if i < 0 || i as usize >= nv {
                 return Err(IoError::IndexOutOfRange {
                     file: file.to_string(),
@@ -127,8 +127,7 @@ mod tests {
     use super::*;
 
     fn parse(s: &str) -> Result<(TriMesh, ReadInfo), IoError> {
-        let mut info = ReadInfo::new(super::super::Format::Off);
-        read(s.as_bytes(), "t.off", &mut info).map(|m| (m, info))
+        crate::io::read_any(s.as_bytes(), crate::io::Format::Off, "t.off")
     }
 
     #[test]

@@ -137,7 +137,8 @@ fn parse_header(bytes: &[u8], file: &str) -> Result<Header, IoError> {
                     .next()
                     .ok_or_else(|| err(format!("line {line_no}: element without a name")))?;
                 let count_tok = t.next().unwrap_or(b"");
-                let count = super::text::parse_usize(count_tok, file, line_no, "an element count")?;
+                let count =
+                    super::text::parse_num::<usize>(count_tok, file, line_no, "an element count")?;
                 elements.push(Element {
                     name: name.to_vec(),
                     count,
@@ -571,11 +572,9 @@ pub(crate) fn write(w: &mut dyn Write, mesh: &TriMesh, opts: &WriteOptions) -> s
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::io::Format;
 
     fn parse(b: &[u8]) -> Result<(TriMesh, ReadInfo), IoError> {
-        let mut info = ReadInfo::new(Format::Ply);
-        read(b, "t.ply", &mut info).map(|m| (m, info))
+        crate::io::read_any(b, crate::io::Format::Ply, "t.ply")
     }
 
     #[test]

@@ -6,7 +6,7 @@
 //! pure ASCII is read as (possibly truncated) binary. The writer stores binary STL: `f32`
 //! coordinates (a documented precision loss) and per-face normals.
 
-use super::text::{lines, parse_err, parse_f64, tokens};
+use super::text::{lines, parse_err, parse_num, tokens};
 use super::{IoError, ReadInfo};
 use crate::mesh::TriMesh;
 use std::collections::HashMap;
@@ -77,7 +77,7 @@ pub(crate) fn read(bytes: &[u8], file: &str, info: &mut ReadInfo) -> Result<TriM
                         let tok = t.next().ok_or_else(|| {
                             parse_err(file, ln, line, "a vertex with three coordinates")
                         })?;
-                        *c = parse_f64(tok, file, ln, "a vertex coordinate")?;
+                        *c = parse_num::<f64>(tok, file, ln, "a vertex coordinate")?;
                     }
                     if !p.iter().all(|x| x.is_finite()) {
                         return Err(IoError::NonFinite {
@@ -156,11 +156,9 @@ pub(crate) fn write(out: &mut dyn Write, mesh: &TriMesh) -> std::io::Result<()> 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::io::Format;
 
     fn parse(b: &[u8]) -> Result<(TriMesh, ReadInfo), IoError> {
-        let mut info = ReadInfo::new(Format::Stl);
-        read(b, "t.stl", &mut info).map(|m| (m, info))
+        crate::io::read_any(b, crate::io::Format::Stl, "t.stl")
     }
 
     #[test]

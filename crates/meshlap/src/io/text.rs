@@ -35,43 +35,17 @@ pub(crate) fn parse_err(file: &str, line: usize, tok: &[u8], what: &'static str)
     }
 }
 
-/// Parses a float token (NaN and infinities are accepted here and rejected by the
-/// caller with the vertex's index).
-pub(crate) fn parse_f64(
+/// Parses a number token as `T` (for floats, NaN and infinities are accepted here and
+/// rejected by the caller with the vertex's index).
+pub(crate) fn parse_num<T: std::str::FromStr>(
     tok: &[u8],
     file: &str,
     line: usize,
     what: &'static str,
-) -> Result<f64, IoError> {
+) -> Result<T, IoError> {
     std::str::from_utf8(tok)
         .ok()
-        .and_then(|s| s.parse::<f64>().ok())
-        .ok_or_else(|| parse_err(file, line, tok, what))
-}
-
-/// Parses a signed integer token.
-pub(crate) fn parse_i64(
-    tok: &[u8],
-    file: &str,
-    line: usize,
-    what: &'static str,
-) -> Result<i64, IoError> {
-    std::str::from_utf8(tok)
-        .ok()
-        .and_then(|s| s.parse::<i64>().ok())
-        .ok_or_else(|| parse_err(file, line, tok, what))
-}
-
-/// Parses a non-negative count token.
-pub(crate) fn parse_usize(
-    tok: &[u8],
-    file: &str,
-    line: usize,
-    what: &'static str,
-) -> Result<usize, IoError> {
-    std::str::from_utf8(tok)
-        .ok()
-        .and_then(|s| s.parse::<usize>().ok())
+        .and_then(|s| s.parse::<T>().ok())
         .ok_or_else(|| parse_err(file, line, tok, what))
 }
 

@@ -14,6 +14,7 @@
 //! +z (height fields).
 
 use super::{topology::Topology, MeshError, TriMesh};
+use glam::DVec3;
 
 /// Parses a `builtin:` spec (with or without the `builtin:` prefix) into a mesh.
 pub fn from_spec(spec: &str) -> Result<TriMesh, MeshError> {
@@ -83,34 +84,21 @@ pub const NAMES: &[&str] = &[
 /// Flips every face whose normal points towards the origin (for star-shaped meshes
 /// around the origin).
 fn orient_outward(m: &mut TriMesh, center: [f64; 3]) {
+    let center = DVec3::from(center);
     for f in &mut m.faces {
-        let [a, b, c] = f.map(|v| m.positions[v as usize]);
-        let u = sub(b, a);
-        let w = sub(c, a);
-        let n = cross(u, w);
-        let centroid = [
-            (a[0] + b[0] + c[0]) / 3.0 - center[0],
-            (a[1] + b[1] + c[1]) / 3.0 - center[1],
-            (a[2] + b[2] + c[2]) / 3.0 - center[2],
-        ];
-        if dot(n, centroid) < 0.0 {
+        let [a, b, c] = f.map(|v| DVec3::from(m.positions[v as usize]));
+        let n = (b - a).cross(c - a);
+        let centroid = (a + b + c) / 3.0 - center;
+        if n.dot(centroid) < 0.0 {
             f.swap(1, 2);
         }
     }
 }
 
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+/// Moves `p` onto the unit sphere (`p / |p|`, component-wise division).
+fn onto_unit_sphere(p: &mut [f64; 3]) {
+    let v = DVec3::from(*p);
+    *p = (v / v.length()).to_array();
 }
 
 /// Regular tetrahedron (4 vertices, every degree 3).
@@ -236,10 +224,7 @@ pub fn icosphere(level: usize) -> Result<TriMesh, MeshError> {
     let mut m = icosahedron();
     for _ in 0..level {
         m = subdivide_midpoint(&m)?;
-        for p in &mut m.positions {
-            let r = dot(*p, *p).sqrt();
-            *p = p.map(|c| c / r);
-        }
+        m.positions.iter_mut().for_each(onto_unit_sphere);
     }
     Ok(m)
 }
@@ -323,10 +308,7 @@ pub fn cube(n: usize) -> Result<TriMesh, MeshError> {
 /// turn, then pushed onto the unit sphere. `6n² + 2` vertices.
 pub fn sphere48(n: usize) -> Result<TriMesh, MeshError> {
     let mut m = cube_lattice(n, true)?;
-    for p in &mut m.positions {
-        let l = dot(*p, *p).sqrt();
-        *p = p.map(|c| c / l);
-    }
+    m.positions.iter_mut().for_each(onto_unit_sphere);
     Ok(m)
 }
 
@@ -406,7 +388,7 @@ mod tests {
         assert!(m
             .positions
             .iter()
-            .all(|p| (dot(*p, *p) - 1.0).abs() < 1e-12));
+            .all(|p| (DVec3::from(*p).length_squared() - 1.0).abs() < 1e-12));
     }
 
     #[test]

@@ -80,19 +80,7 @@ impl TriMesh {
                 return Err(MeshError::NonFinite { vertex: i });
             }
         }
-        let n = self.positions.len();
-        for (f, t) in self.faces.iter().enumerate() {
-            for &v in t {
-                if v as usize >= n {
-                    return Err(MeshError::IndexOutOfRange {
-                        face: f,
-                        index: v as usize,
-                        n_vertices: n,
-                    });
-                }
-            }
-        }
-        Ok(())
+        check_face_indices(&self.faces, self.positions.len())
     }
 
     /// Axis-aligned bounding box `(min, max)`; `None` for an empty mesh.
@@ -187,4 +175,19 @@ pub enum MeshError {
     /// Invalid parameters for a generated mesh.
     #[error("invalid built-in mesh: {0}")]
     Builtin(String),
+}
+
+/// Checks that every corner of `faces` is below `n` ([`MeshError::IndexOutOfRange`]
+/// names the first face that is not).
+pub fn check_face_indices(faces: &[[u32; 3]], n: usize) -> Result<(), MeshError> {
+    for (f, t) in faces.iter().enumerate() {
+        if let Some(&v) = t.iter().find(|&&v| v as usize >= n) {
+            return Err(MeshError::IndexOutOfRange {
+                face: f,
+                index: v as usize,
+                n_vertices: n,
+            });
+        }
+    }
+    Ok(())
 }

@@ -63,17 +63,7 @@ impl Topology {
                 max: MAX_FACES,
             });
         }
-        for (f, t) in faces.iter().enumerate() {
-            for &v in t {
-                if v as usize >= n {
-                    return Err(MeshError::IndexOutOfRange {
-                        face: f,
-                        index: v as usize,
-                        n_vertices: n,
-                    });
-                }
-            }
-        }
+        super::check_face_indices(faces, n)?;
         let nh = faces.len() * 3;
         // Counting sort of half-edges by their smaller endpoint. Each entry packs
         // `hi << 32 | reversed << 31 | h`, where `reversed` says h runs hi → lo; sorting
