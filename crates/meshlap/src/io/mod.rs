@@ -219,11 +219,49 @@ pub fn read_mesh(path: &Path, format: Option<Format>) -> Result<LoadedMesh, IoEr
         Some(f) => f,
         None => Format::from_path(path)?,
     };
-    let bytes = std::fs::read(path).map_err(|source| IoError::Open {
+    let bytes = FileBytes::open(path).map_err(|source| IoError::Open {
         path: path.to_path_buf(),
         source,
     })?;
-    read_named(&bytes, format, &path.display().to_string())
+    read_named(bytes.as_slice(), format, &path.display().to_string())
+}
+
+/// A file's bytes: memory-mapped when the file is a regular, non-empty file (no copy,
+/// pages populated ahead by the kernel), read into memory otherwise (pipes, empty
+/// files). The readers only read the bytes; a file truncated or rewritten by another
+/// process while it is mapped can give wrong values or a `SIGBUS`, as with every
+/// memory-mapped reader (ripgrep's trade-off too): meshlap's readers are meant for
+/// files at rest.
+enum FileBytes {
+    Mapped(memmap2::Mmap),
+    Read(Vec<u8>),
+}
+
+impl FileBytes {
+    /// Files below this size are read, not mapped (mapping costs more than it saves).
+    const MAP_FROM: u64 = 1 << 20;
+
+    fn open(path: &Path) -> std::io::Result<FileBytes> {
+        let file = std::fs::File::open(path)?;
+        let meta = file.metadata()?;
+        if meta.is_file() && meta.len() >= Self::MAP_FROM {
+            // SAFETY: the map is read-only and lives as long as the bytes borrowed
+            // from it; see the type's documentation for concurrent modification.
+            if let Ok(map) = unsafe { memmap2::MmapOptions::new().populate().map(&file) } {
+                return Ok(FileBytes::Mapped(map));
+            }
+        }
+        let mut bytes = Vec::new();
+        std::io::Read::read_to_end(&mut &file, &mut bytes)?;
+        Ok(FileBytes::Read(bytes))
+    }
+
+    fn as_slice(&self) -> &[u8] {
+        match self {
+            FileBytes::Mapped(m) => m,
+            FileBytes::Read(v) => v,
+        }
+    }
 }
 
 /// Reads a mesh from memory.

@@ -17,6 +17,7 @@
 use super::text::{parse_err, show};
 use super::{IoError, ReadInfo, WriteOptions};
 use crate::mesh::TriMesh;
+use rayon::prelude::*;
 use std::io::Write;
 
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -241,9 +242,7 @@ impl<'a> Reader<'a> {
         if self.enc == Encoding::Ascii {
             let line = self.line_of_next();
             let tok = self.next_token().ok_or_else(|| self.truncated(what))?;
-            let v = std::str::from_utf8(tok)
-                .ok()
-                .and_then(|x| x.parse::<f64>().ok());
+            let v = super::text::parse_f64(tok);
             return match v {
                 Some(v) if !s.is_integer() || v.fract() == 0.0 => Ok(v),
                 _ => Err(parse_err(
@@ -264,27 +263,7 @@ impl<'a> Reader<'a> {
         }
         let b = &self.data[self.pos..self.pos + n];
         self.pos += n;
-        let le = self.enc == Encoding::Little;
-        macro_rules! num {
-            ($t:ty) => {{
-                let arr = b.try_into().unwrap_or([0; std::mem::size_of::<$t>()]);
-                (if le {
-                    <$t>::from_le_bytes(arr)
-                } else {
-                    <$t>::from_be_bytes(arr)
-                }) as f64
-            }};
-        }
-        Ok(match s {
-            Scalar::I8 => b[0] as i8 as f64,
-            Scalar::U8 => b[0] as f64,
-            Scalar::I16 => num!(i16),
-            Scalar::U16 => num!(u16),
-            Scalar::I32 => num!(i32),
-            Scalar::U32 => num!(u32),
-            Scalar::F32 => num!(f32),
-            Scalar::F64 => num!(f64),
-        })
+        Ok(decode(b, s, self.enc == Encoding::Little))
     }
 
     /// Reads a list length and checks it against the remaining data.
@@ -330,6 +309,121 @@ impl<'a> Reader<'a> {
         }
         Ok(())
     }
+}
+
+/// The binary scalar `s` at the start of `b` (at least `s.size()` bytes), as `f64`.
+#[inline(always)]
+fn decode(b: &[u8], s: Scalar, little_endian: bool) -> f64 {
+    macro_rules! num {
+        ($t:ty) => {{
+            let mut arr = [0u8; std::mem::size_of::<$t>()];
+            arr.copy_from_slice(&b[..std::mem::size_of::<$t>()]);
+            (if little_endian {
+                <$t>::from_le_bytes(arr)
+            } else {
+                <$t>::from_be_bytes(arr)
+            }) as f64
+        }};
+    }
+    match s {
+        Scalar::I8 => b[0] as i8 as f64,
+        Scalar::U8 => b[0] as f64,
+        Scalar::I16 => num!(i16),
+        Scalar::U16 => num!(u16),
+        Scalar::I32 => num!(i32),
+        Scalar::U32 => num!(u32),
+        Scalar::F32 => num!(f32),
+        Scalar::F64 => num!(f64),
+    }
+}
+
+/// Records per parallel task of the binary fast paths.
+const RECORDS_PER_TASK: usize = 1 << 14;
+
+/// Binary fast path for a `vertex` element whose properties are all scalars (fixed-size
+/// records): decodes x, y, z (property indices `idx`) of `count` records at the start
+/// of `data` in parallel. `None` when the element has a list property. The caller has
+/// checked that `data` holds `count` records.
+fn fixed_vertices(
+    data: &[u8],
+    el: &Element,
+    idx: [usize; 3],
+    little_endian: bool,
+) -> Option<(Vec<[f64; 3]>, usize)> {
+    let mut offsets = Vec::with_capacity(el.props.len());
+    let mut stride = 0;
+    for p in &el.props {
+        let Kind::Scalar(s) = p.kind else { return None };
+        offsets.push((stride, s));
+        stride += s.size();
+    }
+    let xyz = idx.map(|i| offsets[i]);
+    let bytes = el.count.checked_mul(stride)?;
+    let data = data.get(..bytes)?;
+    let positions = data
+        .par_chunks_exact(stride.max(1))
+        .with_min_len(RECORDS_PER_TASK)
+        .map(|rec| xyz.map(|(o, s)| decode(&rec[o..], s, little_endian)))
+        .collect();
+    Some((positions, bytes))
+}
+
+/// Binary fast path for a `face` element whose records all hold a triangle: every
+/// property a scalar except the list `li`, and every list of length 3, so records have
+/// one size. Decodes and range-checks the triangles in parallel. `None` when the
+/// layout differs or any record does not fit (a polygon, an index out of range): the
+/// caller then reads the element sequentially, which reports the exact error.
+fn fixed_triangles(
+    data: &[u8],
+    el: &Element,
+    li: usize,
+    n_vertices: usize,
+    little_endian: bool,
+) -> Option<(Vec<[u32; 3]>, usize)> {
+    let mut stride = 0;
+    let mut list_at = (0, Scalar::U8, Scalar::I32);
+    for (k, p) in el.props.iter().enumerate() {
+        match p.kind {
+            Kind::Scalar(s) => stride += s.size(),
+            Kind::List { count, item } if k == li => {
+                list_at = (stride, count, item);
+                stride += count.size() + 3 * item.size();
+            }
+            Kind::List { .. } => return None,
+        }
+    }
+    let (at, count, item) = list_at;
+    let bytes = el.count.checked_mul(stride)?;
+    let data = data.get(..bytes)?;
+    let nv = n_vertices as f64;
+    let fits = std::sync::atomic::AtomicBool::new(true);
+    let triangle = |rec: &[u8]| -> Option<[u32; 3]> {
+        if decode(&rec[at..], count, little_endian) != 3.0 {
+            return None;
+        }
+        let first = at + count.size();
+        let mut t = [0u32; 3];
+        for (c, v) in t.iter_mut().enumerate() {
+            let x = decode(&rec[first + c * item.size()..], item, little_endian);
+            if !(x >= 0.0 && x < nv) {
+                return None;
+            }
+            *v = x as u32;
+        }
+        Some(t)
+    };
+    // An indexed collect writes in place; a record that does not fit clears `fits`.
+    let faces: Vec<[u32; 3]> = data
+        .par_chunks_exact(stride.max(1))
+        .with_min_len(RECORDS_PER_TASK)
+        .map(|rec| {
+            triangle(rec).unwrap_or_else(|| {
+                fits.store(false, std::sync::atomic::Ordering::Relaxed);
+                [0; 3]
+            })
+        })
+        .collect();
+    fits.into_inner().then_some((faces, bytes))
 }
 
 fn min_element_bytes(el: &Element, enc: Encoding) -> usize {
@@ -384,12 +478,31 @@ pub(crate) fn read(bytes: &[u8], file: &str, info: &mut ReadInfo) -> Result<TriM
                         message: "vertex element without x, y and z".into(),
                     });
                 }
+                let idx = idx.map(|i| i.unwrap_or(0));
+                if h.encoding != Encoding::Ascii {
+                    let little = h.encoding == Encoding::Little;
+                    if let Some((p, used)) = fixed_vertices(&bytes[r.pos..], el, idx, little) {
+                        if let Some(v) = p
+                            .par_iter()
+                            .position_first(|p| !p.iter().all(|c| c.is_finite()))
+                        {
+                            return Err(IoError::NonFinite {
+                                file: file.to_string(),
+                                line: 0,
+                                vertex: v,
+                            });
+                        }
+                        positions = p;
+                        r.pos += used;
+                        continue;
+                    }
+                }
                 positions.reserve(el.count);
                 for v in 0..el.count {
                     let mut p = [0.0; 3];
                     let line = r.line_of_next();
                     for (k, prop) in el.props.iter().enumerate() {
-                        match (idx.iter().position(|&i| i == Some(k)), &prop.kind) {
+                        match (idx.iter().position(|&i| i == k), &prop.kind) {
                             (Some(c), Kind::Scalar(s)) => p[c] = r.value(*s, &what)?,
                             (Some(_), Kind::List { .. }) => {
                                 return Err(IoError::Unsupported {
@@ -426,6 +539,18 @@ pub(crate) fn read(bytes: &[u8], file: &str, info: &mut ReadInfo) -> Result<TriM
                         message: format!("{what} has no vertex_indices list"),
                     });
                 };
+                if !strips && h.encoding != Encoding::Ascii {
+                    let little = h.encoding == Encoding::Little;
+                    if let Some((f, used)) = fixed_triangles(&bytes[r.pos..], el, li, nv, little) {
+                        if faces.is_empty() {
+                            faces = f;
+                        } else {
+                            faces.extend_from_slice(&f);
+                        }
+                        r.pos += used;
+                        continue;
+                    }
+                }
                 if !strips {
                     faces.reserve(el.count);
                 }
@@ -575,6 +700,66 @@ mod tests {
 
     fn parse(b: &[u8]) -> Result<(TriMesh, ReadInfo), IoError> {
         crate::io::read_any(b, crate::io::Format::Ply, "t.ply")
+    }
+
+    /// A binary little-endian PLY with float x, y, z, a uchar and a float property per
+    /// vertex, and faces `flags (uchar), vertex_indices (uchar count, int items)`.
+    fn binary_with_props(faces: &[&[i32]]) -> Vec<u8> {
+        let mut b = format!(
+            "ply\nformat binary_little_endian 1.0\nelement vertex 5\nproperty float x\nproperty uchar q\nproperty float y\nproperty float z\nproperty float w\nelement face {}\nproperty uchar flags\nproperty list uchar int vertex_indices\nend_header\n",
+            faces.len()
+        )
+        .into_bytes();
+        for v in 0..5 {
+            b.extend_from_slice(&(v as f32).to_le_bytes());
+            b.push(7);
+            b.extend_from_slice(&(v as f32 * 0.5).to_le_bytes());
+            b.extend_from_slice(&(-(v as f32)).to_le_bytes());
+            b.extend_from_slice(&9f32.to_le_bytes());
+        }
+        for f in faces {
+            b.push(1);
+            b.push(f.len() as u8);
+            for i in *f {
+                b.extend_from_slice(&i.to_le_bytes());
+            }
+        }
+        b
+    }
+
+    #[test]
+    fn binary_fast_paths_and_their_fallbacks() {
+        // All triangles: the fixed-record paths.
+        let (m, info) = parse(&binary_with_props(&[&[0, 1, 2], &[2, 3, 4]])).unwrap();
+        assert_eq!(m.positions[3], [3.0, 1.5, -3.0]);
+        assert_eq!(m.faces, vec![[0, 1, 2], [2, 3, 4]]);
+        assert_eq!(info.polygons_triangulated, 0);
+        // A quad among triangles: the record sizes differ, the sequential path reads it.
+        let (m, info) =
+            parse(&binary_with_props(&[&[0, 1, 2], &[1, 2, 3, 4], &[0, 2, 4]])).unwrap();
+        assert_eq!(m.faces, vec![[0, 1, 2], [1, 2, 3], [1, 3, 4], [0, 2, 4]]);
+        assert_eq!(info.polygons_triangulated, 1);
+        // An index out of range is the sequential path's exact error.
+        assert!(matches!(
+            parse(&binary_with_props(&[&[0, 1, 2], &[0, 1, 5]])),
+            Err(IoError::IndexOutOfRange {
+                index: 5,
+                vertices: 5,
+                ..
+            })
+        ));
+        assert!(matches!(
+            parse(&binary_with_props(&[&[0, -1, 2]])),
+            Err(IoError::IndexOutOfRange { index: -1, .. })
+        ));
+        // A non-finite coordinate names its vertex.
+        let mut b = binary_with_props(&[&[0, 1, 2]]);
+        let at = b.len() - 14 - 5 * 17 + 2 * 17 + 5;
+        b[at..at + 4].copy_from_slice(&f32::NAN.to_le_bytes());
+        assert!(matches!(
+            parse(&b),
+            Err(IoError::NonFinite { vertex: 2, .. })
+        ));
     }
 
     #[test]

@@ -11,9 +11,28 @@ pub(crate) fn lines(bytes: &[u8]) -> impl Iterator<Item = (usize, &[u8])> {
 }
 
 /// Whitespace-separated tokens of a line.
-pub(crate) fn tokens(line: &[u8]) -> impl Iterator<Item = &[u8]> {
-    line.split(|b| b.is_ascii_whitespace())
-        .filter(|t| !t.is_empty())
+pub(crate) fn tokens(line: &[u8]) -> Tokens<'_> {
+    Tokens { rest: line }
+}
+
+/// Iterator of [`tokens`]: skips ASCII whitespace, yields the run up to the next.
+pub(crate) struct Tokens<'a> {
+    rest: &'a [u8],
+}
+
+impl<'a> Iterator for Tokens<'a> {
+    type Item = &'a [u8];
+    #[inline]
+    fn next(&mut self) -> Option<&'a [u8]> {
+        let start = self.rest.iter().position(|b| !b.is_ascii_whitespace())?;
+        let rest = &self.rest[start..];
+        let len = rest
+            .iter()
+            .position(|b| b.is_ascii_whitespace())
+            .unwrap_or(rest.len());
+        self.rest = &rest[len..];
+        Some(&rest[..len])
+    }
 }
 
 /// The token as text for an error message (at most 40 characters).
@@ -47,6 +66,16 @@ pub(crate) fn parse_num<T: std::str::FromStr>(
         .ok()
         .and_then(|s| s.parse::<T>().ok())
         .ok_or_else(|| parse_err(file, line, tok, what))
+}
+
+/// A float token: `fast-float2` first (correctly rounded, like `str::parse`), then
+/// `str::parse` for what it declines (`nan`, `infinity`, …), so every token
+/// `str::parse` accepts is accepted.
+pub(crate) fn parse_f64(tok: &[u8]) -> Option<f64> {
+    match fast_float2::parse::<f64, _>(tok) {
+        Ok(v) => Some(v),
+        Err(_) => std::str::from_utf8(tok).ok()?.parse().ok(),
+    }
 }
 
 /// Fan-triangulates a polygon given as indices into `out`; returns whether it had more
