@@ -1,8 +1,8 @@
 //! `meshlap compress`.
 
 use crate::common::{print_json, MeshArgs};
-use meshlap::codec::geometry::{GeometryParams, Keep};
 use meshlap::codec::spatial::SpatialParams;
+use meshlap::codec::spectral::{Keep, SpectralParams};
 use meshlap::codec::{compress, CompressOptions, GeometryMode, Quantisation};
 use meshlap::operator::OperatorKind;
 use std::path::PathBuf;
@@ -93,7 +93,7 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
     let keep = match (args.keep_ratio, args.coefficients) {
         (_, Some(m)) => Keep::Count(m),
         (Some(r), None) => Keep::Ratio(r),
-        (None, None) => GeometryParams::default().keep,
+        (None, None) => SpectralParams::default().keep,
     };
     let quantisation = match (args.bits, args.target_bpv) {
         (_, Some(b)) => Quantisation::TargetBpv(b),
@@ -106,7 +106,7 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
             select: !args.no_select,
             lambda: args.rdo_lambda,
         },
-        geometry: GeometryParams {
+        geometry: SpectralParams {
             operator: args.operator,
             patch_size: args.patch_size,
             keep,

@@ -47,6 +47,7 @@
 //! reproduces the encoder's reconstruction bit for bit; no eigenbasis is needed,
 //! which makes decoding cheap.
 
+use super::container::ByteReader;
 use super::entropy::{BitTree, IntModel, RangeDecoder, RangeEncoder};
 use super::CodecError;
 use crate::mesh::topology::{Topology, INVALID};
@@ -238,8 +239,9 @@ fn rdo_round(r: f64, m: &IntModel, mu: f64) -> Result<(i64, f64), CodecError> {
     Ok((q0, j0))
 }
 
-/// Encodes `positions` (decoded vertex order) with step `step`: the range-coded
-/// payload (after the geometry header) and the positions the decoder will produce.
+/// Encodes `positions` (decoded vertex order) with step `step`: the stream — the
+/// step (`f64` LE), the selection flag (`u8`) and the range-coded payload — and the
+/// positions the decoder will produce.
 pub fn encode(
     topo: &Topology,
     plan: &Plan,
@@ -256,6 +258,9 @@ pub fn encode(
     let n = topo.n_vertices();
     let inv = 1.0 / step;
     let mu = params.lambda;
+    let mut out = Vec::with_capacity(9);
+    out.extend_from_slice(&step.to_le_bytes());
+    out.push(params.select as u8);
     let mut enc = RangeEncoder::new();
     let mut models = Models::new();
     let mut rec = vec![[0.0f64; 3]; n];
@@ -293,19 +298,22 @@ pub fn encode(
             qs[v][k] = q[k] as i32;
         }
     }
-    Ok((enc.finish(), rec))
+    out.extend_from_slice(&enc.finish());
+    Ok((out, rec))
 }
 
-/// Decodes a payload written by [`encode`] for the connectivity `topo`.
-pub fn decode(
-    topo: &Topology,
-    data: &[u8],
-    step: f64,
-    select: bool,
-) -> Result<Vec<[f64; 3]>, CodecError> {
+/// Decodes a stream written by [`encode`] for the connectivity `topo`: the positions
+/// (n×3) in the decoded vertex order.
+pub fn decode(topo: &Topology, data: &[u8]) -> Result<Vec<[f64; 3]>, CodecError> {
+    let mut r = ByteReader::new(data, "geometry header");
+    let step = r.f64()?;
+    if step <= 0.0 {
+        return Err(CodecError::Corrupt("non-positive quantization step"));
+    }
+    let select = r.flag("bad predictor-selection flag")?;
     let n = topo.n_vertices();
     let plan = Plan::new(topo);
-    let mut dec = RangeDecoder::new(data);
+    let mut dec = RangeDecoder::new(r.rest());
     let mut models = Models::new();
     let mut rec = vec![[0.0f64; 3]; n];
     let mut qs = vec![[0i32; 3]; n];
@@ -391,7 +399,7 @@ mod tests {
             ] {
                 let step = 1e-3;
                 let (data, rec) = encode(&t, &plan, &p, step, &params).unwrap();
-                let dec = decode(&t, &data, step, params.select).unwrap();
+                let dec = decode(&t, &data).unwrap();
                 assert_eq!(dec, rec, "{spec} {params:?}");
                 let e = rms(&rec, &p);
                 // Uniform rounding: RMS ≈ Δ/2 (3 coordinates of Δ²/12); RD rounding
@@ -467,9 +475,9 @@ mod tests {
                 let i = rng.gen_range(0..d.len());
                 d[i] ^= 1 << rng.gen_range(0..8);
             }
-            let _ = decode(&t, &d, 0.01, true);
+            let _ = decode(&t, &d);
         }
         // A truncated stream is an error, not a wrong mesh.
-        assert!(decode(&t, &data[..data.len() / 3], 0.01, true).is_err());
+        assert!(decode(&t, &data[..data.len() / 3]).is_err());
     }
 }

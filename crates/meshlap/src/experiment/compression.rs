@@ -14,7 +14,7 @@
 //! `meshlap clean --split-nonmanifold`), since the connectivity coder needs it.
 
 use super::{sig, ExperimentError, Outputs, Table};
-use crate::codec::geometry::{GeometryParams, Keep};
+use crate::codec::spectral::{Keep, SpectralParams};
 use crate::codec::{compress, CompressOptions, Quantisation};
 use crate::input::Input;
 use crate::mesh::topology::Topology;
@@ -106,7 +106,7 @@ pub fn rate_distortion(
                     &mesh,
                     &topo,
                     &CompressOptions {
-                        geometry: GeometryParams {
+                        geometry: SpectralParams {
                             operator: op,
                             patch_size: opts.patch_size,
                             keep: Keep::Ratio(r),
