@@ -33,14 +33,14 @@
 //! traversal meets the vertices (`order[new] = old`); the caller stores `order` when
 //! the input order must be kept.
 //!
-//! Bad input: a non-manifold edge or vertex gives [`CodecError::NonManifold`]
-//! (suggesting `meshlap clean --split-nonmanifold`), inconsistent orientation
+//! Bad input: a non-manifold edge or vertex gives [`CodecError::NonManifold`] (split
+//! them first: `mesh::clean::split_non_manifold`), inconsistent orientation
 //! [`CodecError::NotOriented`]; a corrupt stream gives a typed error, never a panic,
 //! and the decoder grows its arrays only as symbols arrive (and stops at the counts
 //! the container declares).
 
 use super::entropy::{BitModel, BitTree, RangeDecoder, RangeEncoder, UintModel};
-use super::CodecError;
+use super::{CodecError, NonManifold};
 use crate::mesh::topology::{Topology, INVALID};
 
 const NIL: u32 = u32::MAX;
@@ -284,10 +284,10 @@ pub struct EncodedConnectivity {
 pub fn encode(topo: &Topology) -> Result<EncodedConnectivity, CodecError> {
     if let Some(e) = topo.non_manifold_edges().next() {
         let [a, b] = topo.edge(e);
-        return Err(CodecError::NonManifold(format!("edge ({a}, {b})")));
+        return Err(CodecError::NonManifold(NonManifold::Edge { a, b }));
     }
     if let Some(v) = topo.non_manifold_vertices().next() {
-        return Err(CodecError::NonManifold(format!("vertex {v}")));
+        return Err(CodecError::NonManifold(NonManifold::Vertex(v.0)));
     }
     if topo.inconsistently_oriented_edges() > 0 {
         return Err(CodecError::NotOriented(
@@ -306,15 +306,12 @@ pub fn encode(topo: &Topology) -> Result<EncodedConnectivity, CodecError> {
         }
     }
     let nt = n + loops.len();
-    let closed = Topology::from_faces(nt, &faces)
-        .map_err(|e| CodecError::NonManifold(format!("closing the boundary: {e}")))?;
+    let closed = Topology::from_faces(nt, &faces).map_err(CodecError::Mesh)?;
     if closed.boundary_edges().next().is_some()
         || closed.non_manifold_edges().next().is_some()
         || closed.non_manifold_vertices().next().is_some()
     {
-        return Err(CodecError::NonManifold(
-            "a boundary loop touches itself".into(),
-        ));
+        return Err(CodecError::NonManifold(NonManifold::BoundaryLoop));
     }
 
     let nh = faces.len() * 3;
@@ -838,12 +835,20 @@ mod tests {
     }
 
     #[test]
-    fn non_manifold_is_rejected_with_advice() {
-        // Two triangles sharing only a vertex (a bow tie).
+    fn non_manifold_is_rejected_naming_the_vertex() {
+        // Two triangles sharing only a vertex (a bow tie); the command-line hint is
+        // the front end's (crates/meshlap-cli/tests/codec.rs).
         let m = TriMesh::new(vec![[0.0; 3]; 5], vec![[0, 1, 2], [0, 3, 4]]);
         let topo = Topology::new(&m).unwrap();
         let e = encode(&topo).unwrap_err();
-        assert!(e.to_string().contains("--split-nonmanifold"), "{e}");
+        assert!(
+            matches!(e, CodecError::NonManifold(NonManifold::Vertex(0))),
+            "{e}"
+        );
+        assert_eq!(
+            e.to_string(),
+            "cannot compress a non-manifold mesh (vertex 0)"
+        );
     }
 
     #[test]

@@ -73,8 +73,8 @@ pub fn write(sections: &[(SectionKind, &[u8])]) -> Result<Vec<u8>, CodecError> {
     out.extend_from_slice(&VERSION.to_le_bytes());
     out.extend_from_slice(&(sections.len() as u16).to_le_bytes());
     for (kind, payload) in sections {
-        let len = u32::try_from(payload.len())
-            .map_err(|_| CodecError::Parameter("section larger than 4 GiB".into()))?;
+        let len =
+            u32::try_from(payload.len()).map_err(|_| CodecError::SectionTooLarge(payload.len()))?;
         out.push(*kind as u8);
         out.extend_from_slice(&len.to_le_bytes());
         out.extend_from_slice(&checksum(*kind, payload).to_le_bytes());

@@ -3,6 +3,7 @@
 
 use super::entropy::{RangeDecoder, RangeEncoder};
 use super::CodecError;
+use crate::mesh::TriMesh;
 
 /// The stream of `order` (a permutation of `0..n`): each entry in `⌈log2 n⌉`
 /// equiprobable bits.
@@ -37,4 +38,15 @@ pub(super) fn decode(data: &[u8], n: usize) -> Result<Vec<u32>, CodecError> {
     }
     dec.finish()?;
     Ok(order)
+}
+
+/// The mesh in the input vertex order: decoded vertex `i` (position `pos[i]`) becomes
+/// vertex `order[i]`, and the faces are renumbered alike.
+pub(super) fn apply(order: &[u32], pos: &[[f64; 3]], faces: &[[u32; 3]]) -> TriMesh {
+    let mut out = vec![[0.0; 3]; order.len()];
+    for (i, &v) in order.iter().enumerate() {
+        out[v as usize] = pos[i];
+    }
+    let faces = faces.iter().map(|f| f.map(|v| order[v as usize])).collect();
+    TriMesh::new(out, faces)
 }

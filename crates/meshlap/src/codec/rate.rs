@@ -19,7 +19,7 @@
 //! its surface error is lower (BENCHMARKS.md, Compression).
 
 use super::geometry::{Coders, GeometrySection};
-use super::{CodecError, GeometryMode, Quantisation};
+use super::{CodecError, GeometryMode, Quantization};
 
 /// Rate control: the largest `q ∈ [1, 30]` (step `diag·2^{−q}`) whose file `size(q)`
 /// fits `budget` bytes (`q = 1` if none does). The size grows with `q`, nearly
@@ -189,14 +189,14 @@ pub(super) struct Choice {
     pub normal_rms: f64,
 }
 
-/// Codes the geometry with every coder of `modes` (at the step `quantisation` gives,
+/// Codes the geometry with every coder of `modes` (at the step `quantization` gives,
 /// or the one rate control finds) and keeps the best (see the module documentation).
 /// `file_size` is the whole file's size around a geometry section; `diag` the
 /// bounding-box diagonal; `n` the vertex count.
 pub(super) fn choose(
     coders: &mut Coders,
     modes: &[GeometryMode],
-    quantisation: Quantisation,
+    quantization: Quantization,
     diag: f64,
     n: usize,
     file_size: impl Fn(&[u8]) -> Result<usize, CodecError>,
@@ -205,15 +205,15 @@ pub(super) fn choose(
     let mut best: Option<(f64, Choice)> = None;
     let mut last_q = None;
     for &mode in modes {
-        let step = match quantisation {
-            Quantisation::Bits(q) => diag * (-q).exp2(),
-            Quantisation::TargetBpv(b) => {
+        let step = match quantization {
+            Quantization::Bits(q) => diag * (-q).exp2(),
+            Quantization::TargetBpv(b) => {
                 let budget = (b * n as f64 / 8.0).floor() as usize;
                 // A step too small for 31-bit integers counts as "too large a file".
                 let size = |q: f64| -> Result<usize, CodecError> {
                     match coders.encode(mode, diag * (-q).exp2(), false) {
                         Ok(g) => file_size(&g.bytes),
-                        Err(CodecError::Parameter(_)) => Ok(usize::MAX),
+                        Err(CodecError::StepTooSmall) => Ok(usize::MAX),
                         Err(e) => Err(e),
                     }
                 };
@@ -246,9 +246,9 @@ pub(super) fn choose(
         let lg = |x: f64| x.max(f64::MIN_POSITIVE).log2();
         let score = lg(e)
             + lg(en)
-            + match quantisation {
-                Quantisation::TargetBpv(_) => 0.0,
-                Quantisation::Bits(_) => {
+            + match quantization {
+                Quantization::TargetBpv(_) => 0.0,
+                Quantization::Bits(_) => {
                     2.0 * section.bytes.len() as f64 * 8.0 / n.max(1) as f64 / 3.0
                 }
             };

@@ -49,7 +49,7 @@
 
 use super::container::ByteReader;
 use super::entropy::{BitTree, IntModel, RangeDecoder, RangeEncoder};
-use super::CodecError;
+use super::{CodecError, ParameterError};
 use crate::mesh::topology::{Topology, INVALID};
 use crate::mesh::VertexId;
 
@@ -67,6 +67,22 @@ pub struct SpatialParams {
     /// Rate–distortion multiplier `μ ≥ 0` (step² per bit) of the rounding and the
     /// predictor choice; 0: plain rounding. Encoder-side only.
     pub lambda: f64,
+}
+
+/// Largest rate–distortion multiplier.
+pub const MAX_LAMBDA: f64 = 10.0;
+
+impl SpatialParams {
+    /// Checks the multiplier's range, `[0, MAX_LAMBDA]`.
+    pub fn validate(&self) -> Result<(), ParameterError> {
+        if !(self.lambda >= 0.0 && self.lambda <= MAX_LAMBDA) {
+            return Err(ParameterError::RdoLambda {
+                got: self.lambda,
+                max: MAX_LAMBDA,
+            });
+        }
+        Ok(())
+    }
 }
 
 impl Default for SpatialParams {
@@ -218,9 +234,7 @@ impl Models {
 fn rdo_round(r: f64, m: &IntModel, mu: f64) -> Result<(i64, f64), CodecError> {
     let q0 = r.round();
     if q0.abs() >= (1u64 << 31) as f64 || !q0.is_finite() {
-        return Err(CodecError::Parameter(
-            "quantisation step too small for these coordinates".into(),
-        ));
+        return Err(CodecError::StepTooSmall);
     }
     let q0 = q0 as i64;
     let j = |q: i64| (r - q as f64).powi(2) + mu * m.cost(q) as f64;
@@ -249,12 +263,7 @@ pub fn encode(
     step: f64,
     params: &SpatialParams,
 ) -> Result<(Vec<u8>, Vec<[f64; 3]>), CodecError> {
-    if !(params.lambda >= 0.0 && params.lambda <= 10.0) {
-        return Err(CodecError::Parameter(format!(
-            "--rdo-lambda must be in [0, 10], got {}",
-            params.lambda
-        )));
-    }
+    params.validate()?;
     let n = topo.n_vertices();
     let inv = 1.0 / step;
     let mu = params.lambda;
@@ -352,8 +361,8 @@ pub fn decode(topo: &Topology, data: &[u8]) -> Result<Vec<[f64; 3]>, CodecError>
 
 #[cfg(test)]
 mod tests {
-    use super::super::test_util::rms;
     use super::*;
+    use crate::codec::tests::rms;
     use crate::mesh::builtin;
 
     fn mesh(spec: &str) -> (Vec<[f64; 3]>, Topology) {

@@ -67,9 +67,7 @@ pub(super) fn quantize(v: f64, s: f64) -> Result<i64, CodecError> {
 pub(super) fn quantize_dz(v: f64, s: f64, theta: f64) -> Result<i64, CodecError> {
     let q = ((v / s).abs() + theta).floor().copysign(v);
     if q.abs() >= (1u64 << 31) as f64 {
-        return Err(CodecError::Parameter(
-            "quantisation step too small for these coordinates".into(),
-        ));
+        return Err(CodecError::StepTooSmall);
     }
     Ok(q as i64)
 }

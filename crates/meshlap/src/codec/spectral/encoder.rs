@@ -7,7 +7,7 @@ use super::params::SpectralParams;
 use super::patches::{bases, border_and_loose, PatchBasis};
 use super::residuals::Residuals;
 use crate::codec::entropy::RangeEncoder;
-use crate::codec::CodecError;
+use crate::codec::{CodecError, ParameterError};
 use crate::mesh::topology::Topology;
 use faer::Mat;
 use rayon::prelude::*;
@@ -107,9 +107,7 @@ impl<'a> SpectralEncoder<'a> {
 
     fn encode_measured(&self, step: f64, measure: bool) -> Result<EncodedSpectral, CodecError> {
         if !(step.is_finite() && step > 0.0) {
-            return Err(CodecError::Parameter(format!(
-                "invalid quantisation step {step}"
-            )));
+            return Err(ParameterError::Step(step).into());
         }
         let mut out = Vec::new();
         Header {

@@ -3,24 +3,28 @@
 //!
 //! ```text
 //! operator          u8       0 Kirchhoff, 1 Tutte, 2 graph, 3 SQL, 4 SSTL
-//! patch size        u32 LE   MIN_PATCH..=MAX_PATCH
+//! patch size        u32 LE   MIN_PATCH..=MAX_PATCH (4..=1000)
 //! coefficient rule  u8, f64 LE   0: keep ratio in (0, 1]; 1: count ≥ 1
 //! step              f64 LE   > 0
 //! border residuals  u8       0 or 1
-//! band slope        f64 LE   in [0, 16]
+//! band slope        f64 LE   in [0, MAX_BAND_SLOPE] ([0, 16])
 //! prediction        u8       0 or 1
 //! ```
 //!
 //! The dead zone is encoder-side only and not stored.
 
-use super::params::{operator_code, Keep, SpectralParams, MAX_PATCH, MIN_PATCH, OPERATORS};
+use super::params::{
+    operator_code, Keep, SpectralParams, MAX_BAND_SLOPE, MAX_DEAD_ZONE, MAX_PATCH, MIN_PATCH,
+    OPERATORS,
+};
 use crate::codec::container::ByteReader;
-use crate::codec::CodecError;
+use crate::codec::{CodecError, ParameterError};
 
 /// The parameters a spectral geometry stream starts with.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Header {
-    /// Coder parameters (the dead zone is not stored: ½ when read).
+    /// Coder parameters (the dead zone is not stored: `MAX_DEAD_ZONE`, plain
+    /// rounding, when read).
     pub params: SpectralParams,
     /// Global quantization step `Δ`.
     pub step: f64,
@@ -30,12 +34,7 @@ impl Header {
     /// Appends the header to `out`.
     pub fn write(&self, out: &mut Vec<u8>) -> Result<(), CodecError> {
         let p = &self.params;
-        let op = operator_code(p.operator).ok_or_else(|| {
-            CodecError::Parameter(format!(
-                "the {} operator cannot be used for compression; choose sstl, sql, tutte, kirchhoff or graph",
-                p.operator
-            ))
-        })?;
+        let op = operator_code(p.operator).ok_or(ParameterError::Operator(p.operator))?;
         out.push(op);
         out.extend_from_slice(&(p.patch_size as u32).to_le_bytes());
         let (rule, value) = match p.keep {
@@ -83,7 +82,7 @@ impl Header {
         }
         let border_residuals = r.flag("bad border flag")?;
         let band_slope = r.f64()?;
-        if !(0.0..=16.0).contains(&band_slope) {
+        if !(0.0..=MAX_BAND_SLOPE).contains(&band_slope) {
             return Err(CodecError::Corrupt("band slope out of range"));
         }
         let predicted = r.flag("bad prediction flag")?;
@@ -95,7 +94,7 @@ impl Header {
                 border_residuals,
                 band_slope,
                 predicted,
-                dead_zone: 0.5,
+                dead_zone: MAX_DEAD_ZONE,
             },
             step,
         })

@@ -64,4 +64,6 @@ mod tests;
 
 pub use decoder::decode;
 pub use encoder::{EncodedSpectral, SpectralEncoder, SpectralStats};
-pub use params::{Keep, SpectralParams, MAX_PATCH, MIN_PATCH};
+pub use params::{
+    Keep, SpectralParams, MAX_BAND_SLOPE, MAX_DEAD_ZONE, MAX_PATCH, MIN_DEAD_ZONE, MIN_PATCH,
+};

@@ -23,8 +23,8 @@ use rayon::prelude::*;
 /// patches. Each vertex belongs to exactly one patch.
 fn partition(topo: &Topology, p: usize) -> Result<Vec<Vec<u32>>, CodecError> {
     use crate::partition::{partition as metis_patches, PartitionOptions};
-    let part = metis_patches(topo, &PartitionOptions::new(p.max(3)))
-        .map_err(|e| CodecError::Parameter(format!("partitioning into patches: {e}")))?;
+    let part =
+        metis_patches(topo, &PartitionOptions::new(p.max(3))).map_err(CodecError::Partition)?;
     Ok((0..part.n_patches())
         .map(|i| part.patch_vertices(i).to_vec())
         .collect())
@@ -51,7 +51,7 @@ impl PatchBasis {
         match &self.basis {
             None => Ok(Mat::zeros(0, 3)),
             Some(b) => {
-                let all = forward(b, x.as_ref()).map_err(spectral_err)?;
+                let all = forward(b, x.as_ref()).map_err(CodecError::PatchBasis)?;
                 Ok(all.subrows(0, self.m).to_owned())
             }
         }
@@ -61,7 +61,7 @@ impl PatchBasis {
     pub fn synthesize(&self, c: &Mat<f64>) -> Result<Mat<f64>, CodecError> {
         match &self.basis {
             None => Ok(Mat::zeros(0, 3)),
-            Some(b) => inverse(b, c.as_ref()).map_err(spectral_err),
+            Some(b) => inverse(b, c.as_ref()).map_err(CodecError::PatchBasis),
         }
     }
 
@@ -79,10 +79,6 @@ impl PatchBasis {
             };
         }
     }
-}
-
-fn spectral_err(e: crate::spectral::SpectralError) -> CodecError {
-    CodecError::Parameter(format!("patch eigenbasis: {e}"))
 }
 
 /// The basis of one patch given its submesh connectivity `pt` (local numbering);
@@ -117,14 +113,14 @@ fn patch_basis(pt: &Topology, kind: OperatorKind, keep: Keep) -> Result<PatchBas
         });
     }
     let sub = TriMesh::new(vec![[0.0; 3]; np], faces);
-    let st = Topology::new(&sub).map_err(|_| CodecError::Internal("patch topology"))?;
+    let st = Topology::new(&sub).map_err(CodecError::PatchTopology)?;
     let op = Operator::assemble(kind, &sub, &st, &OperatorOptions::default())
-        .map_err(|e| CodecError::Parameter(format!("operator on a patch: {e}")))?;
+        .map_err(CodecError::PatchOperator)?;
     let opts = BasisOptions {
         dense_solver: DenseSolver::Reproducible,
         ..Default::default()
     };
-    let basis = EigenBasis::compute(&op, &opts).map_err(spectral_err)?;
+    let basis = EigenBasis::compute(&op, &opts).map_err(CodecError::PatchBasis)?;
     Ok(PatchBasis {
         verts,
         basis: Some(basis),
@@ -171,7 +167,7 @@ pub(super) fn bases(
                     .map(|f| f.map(|v| local[&v]))
                     .collect::<Vec<_>>(),
             )
-            .map_err(|_| CodecError::Internal("patch topology"))?;
+            .map_err(CodecError::PatchTopology)?;
             let b = patch_basis(&ft, params.operator, params.keep)?;
             Ok(PatchBasis {
                 verts: b.verts.iter().map(|&i| patch[i as usize]).collect(),

@@ -2,7 +2,7 @@
 //! options, hostile streams.
 
 use super::*;
-use crate::codec::test_util::rms;
+use crate::codec::tests::rms;
 use crate::mesh::builtin;
 use crate::mesh::topology::Topology;
 use crate::operator::OperatorKind;
