@@ -48,7 +48,7 @@ fn compress_decompress_compare_round_trip() {
         "--json",
     ]));
     // With the order preserved the decoded mesh has the same connectivity, and its
-    // error is within the 12-bit quantisation (step = diag/4096, RMS ≈ step/2).
+    // error is within the 12-bit quantization (step = diag/4096, RMS ≈ step/2).
     assert!(c["same_connectivity"].as_bool().unwrap());
     assert!(c["vertex_rms"].as_f64().unwrap() < 2.0 / 4096.0);
     assert!(c["hausdorff"].as_f64().unwrap() < 4.0 / 4096.0);

@@ -18,7 +18,7 @@
 //!
 //! The gate stays at `a` after `N`/`F`/`S`/`U` (so the coder turns around `a` until its
 //! fan is complete, ending with a `B`) and moves to `c` after `B`. Split-off loops are
-//! stacked. Encoder and decoder run the same state machine ([`CutBorder`]), so the
+//! stacked. Encoder and decoder run the same state machine (`CutBorder`), so the
 //! decoder rebuilds the faces in exactly the encoder's order and vertex numbering.
 //!
 //! **Boundaries** are closed first by a *dummy vertex* per boundary loop (a fan of
@@ -705,22 +705,10 @@ pub fn decode(data: &[u8], n_vertices: usize, n_faces: usize) -> Result<Vec<[u32
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::codec::tests::canon;
     use crate::mesh::{builtin, TriMesh};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
-
-    /// Canonical face set: each face rotated so its smallest index comes first, sorted.
-    fn canon(faces: &[[u32; 3]]) -> Vec<[u32; 3]> {
-        let mut v: Vec<[u32; 3]> = faces
-            .iter()
-            .map(|f| {
-                let k = (0..3).min_by_key(|&k| f[k]).unwrap();
-                [f[k], f[(k + 1) % 3], f[(k + 2) % 3]]
-            })
-            .collect();
-        v.sort_unstable();
-        v
-    }
 
     pub(crate) fn round_trip(mesh: &TriMesh) -> f64 {
         let topo = Topology::new(mesh).unwrap();

@@ -62,7 +62,7 @@ impl SectionKind {
     }
 }
 
-/// Serialises sections into a file image.
+/// Serializes sections into a file image.
 pub fn write(sections: &[(SectionKind, &[u8])]) -> Result<Vec<u8>, CodecError> {
     if sections.len() > MAX_SECTIONS as usize {
         return Err(CodecError::Internal("too many sections"));

@@ -23,12 +23,15 @@
 //! section (the input vertex order) and the geometry section — a mode byte (0
 //! spectral, 1 spatial) then that coder's stream.
 
+#![warn(missing_docs)]
+
 pub mod connectivity;
 pub mod container;
 pub mod entropy;
 mod error;
 mod geometry;
 mod permutation;
+mod quantize;
 mod rate;
 pub mod spatial;
 pub mod spectral;

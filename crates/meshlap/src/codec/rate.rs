@@ -20,6 +20,7 @@
 
 use super::geometry::{Coders, GeometrySection};
 use super::{CodecError, GeometryMode, Quantization};
+use glam::DVec3;
 
 /// Rate control: the largest `q ∈ [1, 30]` (step `diag·2^{−q}`) whose file `size(q)`
 /// fits `budget` bytes (`q = 1` if none does). The size grows with `q`, nearly
@@ -108,7 +109,7 @@ fn fit_bits(
 pub(super) struct Estimate<'a> {
     positions: &'a [[f64; 3]],
     /// Unit vertex normals of the input (area-weighted).
-    normals: Vec<[f64; 3]>,
+    normals: Vec<DVec3>,
     diag: f64,
 }
 
@@ -116,33 +117,23 @@ impl<'a> Estimate<'a> {
     /// The measures for `positions` (n×3) with faces `faces` and bounding-box
     /// diagonal `diag`.
     pub fn new(positions: &'a [[f64; 3]], faces: &[[u32; 3]], diag: f64) -> Self {
-        let n = positions.len();
-        let mut nrm = vec![[0.0f64; 3]; n];
+        let mut nrm = vec![DVec3::ZERO; positions.len()];
         for f in faces {
-            let [a, b, c] = f.map(|v| positions[v as usize]);
-            let (u, w) = (
-                [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
-                [c[0] - a[0], c[1] - a[1], c[2] - a[2]],
-            );
-            let x = [
-                u[1] * w[2] - u[2] * w[1],
-                u[2] * w[0] - u[0] * w[2],
-                u[0] * w[1] - u[1] * w[0],
-            ];
+            let [a, b, c] = f.map(|v| DVec3::from(positions[v as usize]));
+            // Twice the face's area times its unit normal.
+            let x = (b - a).cross(c - a);
             for &v in f {
-                for k in 0..3 {
-                    nrm[v as usize][k] += x[k];
-                }
+                nrm[v as usize] += x;
             }
         }
         let normals = nrm
             .iter()
-            .map(|x| {
-                let l = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
+            .map(|&x| {
+                let l = x.length();
                 if l > 0.0 {
-                    x.map(|c| c / l)
+                    x / l
                 } else {
-                    [0.0; 3]
+                    DVec3::ZERO
                 }
             })
             .collect();
@@ -158,7 +149,7 @@ impl<'a> Estimate<'a> {
         let s: f64 = rec
             .iter()
             .zip(self.positions)
-            .map(|(a, b)| (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>())
+            .map(|(&a, &b)| (DVec3::from(a) - DVec3::from(b)).length_squared())
             .sum();
         (s / rec.len().max(1) as f64).sqrt() / self.diag
     }
@@ -169,7 +160,7 @@ impl<'a> Estimate<'a> {
             .iter()
             .zip(self.positions)
             .zip(&self.normals)
-            .map(|((a, b), m)| (0..3).map(|k| (a[k] - b[k]) * m[k]).sum::<f64>().powi(2))
+            .map(|((&a, &b), &m)| (DVec3::from(a) - DVec3::from(b)).dot(m).powi(2))
             .sum();
         (s / rec.len().max(1) as f64).sqrt() / self.diag
     }

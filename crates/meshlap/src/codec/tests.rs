@@ -3,14 +3,40 @@
 
 use super::*;
 use crate::mesh::builtin;
+use glam::DVec3;
 use rand::{Rng, SeedableRng};
+
+/// Canonical face set: each face rotated so its smallest index comes first, sorted.
+pub(crate) fn canon(faces: &[[u32; 3]]) -> Vec<[u32; 3]> {
+    let mut v: Vec<[u32; 3]> = faces
+        .iter()
+        .map(|f| {
+            let k = (0..3).min_by_key(|&k| f[k]).unwrap();
+            [f[k], f[(k + 1) % 3], f[(k + 2) % 3]]
+        })
+        .collect();
+    v.sort_unstable();
+    v
+}
+
+/// `data` with one seeded corruption: cut at a random length or one bit flipped.
+pub(crate) fn corrupt(data: &[u8], rng: &mut impl Rng) -> Vec<u8> {
+    let mut d = data.to_vec();
+    if rng.gen_bool(0.5) {
+        d.truncate(rng.gen_range(0..d.len()));
+    } else {
+        let i = rng.gen_range(0..d.len());
+        d[i] ^= 1 << rng.gen_range(0..8);
+    }
+    d
+}
 
 /// Root-mean-square vertex distance between two position lists (absolute).
 pub(crate) fn rms(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
     let s: f64 = a
         .iter()
         .zip(b)
-        .map(|(p, q)| (0..3).map(|k| (p[k] - q[k]).powi(2)).sum::<f64>())
+        .map(|(&p, &q)| (DVec3::from(p) - DVec3::from(q)).length_squared())
         .sum();
     (s / a.len() as f64).sqrt()
 }
@@ -42,17 +68,6 @@ fn file_round_trip_matches_encoder_prediction() {
             let d = decompress(&c.bytes).unwrap();
             assert_eq!(d, c.decoded, "{spec}");
             if preserve {
-                let canon = |f: &[[u32; 3]]| {
-                    let mut v: Vec<[u32; 3]> = f
-                        .iter()
-                        .map(|t| {
-                            let k = (0..3).min_by_key(|&k| t[k]).unwrap();
-                            [t[k], t[(k + 1) % 3], t[(k + 2) % 3]]
-                        })
-                        .collect();
-                    v.sort_unstable();
-                    v
-                };
                 assert_eq!(canon(&d.faces), canon(&m.faces));
                 assert!(c.report.permutation_bpv > 0.0);
             }

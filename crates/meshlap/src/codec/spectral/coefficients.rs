@@ -58,20 +58,6 @@ pub(super) fn octave(j: usize) -> usize {
     ((usize::BITS - j.leading_zeros()) as usize).min(FREQ_BANDS - 1)
 }
 
-/// Rounding to the nearest multiple of `s`: `round(v/s)`.
-pub(super) fn quantize(v: f64, s: f64) -> Result<i64, CodecError> {
-    quantize_dz(v, s, 0.5)
-}
-
-/// Dead-zone quantizer `sign(v)·⌊|v|/s + θ⌋` (`θ = ½`: rounding to the nearest).
-pub(super) fn quantize_dz(v: f64, s: f64, theta: f64) -> Result<i64, CodecError> {
-    let q = ((v / s).abs() + theta).floor().copysign(v);
-    if q.abs() >= (1u64 << 31) as f64 {
-        return Err(CodecError::StepTooSmall);
-    }
-    Ok(q as i64)
-}
-
 /// The adaptive models of the spectral geometry stream.
 pub(super) struct Models {
     /// One per coefficient context.

@@ -1,15 +1,17 @@
 //! The spectral encoder: partition, bases and unquantized coefficients once, then a
 //! stream per quantization step (rate control codes several).
 
-use super::coefficients::{octave, quantize, quantize_dz, Models, FREQ_BANDS};
+use super::coefficients::{octave, Models, FREQ_BANDS};
 use super::header::Header;
 use super::params::SpectralParams;
 use super::patches::{bases, border_and_loose, PatchBasis};
 use super::residuals::Residuals;
 use crate::codec::entropy::RangeEncoder;
+use crate::codec::quantize::{dead_zone, nearest};
 use crate::codec::{CodecError, ParameterError};
 use crate::mesh::topology::Topology;
 use faer::Mat;
+use glam::DVec3;
 use rayon::prelude::*;
 
 /// What the spectral encoder measured.
@@ -132,7 +134,7 @@ impl<'a> SpectralEncoder<'a> {
             let q =
                 models.code_patch(c.nrows(), step, self.params.band_slope, |j, k, s, model| {
                     let base = chat.as_ref().map_or(0.0, |ch| ch[(j, k)]);
-                    let qi = quantize_dz(c[(j, k)] - base, s, self.params.dead_zone)?;
+                    let qi = dead_zone(c[(j, k)] - base, s, self.params.dead_zone)?;
                     if measure {
                         octave_bits[octave(j)] += model.cost(qi) as f64;
                     }
@@ -154,9 +156,8 @@ impl<'a> SpectralEncoder<'a> {
         let (mut be, mut bn, mut ie, mut inn) = (0.0, 0usize, 0.0, 0usize);
         for b in &self.bases {
             for &v in &b.verts {
-                let e: f64 = (0..3)
-                    .map(|k| (rec[v as usize][k] - self.positions[v as usize][k]).powi(2))
-                    .sum();
+                let e = (DVec3::from(rec[v as usize]) - DVec3::from(self.positions[v as usize]))
+                    .length_squared();
                 if self.border[v as usize] {
                     be += e;
                     bn += 1;
@@ -174,7 +175,7 @@ impl<'a> SpectralEncoder<'a> {
             step,
             &mut models.resid,
             |v, k, pred, model| {
-                let qi = quantize(self.positions[v as usize][k] - pred, step)?;
+                let qi = nearest(self.positions[v as usize][k] - pred, step)?;
                 model.encode(&mut enc, qi);
                 Ok(qi)
             },

@@ -85,7 +85,7 @@ pub struct SpectralParams {
     pub border_residuals: bool,
     /// Per-band steps: band `b ∈ 0..4` of the kept coefficients uses step
     /// `Δ·(1 + slope·b/3)`, slope in `[0, MAX_BAND_SLOPE]` (0: one step for all; high-rate theory
-    /// says uniform steps minimise the mean squared error of an orthonormal
+    /// says uniform steps minimize the mean squared error of an orthonormal
     /// transform).
     pub band_slope: f64,
     /// Inter-patch prediction: each patch codes the coefficients of its difference

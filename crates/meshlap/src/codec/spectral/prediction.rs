@@ -46,7 +46,7 @@ impl Prediction {
 /// the graph restricted to `U ∪ known` (`(Lx)_i = x_i − mean_{w ∈ N'(i)} x_w`), split
 /// as `L = [L_U | L_S]` over unknown and known columns (`S`: the known vertices these
 /// rows touch). The prediction is the smoothest continuation of the decoded
-/// neighbourhood into the patch, the minimiser of the discrete thin-plate energy
+/// neighbourhood into the patch, the minimizer of the discrete thin-plate energy
 /// `‖L_U x_U + L_S y‖²` (affine continuations cost nearly nothing):
 /// `x̂_U = G y` with `G = −(L_UᵀL_U)⁻¹ L_UᵀL_S` (n_p × |S|), a dense Cholesky
 /// (sequential, so encoder and decoder get the same `G` bit for bit).

@@ -13,6 +13,7 @@
 use crate::codec::entropy::IntModel;
 use crate::codec::CodecError;
 use crate::mesh::topology::Topology;
+use glam::DVec3;
 
 /// The residual-coded vertices and how to predict them.
 pub(super) struct Residuals {
@@ -47,22 +48,20 @@ impl Residuals {
 
     /// Prediction of a residual-coded vertex: its own spectral reconstruction, or for
     /// a loose vertex the mean of its decoded non-loose neighbours (origin if none).
-    fn prediction(&self, topo: &Topology, v: u32, rec: &[[f64; 3]]) -> [f64; 3] {
+    fn prediction(&self, topo: &Topology, v: u32, rec: &[[f64; 3]]) -> DVec3 {
         if !self.loose[v as usize] {
-            return rec[v as usize];
+            return DVec3::from(rec[v as usize]);
         }
-        let mut s = [0.0; 3];
+        let mut s = DVec3::ZERO;
         let mut c = 0usize;
         for &w in topo.neighbors(crate::mesh::VertexId(v)) {
             if !self.loose[w as usize] {
-                for k in 0..3 {
-                    s[k] += rec[w as usize][k];
-                }
+                s += DVec3::from(rec[w as usize]);
                 c += 1;
             }
         }
         if c > 0 {
-            s.map(|x| x / c as f64)
+            s / c as f64
         } else {
             s
         }
