@@ -10,6 +10,15 @@ pub const MIN_PATCH: usize = 4;
 /// memory on both sides, and a hostile file must not ask for more.
 pub const MAX_PATCH: usize = 1000;
 
+/// Largest band slope.
+pub const MAX_BAND_SLOPE: f64 = 16.0;
+
+/// Smallest dead-zone rounding offset.
+pub const MIN_DEAD_ZONE: f64 = 0.2;
+
+/// Largest dead-zone rounding offset (plain rounding).
+pub const MAX_DEAD_ZONE: f64 = 0.5;
+
 /// The operators a spectral `.mlz` stream can name, by code.
 pub(super) const OPERATORS: [OperatorKind; 5] = [
     OperatorKind::Kirchhoff,
@@ -24,21 +33,12 @@ pub(super) fn operator_code(k: OperatorKind) -> Option<u8> {
     OPERATORS.iter().position(|&o| o == k).map(|c| c as u8)
 }
 
-/// Largest band slope.
-pub const MAX_BAND_SLOPE: f64 = 16.0;
-
-/// Smallest dead-zone rounding offset.
-pub const MIN_DEAD_ZONE: f64 = 0.2;
-
-/// Largest dead-zone rounding offset (plain rounding).
-pub const MAX_DEAD_ZONE: f64 = 0.5;
-
 /// How many low-frequency coefficients each patch keeps.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub enum Keep {
     /// A fraction `r ∈ (0, 1]` of the patch's vertex count (at least 1).
     Ratio(f64),
-    /// A fixed number per patch (at most the patch's vertex count).
+    /// A fixed number `m ≥ 1` per patch (at most the patch's vertex count).
     Count(u32),
 }
 
