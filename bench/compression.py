@@ -8,11 +8,11 @@ Both sides code the same cleaned, manifold mesh (`meshlap clean --split-nonmanif
 Ours: `meshlap compress --target-bpv b --measure --json` for each b and operator (the
 default `--mode auto` codes the geometry both spectrally and spatially and keeps the
 lower error; the setting column names the coder it kept).
-Draco: compression level 10 at 8..14 quantisation bits; its decoded points are matched
+Draco: compression level 10 at 8..14 quantization bits; its decoded points are matched
 to the input vertices through the index carried as a colour in a second encode
 (Draco reorders vertices; see draco_with_map) and measured by
 `meshlap compare --map`, i.e. with exactly the same metric code as ours. Draco's
-connectivity cost is bounded from above by its size at 1 quantisation bit.
+connectivity cost is bounded from above by its size at 1 quantization bit.
 Timing: `meshlap-bench codec` (encode and decode in memory) and DracoPy encode+decode,
 same threads (BENCH_THREADS, default 2).
 """
@@ -45,7 +45,7 @@ def write_obj(path, V, F):
 def draco_with_map(V, F, q, P):
     """Draco's decoded mesh with the input vertex of each point: the index rides along
     as a 24-bit RGB colour in a second encode with the same settings. Colours change
-    Draco's traversal order but not the quantised positions: the second decode is used
+    Draco's traversal order but not the quantized positions: the second decode is used
     only if its points are, as a set, exactly the first one's. None otherwise."""
     import DracoPy
     idx = np.arange(len(V))

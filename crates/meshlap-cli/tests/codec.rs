@@ -28,6 +28,7 @@ fn compress_decompress_compare_round_trip() {
         "geometry_bpv",
         "permutation_bpv",
         "step",
+        "quantization_bits",
         "distortion",
     ] {
         assert!(r.get(key).is_some(), "missing {key}");
@@ -47,7 +48,7 @@ fn compress_decompress_compare_round_trip() {
         "--json",
     ]));
     // With the order preserved the decoded mesh has the same connectivity, and its
-    // error is within the 12-bit quantisation (step = diag/4096, RMS ≈ step/2).
+    // error is within the 12-bit quantization (step = diag/4096, RMS ≈ step/2).
     assert!(c["same_connectivity"].as_bool().unwrap());
     assert!(c["vertex_rms"].as_f64().unwrap() < 2.0 / 4096.0);
     assert!(c["hausdorff"].as_f64().unwrap() < 4.0 / 4096.0);
@@ -90,4 +91,73 @@ fn non_manifold_input_suggests_splitting() {
     ]);
     assert_one_line_error(&o, "--split-nonmanifold");
     assert!(!mlz.exists());
+}
+
+#[test]
+fn options_out_of_range_are_one_line_errors_naming_the_option() {
+    let dir = tempfile::tempdir().unwrap();
+    let mlz = dir.path().join("p.mlz");
+    let mlz_s = mlz.to_str().unwrap();
+    for (args, needle) in [
+        (&["--patch-size", "2"][..], "patch size"),
+        (&["--keep-ratio", "1.5"][..], "keep ratio"),
+        (&["--coefficients", "0"][..], "at least one coefficient"),
+        (&["--bits", "50"][..], "quantization bits"),
+        (&["--target-bpv=-1"][..], "target rate"),
+        (&["--dead-zone", "0.9"][..], "dead-zone"),
+        (&["--band-slope", "20"][..], "band slope"),
+        (&["--rdo-lambda", "11"][..], "rate-distortion multiplier"),
+        (&["--operator", "cotan", "--mode", "spectral"][..], "cotan"),
+    ] {
+        let mut a = vec!["compress", "builtin:icosphere:2", "-o", mlz_s];
+        a.extend_from_slice(args);
+        assert_one_line_error(&meshlap(&a), needle);
+        assert!(!mlz.exists(), "{args:?}");
+    }
+    // An enum value the library does not know is a usage error (exit 2).
+    let o = meshlap(&[
+        "compress",
+        "builtin:icosphere:2",
+        "-o",
+        mlz_s,
+        "--mode",
+        "fractal",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    // The old name of the spatial mode is still accepted.
+    let r = json(&meshlap(&[
+        "compress",
+        "builtin:icosphere:2",
+        "-o",
+        mlz_s,
+        "--mode",
+        "predictive",
+        "--json",
+    ]));
+    assert_eq!(r["geometry_mode"], "spatial");
+}
+
+#[test]
+fn golden_file_decompresses() {
+    // One of the library's golden files (tests/data/mlz) through the command line.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("t.obj");
+    let o = meshlap(&[
+        "decompress",
+        &data("mlz/torus-spectral-sql-po.mlz"),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let c = json(&meshlap(&[
+        "compare",
+        "builtin:torus:12:8",
+        out.to_str().unwrap(),
+        "--samples",
+        "500",
+        "--json",
+    ]));
+    // The file kept the input order: same connectivity, error within the 10-bit step.
+    assert!(c["same_connectivity"].as_bool().unwrap());
+    assert!(c["vertex_rms"].as_f64().unwrap() < 1.0 / 1024.0);
 }

@@ -9,8 +9,8 @@
 //! solves of `(I + λS)`, `(I + λT)`, `(D + λK)` with CG/BiCG/Cholesky, a streaming-copy
 //! bandwidth measurement and the memory-traffic bound per iteration; `--lambda L`, and
 //! `--export DIR` writes the matrices and right-hand side for the scipy side), `codec`
-//! (compress and decompress, default settings or `--patch-size P`, non-manifold
-//! vertices split first),
+//! (compress and decompress in memory, default settings or `--patch-size P`, `--mode M`,
+//! `--bits Q`, `--target-bpv B`; non-manifold vertices split first),
 //! `partial` (the `--count` smallest eigenpairs by banded shift-invert block
 //! Krylov–Schur; `--tol`, `--band`, `--block` override `PartialOptions`), `partition`
 //! (METIS patches of `--patch-size`), `project-patches` (partition + patch-wise
@@ -64,7 +64,7 @@ fn main() {
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let usage = "usage: meshlap-bench load|operators|topology|io|read|spectrum|solvers|codec|partial|partition|project-patches MESH \
-                 [--repeat N] [--kind K] [--general] [--lambda L] [--export DIR] [--count K] [--tol T] [--band B] [--block P] [--patch-size P] \
+                 [--repeat N] [--kind K] [--general] [--lambda L] [--export DIR] [--count K] [--tol T] [--band B] [--block P] [--patch-size P] [--mode M] [--bits Q] [--target-bpv B] \
                  | dump MESH DIR | write MESH OUT [--repeat N]";
     let task = args.first().ok_or(usage)?.clone();
     let mesh = args.get(1).ok_or(usage)?.clone();
@@ -210,22 +210,23 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             solvers(&mesh, lambda, repeat, export.as_deref(), &mut out)?;
         }
         "codec" => {
-            // Compress (SSTL, 10 bits, default patches) and decompress in memory.
+            // Compress (default settings unless overridden) and decompress in memory.
             let input = open(&mesh, &OpenOptions::default())?;
             let (mesh_c, _) = meshlap::mesh::clean::split_non_manifold(&input.mesh)?;
             let topo = meshlap::mesh::topology::Topology::new(&mesh_c)?;
             out.insert("vertices".into(), mesh_c.n_vertices().into());
             let mut opts = meshlap::codec::CompressOptions::default();
             if let Some(p) = flag(&args, "--patch-size") {
-                opts.geometry.patch_size = p.parse()?;
+                opts.spectral.patch_size = p.parse()?;
             }
             if let Some(m) = flag(&args, "--mode") {
                 opts.mode = m.parse()?;
             }
-            if let Some(b) = flag(&args, "--target-bpv") {
-                opts.quantisation = meshlap::codec::Quantisation::TargetBpv(b.parse()?);
-            }
-            out.insert("patch_size".into(), opts.geometry.patch_size.into());
+            opts.quantization = meshlap::codec::Quantization::from_options(
+                flag(&args, "--bits").map(str::parse).transpose()?,
+                flag(&args, "--target-bpv").map(str::parse).transpose()?,
+            );
+            out.insert("patch_size".into(), opts.spectral.patch_size.into());
             let c = meshlap::codec::compress(&mesh_c, &topo, &opts)?;
             let (e, te) = time(repeat, || {
                 meshlap::codec::compress(&mesh_c, &topo, &opts).map(|c| c.bytes.len())

@@ -1,9 +1,10 @@
 //! `meshlap compress`.
 
 use crate::common::{print_json, MeshArgs};
-use meshlap::codec::geometry::{GeometryParams, Keep};
-use meshlap::codec::spatial::SpatialParams;
-use meshlap::codec::{compress, CompressOptions, GeometryMode, Quantisation};
+use meshlap::codec::{
+    compress, CodecError, CompressOptions, CompressReport, Compressed, GeometryMode, Keep,
+    Quantization, SpatialParams, SpectralParams,
+};
 use meshlap::operator::OperatorKind;
 use std::path::PathBuf;
 
@@ -11,10 +12,10 @@ use std::path::PathBuf;
 /// range-coded), geometry by one of two coders (`--mode`): Karni–Gotsman spectral
 /// coding — per patch of about `--patch-size` vertices, the eigenvectors of a
 /// combinatorial Laplacian (F = D − W, positive semi-definite) are the frequencies;
-/// the lowest are kept, quantised and range-coded, and the decoder rebuilds the bases
+/// the lowest are kept, quantized and range-coded, and the decoder rebuilds the bases
 /// from the connectivity — or spatial coding — each vertex, in the connectivity
 /// coder's order, predicted from already decoded ones (parallelograms), its residual
-/// quantised in the loop and range-coded. By default both are tried and the better
+/// quantized in the loop and range-coded. By default both are tried and the better
 /// kept (spectral wins at low rates, spatial at high rates). The mesh must be
 /// manifold and consistently oriented (see `meshlap clean`).
 #[derive(clap::Args, Debug)]
@@ -27,7 +28,7 @@ pub struct Args {
     /// Geometry coder: auto (code both, keep the lower error — under `--target-bpv`
     /// the lower product of vertex RMS and normal RMS, under `--bits` the lower
     /// log2(vertex RMS · normal RMS) + 2·geometry bpv/3), spectral or spatial.
-    #[arg(long, default_value = "auto")]
+    #[arg(long, value_enum, default_value_t = CompressOptions::default().mode)]
     pub mode: GeometryMode,
     /// Spatial coder: rate–distortion multiplier μ (step² per bit) of the rounding
     /// (each residual is rounded to the nearest integer or the next one towards zero,
@@ -40,37 +41,38 @@ pub struct Args {
     #[arg(long)]
     pub no_select: bool,
     /// Operator whose eigenvectors form the basis: sstl, sql, tutte, kirchhoff, graph.
-    #[arg(long, default_value = "kirchhoff")]
+    #[arg(long, default_value_t = SpectralParams::default().operator)]
     pub operator: OperatorKind,
     /// Patch size in vertices (each patch is eigen-decomposed densely).
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, default_value_t = SpectralParams::default().patch_size)]
     pub patch_size: usize,
-    /// Fraction of each patch's coefficients kept (low frequencies first).
+    /// Fraction of each patch's coefficients kept (low frequencies first; default:
+    /// all).
     #[arg(long, conflicts_with = "coefficients")]
     pub keep_ratio: Option<f64>,
     /// Number of coefficients kept per patch.
     #[arg(long)]
     pub coefficients: Option<u32>,
-    /// Quantisation: step = bounding-box diagonal · 2^-bits.
-    #[arg(long, conflicts_with = "target_bpv")]
-    pub bits: Option<f64>,
-    /// Rate control: the finest quantisation whose file fits this many bits per vertex.
+    /// Quantization: step = bounding-box diagonal · 2^-bits.
+    #[arg(long, conflicts_with = "target_bpv", default_value_t = Quantization::DEFAULT_BITS)]
+    pub bits: f64,
+    /// Rate control: the finest quantization whose file fits this many bits per vertex.
     #[arg(long)]
     pub target_bpv: Option<f64>,
     /// Store the input vertex order (costs about log2(n) bits per vertex).
     #[arg(long)]
     pub preserve_order: bool,
     /// Per-band steps: band b of 4 (low to high frequency) uses step·(1 + slope·b/3).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = SpectralParams::default().band_slope)]
     pub band_slope: f64,
     /// Border-aware coding: also code the residuals of patch-border vertices, where a
     /// truncated basis errs most (useful with a keep ratio below 1).
     #[arg(long)]
     pub border_residuals: bool,
-    /// Dead-zone rounding offset θ in [0.2, 0.5] of the coefficient quantiser,
+    /// Dead-zone rounding offset θ in [0.2, 0.5] of the coefficient quantizer,
     /// q = sign(c)·floor(|c|/step + θ) (0.5: plain rounding; smaller values zero more
     /// small coefficients, trading a little error for rate).
-    #[arg(long, default_value_t = 0.35)]
+    #[arg(long, default_value_t = SpectralParams::default().dead_zone)]
     pub dead_zone: f64,
     /// Turn off inter-patch prediction (each patch codes its coordinates instead of
     /// their difference from the smoothest continuation of earlier patches).
@@ -81,61 +83,62 @@ pub struct Args {
     #[arg(long)]
     pub measure: bool,
     /// Sample points per surface for `--measure`.
-    #[arg(long, default_value_t = 200_000)]
+    #[arg(long, default_value_t = Compressed::DEFAULT_SAMPLES)]
     pub samples: usize,
     /// Print machine-readable JSON.
     #[arg(long)]
     pub json: bool,
 }
 
+impl Args {
+    /// The library's options from the arguments.
+    fn options(&self) -> CompressOptions {
+        CompressOptions {
+            mode: self.mode,
+            spectral: SpectralParams {
+                operator: self.operator,
+                patch_size: self.patch_size,
+                keep: Keep::from_options(self.keep_ratio, self.coefficients),
+                border_residuals: self.border_residuals,
+                band_slope: self.band_slope,
+                predicted: !self.no_prediction,
+                dead_zone: self.dead_zone,
+            },
+            spatial: SpatialParams {
+                select: !self.no_select,
+                lambda: self.rdo_lambda,
+            },
+            quantization: Quantization::from_options(Some(self.bits), self.target_bpv),
+            preserve_order: self.preserve_order,
+        }
+    }
+}
+
+/// The library's error, with what to run about it where a command can fix it.
+fn with_hint(e: CodecError) -> meshlap::Error {
+    match e {
+        CodecError::NonManifold(_) => meshlap::Error::InvalidArgument(format!(
+            "{e}; run `meshlap clean --split-nonmanifold` first"
+        )),
+        e => e.into(),
+    }
+}
+
 pub fn run(args: &Args) -> meshlap::Result<()> {
     let input = args.mesh.open()?;
-    let keep = match (args.keep_ratio, args.coefficients) {
-        (_, Some(m)) => Keep::Count(m),
-        (Some(r), None) => Keep::Ratio(r),
-        (None, None) => GeometryParams::default().keep,
-    };
-    let quantisation = match (args.bits, args.target_bpv) {
-        (_, Some(b)) => Quantisation::TargetBpv(b),
-        (Some(q), None) => Quantisation::Bits(q),
-        (None, None) => Quantisation::Bits(10.0),
-    };
-    let opts = CompressOptions {
-        mode: args.mode,
-        spatial: SpatialParams {
-            select: !args.no_select,
-            lambda: args.rdo_lambda,
-        },
-        geometry: GeometryParams {
-            operator: args.operator,
-            patch_size: args.patch_size,
-            keep,
-            border_residuals: args.border_residuals,
-            band_slope: args.band_slope,
-            predicted: !args.no_prediction,
-            dead_zone: args.dead_zone,
-        },
-        quantisation,
-        preserve_order: args.preserve_order,
-    };
-    let c = compress(&input.mesh, &input.topology, &opts)?;
+    let c = compress(&input.mesh, &input.topology, &args.options()).map_err(with_hint)?;
     meshlap::io::write_atomic(&args.output, |w| w.write_all(&c.bytes))?;
-    let r = &c.report;
     let distortion = if args.measure {
-        Some(meshlap::metric::compare(
-            &input.mesh,
-            &c.decoded,
-            Some(&c.order),
-            args.samples,
-        )?)
+        Some(c.distortion(&input.mesh, args.samples)?)
     } else {
         None
     };
+    let r = &c.report;
     if args.json {
         #[derive(serde::Serialize)]
         struct Out<'a> {
             #[serde(flatten)]
-            report: &'a meshlap::codec::CompressReport,
+            report: &'a CompressReport,
             distortion: Option<meshlap::metric::Comparison>,
         }
         return print_json(&Out {
@@ -154,8 +157,8 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         r.bits_per_vertex, r.connectivity_bpv, r.geometry_bpv, r.permutation_bpv
     );
     println!(
-        "quantisation    step {:.4e} ({:.2} bits of the diagonal)",
-        r.step, r.quantisation_bits
+        "quantization    step {:.4e} ({:.2} bits of the diagonal)",
+        r.step, r.quantization_bits
     );
     println!(
         "geometry        {} coder, vertex RMS {:.4e}, normal RMS {:.4e} (of the diagonal)",

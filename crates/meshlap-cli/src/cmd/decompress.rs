@@ -1,6 +1,6 @@
 //! `meshlap decompress`.
 
-use meshlap::io::{write_mesh, WriteOptions};
+use meshlap::io::{write_mesh, IoError, WriteOptions};
 use std::path::PathBuf;
 
 /// Decompress a `.mlz` file written by `meshlap compress` into a mesh file (format
@@ -18,8 +18,9 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> meshlap::Result<()> {
-    let bytes = std::fs::read(&args.input).map_err(|e| {
-        meshlap::Error::InvalidArgument(format!("cannot read {}: {e}", args.input.display()))
+    let bytes = std::fs::read(&args.input).map_err(|source| IoError::Open {
+        path: args.input.clone(),
+        source,
     })?;
     let mesh = meshlap::codec::decompress(&bytes)?;
     write_mesh(&args.output, &mesh, &WriteOptions::default())?;

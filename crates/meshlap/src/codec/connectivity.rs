@@ -18,7 +18,7 @@
 //!
 //! The gate stays at `a` after `N`/`F`/`S`/`U` (so the coder turns around `a` until its
 //! fan is complete, ending with a `B`) and moves to `c` after `B`. Split-off loops are
-//! stacked. Encoder and decoder run the same state machine ([`CutBorder`]), so the
+//! stacked. Encoder and decoder run the same state machine (`CutBorder`), so the
 //! decoder rebuilds the faces in exactly the encoder's order and vertex numbering.
 //!
 //! **Boundaries** are closed first by a *dummy vertex* per boundary loop (a fan of
@@ -33,14 +33,14 @@
 //! traversal meets the vertices (`order[new] = old`); the caller stores `order` when
 //! the input order must be kept.
 //!
-//! Bad input: a non-manifold edge or vertex gives [`CodecError::NonManifold`]
-//! (suggesting `meshlap clean --split-nonmanifold`), inconsistent orientation
+//! Bad input: a non-manifold edge or vertex gives [`CodecError::NonManifold`] (split
+//! them first: `mesh::clean::split_non_manifold`), inconsistent orientation
 //! [`CodecError::NotOriented`]; a corrupt stream gives a typed error, never a panic,
 //! and the decoder grows its arrays only as symbols arrive (and stops at the counts
 //! the container declares).
 
 use super::entropy::{BitModel, BitTree, RangeDecoder, RangeEncoder, UintModel};
-use super::CodecError;
+use super::{CodecError, NonManifold};
 use crate::mesh::topology::{Topology, INVALID};
 
 const NIL: u32 = u32::MAX;
@@ -284,10 +284,10 @@ pub struct EncodedConnectivity {
 pub fn encode(topo: &Topology) -> Result<EncodedConnectivity, CodecError> {
     if let Some(e) = topo.non_manifold_edges().next() {
         let [a, b] = topo.edge(e);
-        return Err(CodecError::NonManifold(format!("edge ({a}, {b})")));
+        return Err(CodecError::NonManifold(NonManifold::Edge { a, b }));
     }
     if let Some(v) = topo.non_manifold_vertices().next() {
-        return Err(CodecError::NonManifold(format!("vertex {v}")));
+        return Err(CodecError::NonManifold(NonManifold::Vertex(v.0)));
     }
     if topo.inconsistently_oriented_edges() > 0 {
         return Err(CodecError::NotOriented(
@@ -306,15 +306,12 @@ pub fn encode(topo: &Topology) -> Result<EncodedConnectivity, CodecError> {
         }
     }
     let nt = n + loops.len();
-    let closed = Topology::from_faces(nt, &faces)
-        .map_err(|e| CodecError::NonManifold(format!("closing the boundary: {e}")))?;
+    let closed = Topology::from_faces(nt, &faces).map_err(CodecError::Mesh)?;
     if closed.boundary_edges().next().is_some()
         || closed.non_manifold_edges().next().is_some()
         || closed.non_manifold_vertices().next().is_some()
     {
-        return Err(CodecError::NonManifold(
-            "a boundary loop touches itself".into(),
-        ));
+        return Err(CodecError::NonManifold(NonManifold::BoundaryLoop));
     }
 
     let nh = faces.len() * 3;
@@ -708,22 +705,10 @@ pub fn decode(data: &[u8], n_vertices: usize, n_faces: usize) -> Result<Vec<[u32
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::codec::tests::canon;
     use crate::mesh::{builtin, TriMesh};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
-
-    /// Canonical face set: each face rotated so its smallest index comes first, sorted.
-    fn canon(faces: &[[u32; 3]]) -> Vec<[u32; 3]> {
-        let mut v: Vec<[u32; 3]> = faces
-            .iter()
-            .map(|f| {
-                let k = (0..3).min_by_key(|&k| f[k]).unwrap();
-                [f[k], f[(k + 1) % 3], f[(k + 2) % 3]]
-            })
-            .collect();
-        v.sort_unstable();
-        v
-    }
 
     pub(crate) fn round_trip(mesh: &TriMesh) -> f64 {
         let topo = Topology::new(mesh).unwrap();
@@ -838,12 +823,20 @@ mod tests {
     }
 
     #[test]
-    fn non_manifold_is_rejected_with_advice() {
-        // Two triangles sharing only a vertex (a bow tie).
+    fn non_manifold_is_rejected_naming_the_vertex() {
+        // Two triangles sharing only a vertex (a bow tie); the command-line hint is
+        // the front end's (crates/meshlap-cli/tests/codec.rs).
         let m = TriMesh::new(vec![[0.0; 3]; 5], vec![[0, 1, 2], [0, 3, 4]]);
         let topo = Topology::new(&m).unwrap();
         let e = encode(&topo).unwrap_err();
-        assert!(e.to_string().contains("--split-nonmanifold"), "{e}");
+        assert!(
+            matches!(e, CodecError::NonManifold(NonManifold::Vertex(0))),
+            "{e}"
+        );
+        assert_eq!(
+            e.to_string(),
+            "cannot compress a non-manifold mesh (vertex 0)"
+        );
     }
 
     #[test]

@@ -62,7 +62,7 @@ impl SectionKind {
     }
 }
 
-/// Serialises sections into a file image.
+/// Serializes sections into a file image.
 pub fn write(sections: &[(SectionKind, &[u8])]) -> Result<Vec<u8>, CodecError> {
     if sections.len() > MAX_SECTIONS as usize {
         return Err(CodecError::Internal("too many sections"));
@@ -73,8 +73,8 @@ pub fn write(sections: &[(SectionKind, &[u8])]) -> Result<Vec<u8>, CodecError> {
     out.extend_from_slice(&VERSION.to_le_bytes());
     out.extend_from_slice(&(sections.len() as u16).to_le_bytes());
     for (kind, payload) in sections {
-        let len = u32::try_from(payload.len())
-            .map_err(|_| CodecError::Parameter("section larger than 4 GiB".into()))?;
+        let len =
+            u32::try_from(payload.len()).map_err(|_| CodecError::SectionTooLarge(payload.len()))?;
         out.push(*kind as u8);
         out.extend_from_slice(&len.to_le_bytes());
         out.extend_from_slice(&checksum(*kind, payload).to_le_bytes());
@@ -93,7 +93,10 @@ pub fn read(bytes: &[u8]) -> Result<Vec<(SectionKind, &[u8])>, CodecError> {
     }
     let version = r.u16()?;
     if version != VERSION {
-        return Err(CodecError::Version(version));
+        return Err(CodecError::Version {
+            found: version,
+            supported: VERSION,
+        });
     }
     let count = r.u16()?;
     if count > MAX_SECTIONS {
@@ -182,6 +185,14 @@ impl<'a> ByteReader<'a> {
         let b = self.take(4)?;
         Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
     }
+    /// A flag byte, 0 or 1; any other value is [`CodecError::Corrupt`] with `bad`.
+    pub fn flag(&mut self, bad: &'static str) -> Result<bool, CodecError> {
+        match self.u8()? {
+            0 => Ok(false),
+            1 => Ok(true),
+            _ => Err(CodecError::Corrupt(bad)),
+        }
+    }
     /// An `f64`; an error if not finite.
     pub fn f64(&mut self) -> Result<f64, CodecError> {
         let b = self.take(8)?;
@@ -226,7 +237,7 @@ mod tests {
         let mut old = img.clone();
         old[4..6].copy_from_slice(&3u16.to_le_bytes());
         let e = read(&old).unwrap_err();
-        assert!(matches!(e, CodecError::Version(3)));
+        assert!(matches!(e, CodecError::Version { found: 3, .. }));
         assert!(e.to_string().contains("reads version 4"), "{e}");
         let mut huge = img[..8].to_vec();
         huge.extend_from_slice(&[1, 0xFF, 0xFF, 0xFF, 0xFF, 0, 0, 0, 0]);

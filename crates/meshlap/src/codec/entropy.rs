@@ -5,10 +5,9 @@
 //! probability: the mean of two exponentially forgetting estimates, a fast one
 //! (`p += (1 − p)/16`) and a slow one (`p += (1 − p)/64`), used at 12 bits (format
 //! version 2; version 1 had a single `1/32` estimate at 11 bits). The pair tracks
-//! both short bursts and stable statistics: at 10.5 quantisation bits, bunny
-//! connectivity 1.406 → 1.367 and geometry 6.443 → 6.363 bits/vertex, Igea 1.473 →
-//! 1.417 and 4.146 → 4.092; single rates of 1/16 or 1/64 and pairs (1/16, 1/32),
-//! (1/16, 1/128), (1/32, 1/128), (1/8, 1/64) were all worse. A multi-symbol alphabet is a binary tree of such decisions
+//! both short bursts and stable statistics, and coded both connectivity and geometry
+//! smaller than a single rate or other pairs (BENCHMARKS.md, Compression). A
+//! multi-symbol alphabet is a binary tree of such decisions
 //! ([`BitTree`]); an integer is its Elias-gamma bit length coded by a bit tree plus
 //! its mantissa, the first bits adaptive and the rest equiprobable ([`UintModel`]).
 //!
@@ -294,24 +293,14 @@ impl BitTree {
 
     /// Encodes `sym < 2^bits`.
     pub fn encode(&mut self, enc: &mut RangeEncoder, sym: u32) {
-        let mut node = 1usize;
-        for i in (0..self.bits).rev() {
-            let b = (sym >> i) & 1 == 1;
+        for (node, b) in tree_path(sym as u64, self.bits) {
             enc.bit(&mut self.probs[node], b);
-            node = (node << 1) | b as usize;
         }
     }
 
     /// Cost in bits of coding `sym` now (no update).
     pub fn cost(&self, sym: u32) -> f32 {
-        let mut node = 1usize;
-        let mut c = 0.0;
-        for i in (0..self.bits).rev() {
-            let b = (sym >> i) & 1 == 1;
-            c += self.probs[node].cost(b);
-            node = (node << 1) | b as usize;
-        }
-        c
+        tree_path(sym as u64, self.bits).fold(0.0, |c, (node, b)| c + self.probs[node].cost(b))
     }
 
     /// Decodes a symbol.
@@ -325,12 +314,25 @@ impl BitTree {
     }
 }
 
+/// The decisions that code the low `n` bits of `value` (most significant first) in a
+/// binary tree of models: each bit with its node's index (the root is 1, the
+/// children of node `t` are `2t` and `2t + 1`).
+fn tree_path(value: u64, n: u32) -> impl Iterator<Item = (usize, bool)> {
+    let mut node = 1usize;
+    (0..n).rev().map(move |i| {
+        let b = (value >> i) & 1 == 1;
+        let at = node;
+        node = (node << 1) | b as usize;
+        (at, b)
+    })
+}
+
 /// Number of mantissa bits (below the leading one) coded adaptively.
 const ADAPTIVE_MANTISSA: u32 = 2;
 
 /// Adaptive model of an unsigned integer `< 2^32`: Elias-gamma style, the bit length
 /// `⌊log2(v+1)⌋ ∈ 0..=32` through a [`BitTree`], then the bits below the leading one,
-/// the top [`ADAPTIVE_MANTISSA`] adaptive (per length), the rest direct.
+/// the top two adaptive (per length), the rest direct.
 #[derive(Clone, Debug)]
 pub struct UintModel {
     len: BitTree,
@@ -347,21 +349,25 @@ impl Default for UintModel {
 }
 
 impl UintModel {
-    /// Encodes `v`.
-    pub fn encode(&mut self, enc: &mut RangeEncoder, v: u32) {
+    /// `(len, rest)` with `v + 1 = 2^len + rest`, `rest < 2^len`.
+    fn split(v: u32) -> (u32, u64) {
         let w = v as u64 + 1;
         let len = 63 - w.leading_zeros(); // position of the leading one, 0..=32
+        (len, w - (1u64 << len))
+    }
+
+    /// The model of mantissa node `node` of the integers of bit length `len`.
+    fn mant_index(len: u32, node: usize) -> usize {
+        ((len as usize) << ADAPTIVE_MANTISSA) | node
+    }
+
+    /// Encodes `v`.
+    pub fn encode(&mut self, enc: &mut RangeEncoder, v: u32) {
+        let (len, rest) = Self::split(v);
         self.len.encode(enc, len);
-        let rest = w - (1u64 << len);
         let na = len.min(ADAPTIVE_MANTISSA);
-        let mut node = 1usize;
-        for i in 0..na {
-            let b = (rest >> (len - 1 - i)) & 1 == 1;
-            enc.bit(
-                &mut self.mant[((len as usize) << ADAPTIVE_MANTISSA) | node],
-                b,
-            );
-            node = (node << 1) | b as usize;
+        for (node, b) in tree_path(rest >> (len - na), na) {
+            enc.bit(&mut self.mant[Self::mant_index(len, node)], b);
         }
         let nd = len - na;
         if nd > 0 {
@@ -371,17 +377,11 @@ impl UintModel {
 
     /// Cost in bits of coding `v` now (no update).
     pub fn cost(&self, v: u32) -> f32 {
-        let w = v as u64 + 1;
-        let len = 63 - w.leading_zeros();
-        let mut c = self.len.cost(len);
-        let rest = w - (1u64 << len);
+        let (len, rest) = Self::split(v);
         let na = len.min(ADAPTIVE_MANTISSA);
-        let mut node = 1usize;
-        for i in 0..na {
-            let b = (rest >> (len - 1 - i)) & 1 == 1;
-            c += self.mant[((len as usize) << ADAPTIVE_MANTISSA) | node].cost(b);
-            node = (node << 1) | b as usize;
-        }
+        let c = tree_path(rest >> (len - na), na).fold(self.len.cost(len), |c, (node, b)| {
+            c + self.mant[Self::mant_index(len, node)].cost(b)
+        });
         c + (len - na) as f32
     }
 
@@ -395,7 +395,7 @@ impl UintModel {
         let mut node = 1usize;
         let mut rest = 0u64;
         for _ in 0..na {
-            let b = dec.bit(&mut self.mant[((len as usize) << ADAPTIVE_MANTISSA) | node]);
+            let b = dec.bit(&mut self.mant[Self::mant_index(len, node)]);
             node = (node << 1) | b as usize;
             rest = (rest << 1) | b as u64;
         }

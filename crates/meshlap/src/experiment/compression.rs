@@ -14,8 +14,8 @@
 //! `meshlap clean --split-nonmanifold`), since the connectivity coder needs it.
 
 use super::{sig, ExperimentError, Outputs, Table};
-use crate::codec::geometry::{GeometryParams, Keep};
-use crate::codec::{compress, CompressOptions, Quantisation};
+use crate::codec::spectral::{Keep, SpectralParams};
+use crate::codec::{compress, CompressOptions, Quantization};
 use crate::input::Input;
 use crate::mesh::topology::Topology;
 use crate::operator::OperatorKind;
@@ -106,13 +106,13 @@ pub fn rate_distortion(
                     &mesh,
                     &topo,
                     &CompressOptions {
-                        geometry: GeometryParams {
+                        spectral: SpectralParams {
                             operator: op,
                             patch_size: opts.patch_size,
                             keep: Keep::Ratio(r),
                             ..Default::default()
                         },
-                        quantisation: Quantisation::Bits(opts.bits),
+                        quantization: Quantization::Bits(opts.bits),
                         preserve_order: false,
                         // This experiment compares the operators' bases.
                         mode: crate::codec::GeometryMode::Spectral,

@@ -1,0 +1,69 @@
+//! Spectral geometry coding after Karni and Gotsman, *Spectral compression of mesh
+//! geometry* (SIGGRAPH 2000), as discussed in Zhang 2004 §2.6 and §4.9.
+//!
+//! The decoded connectivity is split into patches of about `P` vertices (default
+//! 100; `patches.rs`). For each patch the n_p×n_p combinatorial operator `F = D − W`
+//! (PSD sign convention) of the patch submesh is eigen-decomposed; its eigenvectors,
+//! by increasing eigenvalue, are the patch's "frequencies". The default operator is
+//! Kirchhoff's `K = D − A`, Karni and Gotsman's choice, which with inter-patch
+//! prediction gave the lowest error at every rate we measured (BENCHMARKS.md,
+//! Compression). The n_p×3 coordinates `x` are transformed, `X = E⁻¹x`, the first `m`
+//! coefficients (low frequencies) are kept (default: all), quantized and range-coded
+//! (`coefficients.rs`). Since the basis depends on connectivity only, the decoder
+//! rebuilds it and computes `x̃ = E_m X̃`.
+//!
+//! * Symmetric operators (KL, GL, SQL, SSTL): `E` is orthonormal, `X = Eᵀx`, and the
+//!   coefficient error equals the vertex error (Parseval).
+//! * The Tutte Laplacian `T = I − D⁻¹A` is not symmetric, but it is similar to the
+//!   normalized graph Laplacian `G = I − D^{-1/2} A D^{-1/2}`: `T = D^{-1/2} G D^{1/2}`,
+//!   so `EigenBasis`' symmetrized path gives `E = D^{-1/2}U` (unit columns) and the
+//!   coefficients by a D-weighted projection — no dense solve (Zhang §4.9 remarks that
+//!   TL needs one otherwise).
+//!
+//! Before the transform each patch is predicted from the decoded vertices of the
+//! patches coded before it, and only the difference is coded (`prediction.rs`);
+//! vertices on no face of their patch, and with border-aware coding the patch-border
+//! vertices, are coded by residuals (`residuals.rs`). The stream starts with a header
+//! of the parameters the decoder needs (`header.rs`); `encoder.rs` and `decoder.rs` walk
+//! the coefficients in the same order with the same models.
+//!
+//! **Determinism.** The decoder must reproduce the encoder's basis bit for bit,
+//! including inside repeated eigenvalues (icosphere, cube). The bases come from
+//! [`crate::spectral::EigenBasis`] (canonical vectors: probe-vector rule inside
+//! eigenvalue clusters, thread-independent arithmetic) on a matrix built from the
+//! decoded connectivity in the decoded vertex order, so encoder and decoder agree
+//! exactly; tests check this on `builtin:icosphere:3` and `builtin:cube:8`.
+//!
+//! **Partition and patch size.** Patches come from METIS ([`crate::partition`]),
+//! numbered by their smallest vertex, which is also the coding (and prediction)
+//! order. Basis cost grows as `n·P²` (a dense eigendecomposition per patch); with
+//! inter-patch prediction the rate hardly depends on `P`, so the default, 100, is
+//! chosen for speed (larger patches lower the error by a few per cent at several
+//! times the basis cost; BENCHMARKS.md). Patches are at most [`MAX_PATCH`] vertices
+//! (a hostile file cannot ask for more).
+//!
+//! **Eigensolver.** Bases come from [`crate::spectral::dense_evd`] (selected by
+//! [`crate::spectral::DenseSolver::Reproducible`]) and the canonicalization in
+//! `spectral::basis` (plain loops in index order): the arithmetic is fixed-order and
+//! correctly rounded, so the bases are the same bit for bit on every CPU with FMA,
+//! and the solver is faster than faer's at these sizes. The coefficient products
+//! (`forward`/`inverse`) and the prediction's Cholesky use faer, whose kernels depend
+//! on the CPU, so decoded coordinates can differ in their last bits between machines
+//! (at rounding level: the integers are in the file).
+
+mod coefficients;
+mod decoder;
+mod encoder;
+mod header;
+mod params;
+mod patches;
+mod prediction;
+mod residuals;
+#[cfg(test)]
+mod tests;
+
+pub use decoder::decode;
+pub use encoder::{EncodedSpectral, SpectralEncoder, SpectralStats};
+pub use params::{
+    Keep, SpectralParams, MAX_BAND_SLOPE, MAX_DEAD_ZONE, MAX_PATCH, MIN_DEAD_ZONE, MIN_PATCH,
+};

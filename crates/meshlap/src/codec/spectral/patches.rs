@@ -1,0 +1,228 @@
+//! Patches and their bases: the METIS partition of the decoded connectivity, per patch
+//! the eigenvectors of the combinatorial operator of the patch submesh, and which
+//! vertices lie on a patch border or on no face of their patch.
+//!
+//! Everything here depends on the connectivity only, so the decoder, which has the
+//! same connectivity in the same vertex order, rebuilds exactly the encoder's patches
+//! and bases.
+
+use super::params::{Keep, SpectralParams};
+use super::prediction::{patch_prediction, Prediction};
+use crate::codec::CodecError;
+use crate::mesh::topology::Topology;
+use crate::mesh::TriMesh;
+use crate::operator::{Operator, OperatorKind, OperatorOptions};
+use crate::spectral::{forward, inverse, BasisOptions, DenseSolver, EigenBasis};
+use faer::Mat;
+use rayon::prelude::*;
+
+/// Patches of about `p` vertices from the multilevel partitioner
+/// ([`crate::partition`]: METIS k-way with a fixed seed, connected patches,
+/// every vertex on a face of its own patch). Deterministic for a given connectivity, so
+/// the decoder, which has the same connectivity in the same order, gets the same
+/// patches. Each vertex belongs to exactly one patch.
+fn partition(topo: &Topology, p: usize) -> Result<Vec<Vec<u32>>, CodecError> {
+    use crate::partition::{partition as metis_patches, PartitionOptions};
+    let part =
+        metis_patches(topo, &PartitionOptions::new(p.max(3))).map_err(CodecError::Partition)?;
+    Ok((0..part.n_patches())
+        .map(|i| part.patch_vertices(i).to_vec())
+        .collect())
+}
+
+/// A patch's basis ([`crate::spectral::EigenBasis`]: canonical, deterministic
+/// eigenvectors, ascending eigenvalues), how many coefficients it keeps and its
+/// inter-patch predictor.
+pub(super) struct PatchBasis {
+    /// The patch vertices that lie on a face of the patch (the others are coded as
+    /// loose vertices), in the basis' row order.
+    pub verts: Vec<u32>,
+    /// `None` for a patch without faces.
+    pub basis: Option<EigenBasis>,
+    /// Coefficients kept.
+    pub m: usize,
+    /// The predictor from earlier patches (with inter-patch prediction on).
+    pub pred: Option<Prediction>,
+}
+
+impl PatchBasis {
+    /// The first `m` coefficients (m×3) of the patch coordinates `x` (n_p×3).
+    pub fn analyze(&self, x: &Mat<f64>) -> Result<Mat<f64>, CodecError> {
+        match &self.basis {
+            None => Ok(Mat::zeros(0, 3)),
+            Some(b) => {
+                let all = forward(b, x.as_ref()).map_err(CodecError::PatchBasis)?;
+                Ok(all.subrows(0, self.m).to_owned())
+            }
+        }
+    }
+
+    /// Coordinates (n_p×3) from the first m coefficients.
+    pub fn synthesize(&self, c: &Mat<f64>) -> Result<Mat<f64>, CodecError> {
+        match &self.basis {
+            None => Ok(Mat::zeros(0, 3)),
+            Some(b) => inverse(b, c.as_ref()).map_err(CodecError::PatchBasis),
+        }
+    }
+
+    /// Writes the patch's coordinates, prediction `x̂` (if any) plus synthesized
+    /// residual `x` (n_p×3), into `rec`.
+    pub fn place(&self, xhat: Option<&Mat<f64>>, x: &Mat<f64>, rec: &mut [[f64; 3]]) {
+        for (i, &v) in self.verts.iter().enumerate() {
+            rec[v as usize] = match xhat {
+                Some(h) => [
+                    h[(i, 0)] + x[(i, 0)],
+                    h[(i, 1)] + x[(i, 1)],
+                    h[(i, 2)] + x[(i, 2)],
+                ],
+                None => [x[(i, 0)], x[(i, 1)], x[(i, 2)]],
+            };
+        }
+    }
+}
+
+/// The basis of one patch given its submesh connectivity `pt` (local numbering);
+/// vertices on no face of the patch are left out (`verts` lists the kept ones, local).
+fn patch_basis(pt: &Topology, kind: OperatorKind, keep: Keep) -> Result<PatchBasis, CodecError> {
+    let mut on_face = vec![false; pt.n_vertices()];
+    for f in pt.faces() {
+        for &x in f {
+            on_face[x as usize] = true;
+        }
+    }
+    let mut remap = vec![u32::MAX; pt.n_vertices()];
+    let mut verts = Vec::new();
+    for i in 0..pt.n_vertices() {
+        if on_face[i] {
+            remap[i] = verts.len() as u32;
+            verts.push(i as u32);
+        }
+    }
+    let faces: Vec<[u32; 3]> = pt
+        .faces()
+        .iter()
+        .map(|f| f.map(|x| remap[x as usize]))
+        .collect();
+    let np = verts.len();
+    if np == 0 {
+        return Ok(PatchBasis {
+            verts,
+            basis: None,
+            m: 0,
+            pred: None,
+        });
+    }
+    let sub = TriMesh::new(vec![[0.0; 3]; np], faces);
+    let st = Topology::new(&sub).map_err(CodecError::PatchTopology)?;
+    let op = Operator::assemble(kind, &sub, &st, &OperatorOptions::default())
+        .map_err(CodecError::PatchOperator)?;
+    let opts = BasisOptions {
+        dense_solver: DenseSolver::Reproducible,
+        ..Default::default()
+    };
+    let basis = EigenBasis::compute(&op, &opts).map_err(CodecError::PatchBasis)?;
+    Ok(PatchBasis {
+        verts,
+        basis: Some(basis),
+        m: keep.count(np),
+        pred: None,
+    })
+}
+
+/// The bases of every patch, in coding order (in parallel; each decomposition is
+/// sequential), with their predictors when `params.predicted`.
+pub(super) fn bases(
+    topo: &Topology,
+    params: &SpectralParams,
+) -> Result<Vec<PatchBasis>, CodecError> {
+    let patches = partition(topo, params.patch_size)?;
+    let n = topo.n_vertices();
+    let mut patch_of = vec![0u32; n];
+    for (p, patch) in patches.iter().enumerate() {
+        for &v in patch {
+            patch_of[v as usize] = p as u32;
+        }
+    }
+    // Faces per patch: a face belongs to the patch of its first corner if all three
+    // corners share it.
+    let mut pfaces: Vec<Vec<[u32; 3]>> = vec![Vec::new(); patches.len()];
+    for f in topo.faces() {
+        let p = patch_of[f[0] as usize];
+        if patch_of[f[1] as usize] == p && patch_of[f[2] as usize] == p {
+            pfaces[p as usize].push(*f);
+        }
+    }
+    let mut bases = patches
+        .par_iter()
+        .zip(pfaces.par_iter())
+        .map(|(patch, faces)| {
+            let mut local = std::collections::HashMap::with_capacity(patch.len());
+            for (i, &v) in patch.iter().enumerate() {
+                local.insert(v, i as u32);
+            }
+            let ft = Topology::from_faces(
+                patch.len(),
+                &faces
+                    .iter()
+                    .map(|f| f.map(|v| local[&v]))
+                    .collect::<Vec<_>>(),
+            )
+            .map_err(CodecError::PatchTopology)?;
+            let b = patch_basis(&ft, params.operator, params.keep)?;
+            Ok(PatchBasis {
+                verts: b.verts.iter().map(|&i| patch[i as usize]).collect(),
+                basis: b.basis,
+                m: b.m,
+                pred: None,
+            })
+        })
+        .collect::<Result<Vec<_>, CodecError>>()?;
+    if params.predicted {
+        let owner = owners(n, &bases);
+        let preds: Vec<Option<Prediction>> = (0..bases.len())
+            .into_par_iter()
+            .map(|p| {
+                let b = &bases[p];
+                b.basis
+                    .as_ref()
+                    .and_then(|_| patch_prediction(topo, &owner, &b.verts, p as u32))
+            })
+            .collect();
+        for (b, pr) in bases.iter_mut().zip(preds) {
+            b.pred = pr;
+        }
+    }
+    Ok(bases)
+}
+
+/// Patch of each vertex in the patch bases (`u32::MAX`: loose vertex).
+fn owners(n: usize, bases: &[PatchBasis]) -> Vec<u32> {
+    let mut owner = vec![u32::MAX; n];
+    for (p, b) in bases.iter().enumerate() {
+        for &v in &b.verts {
+            owner[v as usize] = p as u32;
+        }
+    }
+    owner
+}
+
+/// Vertices adjacent to a vertex of another patch (`border[v]`), and the vertices in
+/// no patch basis (loose, ascending).
+pub(super) fn border_and_loose(topo: &Topology, bases: &[PatchBasis]) -> (Vec<bool>, Vec<u32>) {
+    let n = topo.n_vertices();
+    let owner = owners(n, bases);
+    let mut border = vec![false; n];
+    for v in 0..n {
+        if owner[v] == u32::MAX {
+            continue;
+        }
+        border[v] = topo
+            .neighbors(crate::mesh::VertexId(v as u32))
+            .iter()
+            .any(|&w| owner[w as usize] != owner[v]);
+    }
+    let loose = (0..n as u32)
+        .filter(|&v| owner[v as usize] == u32::MAX)
+        .collect();
+    (border, loose)
+}

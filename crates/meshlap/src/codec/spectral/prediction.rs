@@ -1,0 +1,146 @@
+//! Inter-patch prediction: each patch is first predicted from the decoded vertices of
+//! the patches coded before it, and only the difference is transformed.
+//!
+//! Patches are coded in index order; patch `p` predicts its coordinates from the
+//! decoded vertices of patches `< p` that touch it: `x̂ = G y`, the minimizer of the
+//! discrete thin-plate energy `‖L_U x̂ + L_S y‖²` of the umbrella operator over the
+//! patch and its decoded ring ([`patch_prediction`]). `G` depends on connectivity
+//! only, so the decoder builds the same matrix; the coder then transforms
+//! `x − x̂`, and the decoder returns `x̂ + E_m X̃`. The coefficient error, hence the
+//! vertex error, is unchanged; the rate falls because a patch no longer pays for its
+//! position, orientation and the part of its shape its neighbours already imply
+//! (figures in BENCHMARKS.md, Compression).
+
+use crate::mesh::topology::Topology;
+use faer::Mat;
+
+/// Prediction of a patch's coordinates from decoded vertices of earlier patches:
+/// `x̂ = G·y`, `y` the positions of `src` (n_src×3), `G` n_p×n_src.
+pub(super) struct Prediction {
+    src: Vec<u32>,
+    g: Mat<f64>,
+}
+
+impl Prediction {
+    /// `x̂ = G·y` (n_p×3) from the decoded positions `rec` (fixed summation order).
+    pub fn predict(&self, rec: &[[f64; 3]]) -> Mat<f64> {
+        let mut out = Mat::<f64>::zeros(self.g.nrows(), 3);
+        for (t, &v) in self.src.iter().enumerate() {
+            let y = rec[v as usize];
+            for j in 0..self.g.nrows() {
+                let w = self.g[(j, t)];
+                for k in 0..3 {
+                    out[(j, k)] += w * y[k];
+                }
+            }
+        }
+        out
+    }
+}
+
+/// The predictor of patch `p` (vertices `U` = `verts`), or `None` when no vertex of an earlier
+/// patch touches it (or the system is singular).
+///
+/// Known vertices are those of patches `< p` (decoded before `p`). With `K₁` the known
+/// vertices adjacent to `U`, take the rows `R = U ∪ K₁` of the umbrella operator of
+/// the graph restricted to `U ∪ known` (`(Lx)_i = x_i − mean_{w ∈ N'(i)} x_w`), split
+/// as `L = [L_U | L_S]` over unknown and known columns (`S`: the known vertices these
+/// rows touch). The prediction is the smoothest continuation of the decoded
+/// neighbourhood into the patch, the minimizer of the discrete thin-plate energy
+/// `‖L_U x_U + L_S y‖²` (affine continuations cost nearly nothing):
+/// `x̂_U = G y` with `G = −(L_UᵀL_U)⁻¹ L_UᵀL_S` (n_p × |S|), a dense Cholesky
+/// (sequential, so encoder and decoder get the same `G` bit for bit).
+pub(super) fn patch_prediction(
+    topo: &Topology,
+    owner: &[u32],
+    verts: &[u32],
+    p: u32,
+) -> Option<Prediction> {
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::linalg::cholesky::llt;
+    let np = verts.len();
+    let known = |w: u32| owner[w as usize] < p;
+    let mut local = std::collections::HashMap::with_capacity(np);
+    for (i, &v) in verts.iter().enumerate() {
+        local.insert(v, i);
+    }
+    let mut k1: Vec<u32> = verts
+        .iter()
+        .flat_map(|&v| topo.neighbors(crate::mesh::VertexId(v)).iter().copied())
+        .filter(|&w| known(w))
+        .collect();
+    k1.sort_unstable();
+    k1.dedup();
+    if k1.is_empty() {
+        return None;
+    }
+    let mut src_index = std::collections::HashMap::new();
+    let mut src: Vec<u32> = Vec::new();
+    // Sparse rows of L_U and L_S.
+    let mut lu: Vec<Vec<(usize, f64)>> = Vec::with_capacity(np + k1.len());
+    let mut ls: Vec<Vec<(usize, f64)>> = Vec::with_capacity(np + k1.len());
+    for &i in verts.iter().chain(k1.iter()) {
+        let nb: Vec<u32> = topo
+            .neighbors(crate::mesh::VertexId(i))
+            .iter()
+            .copied()
+            .filter(|&w| known(w) || owner[w as usize] == p)
+            .collect();
+        let (mut ru, mut rs) = (Vec::new(), Vec::new());
+        let inv = if nb.is_empty() {
+            0.0
+        } else {
+            1.0 / nb.len() as f64
+        };
+        for (w, wt) in std::iter::once((i, 1.0)).chain(nb.iter().map(|&w| (w, -inv))) {
+            if let Some(&li) = local.get(&w) {
+                ru.push((li, wt));
+            } else {
+                let t = *src_index.entry(w).or_insert_with(|| {
+                    src.push(w);
+                    src.len() - 1
+                });
+                rs.push((t, wt));
+            }
+        }
+        lu.push(ru);
+        ls.push(rs);
+    }
+    // M = L_UᵀL_U + ridge, G = −L_UᵀL_S.
+    let mut m = Mat::<f64>::zeros(np, np);
+    let mut g = Mat::<f64>::zeros(np, src.len());
+    for (ru, rs) in lu.iter().zip(&ls) {
+        for &(a, wa) in ru {
+            for &(c, wc) in ru {
+                m[(a, c)] += wa * wc;
+            }
+            for &(t, wt) in rs {
+                g[(a, t)] -= wa * wt;
+            }
+        }
+    }
+    let tr = (0..np).map(|i| m[(i, i)]).sum::<f64>() / np as f64;
+    for i in 0..np {
+        m[(i, i)] += 1e-10 * tr;
+    }
+    let par = faer::Par::Seq;
+    let mut mem = MemBuffer::new(
+        llt::factor::cholesky_in_place_scratch::<f64>(np, par, Default::default()).or(
+            llt::solve::solve_in_place_scratch::<f64>(np, src.len(), par),
+        ),
+    );
+    let stack = MemStack::new(&mut mem);
+    llt::factor::cholesky_in_place(
+        m.as_mut(),
+        Default::default(),
+        par,
+        stack,
+        Default::default(),
+    )
+    .ok()?;
+    llt::solve::solve_in_place(m.as_ref(), g.as_mut(), par, stack);
+    if (0..g.ncols()).any(|c| g.col(c).iter().any(|x| !x.is_finite())) {
+        return None;
+    }
+    Some(Prediction { src, g })
+}

@@ -1,0 +1,161 @@
+//! Tests of the spectral coder: exact decoding, the error and rate behavior of its
+//! options, hostile streams.
+
+use super::*;
+use crate::codec::tests::{corrupt, rms};
+use crate::mesh::builtin;
+use crate::mesh::topology::Topology;
+use crate::operator::OperatorKind;
+
+#[test]
+fn decoder_reproduces_encoder_exactly_with_repeated_eigenvalues() {
+    for spec in ["builtin:icosphere:3", "builtin:cube:8", "builtin:grid:9"] {
+        let m = builtin::from_spec(spec).unwrap();
+        let topo = Topology::new(&m).unwrap();
+        for (op, predicted) in [
+            (OperatorKind::Sstl, true),
+            (OperatorKind::Sstl, false),
+            (OperatorKind::Sql, true),
+            (OperatorKind::Tutte, true),
+            (OperatorKind::Kirchhoff, false),
+            (OperatorKind::Graph, true),
+        ] {
+            let params = SpectralParams {
+                operator: op,
+                patch_size: 120,
+                keep: Keep::Ratio(0.5),
+                border_residuals: true,
+                band_slope: 0.5,
+                predicted,
+                dead_zone: 0.4,
+            };
+            let enc = SpectralEncoder::new(&topo, &m.positions, params).unwrap();
+            let step = m.bbox_diagonal() / 1024.0;
+            let EncodedSpectral {
+                bytes: data,
+                decoded: rec,
+                ..
+            } = enc.encode(step).unwrap();
+            let dec = decode(&topo, &data).unwrap();
+            assert_eq!(dec, rec, "{spec} {op}");
+        }
+    }
+}
+
+#[test]
+fn full_basis_is_lossless_up_to_quantization() {
+    let m = builtin::from_spec("builtin:torus:10:8").unwrap();
+    let topo = Topology::new(&m).unwrap();
+    for op in [OperatorKind::Sstl, OperatorKind::Tutte] {
+        let params = SpectralParams {
+            operator: op,
+            patch_size: 1000,
+            keep: Keep::Ratio(1.0),
+            border_residuals: false,
+            band_slope: 0.0,
+            predicted: false,
+            dead_zone: 0.5,
+        };
+        let enc = SpectralEncoder::new(&topo, &m.positions, params).unwrap();
+        let step = 1e-6;
+        let rec = enc.encode(step).unwrap().decoded;
+        // One patch, orthonormal (or D^{1/2}-scaled) basis: error of order the step.
+        assert!(rms(&rec, &m.positions) < 1e-5, "{op}");
+    }
+}
+
+#[test]
+fn fewer_coefficients_more_error_and_border_coding_helps() {
+    let m = builtin::from_spec("builtin:icosphere:4").unwrap();
+    let topo = Topology::new(&m).unwrap();
+    let step = m.bbox_diagonal() / 4096.0;
+    let mut last = 0.0;
+    // Without inter-patch prediction (which pins the borders shared with earlier
+    // patches), a truncated SSTL basis errs most on the free patch borders (the
+    // Kirchhoff basis need not: at keep ratio 0.8 here its border RMS is half the
+    // interior's).
+    for r in [0.8, 0.4, 0.1] {
+        let params = SpectralParams {
+            keep: Keep::Ratio(r),
+            patch_size: 200,
+            border_residuals: false,
+            predicted: false,
+            operator: OperatorKind::Sstl,
+            ..Default::default()
+        };
+        let EncodedSpectral {
+            decoded: rec,
+            stats: st,
+            ..
+        } = SpectralEncoder::new(&topo, &m.positions, params)
+            .unwrap()
+            .encode(step)
+            .unwrap();
+        let e = rms(&rec, &m.positions);
+        assert!(e > last, "ratio {r}: {e} ≤ {last}");
+        assert!(st.border_rms_before > st.interior_rms);
+        last = e;
+    }
+    let params = SpectralParams {
+        keep: Keep::Ratio(0.1),
+        patch_size: 200,
+        border_residuals: true,
+        predicted: false,
+        operator: OperatorKind::Sstl,
+        ..Default::default()
+    };
+    let rec = SpectralEncoder::new(&topo, &m.positions, params)
+        .unwrap()
+        .encode(step)
+        .unwrap()
+        .decoded;
+    assert!(rms(&rec, &m.positions) < last);
+}
+
+#[test]
+fn prediction_shrinks_the_stream_and_keeps_the_error() {
+    let m = builtin::from_spec("builtin:torus:40:24").unwrap();
+    let topo = Topology::new(&m).unwrap();
+    let step = m.bbox_diagonal() / 2048.0;
+    let run = |predicted| {
+        let params = SpectralParams {
+            patch_size: 100,
+            predicted,
+            band_slope: 0.0,
+            ..Default::default()
+        };
+        let enc = SpectralEncoder::new(&topo, &m.positions, params).unwrap();
+        let EncodedSpectral {
+            bytes: data,
+            decoded: rec,
+            stats: st,
+        } = enc.encode(step).unwrap();
+        assert_eq!(decode(&topo, &data).unwrap(), rec);
+        assert!(st.patches >= 8);
+        (data.len(), rms(&rec, &m.positions))
+    };
+    let (with, e_with) = run(true);
+    let (without, e_without) = run(false);
+    assert!(
+        (with as f64) < 0.9 * without as f64,
+        "{with} vs {without} bytes"
+    );
+    // Same step, same (uniform) quantization error up to noise.
+    assert!(e_with < 1.2 * e_without && e_without < 1.2 * e_with);
+}
+
+#[test]
+fn corrupt_geometry_never_panics() {
+    use rand::SeedableRng;
+    let m = builtin::from_spec("builtin:icosphere:2").unwrap();
+    let topo = Topology::new(&m).unwrap();
+    let data = SpectralEncoder::new(&topo, &m.positions, SpectralParams::default())
+        .unwrap()
+        .encode(0.01)
+        .unwrap()
+        .bytes;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+    for _ in 0..200 {
+        let _ = decode(&topo, &corrupt(&data, &mut rng));
+    }
+}
