@@ -19,19 +19,19 @@ fn strong() -> Params {
 }
 
 fn solve(f: &SparseMatrix, kind: SolverKind, b: &[f64], p: &Params) -> (Vec<f64>, usize) {
-    let s = ImplicitSolver::new(f, 30.0, kind).unwrap_or_else(|e| panic!("{kind}: {e}"));
+    let mut s = ImplicitSolver::new(f, 30.0, kind).unwrap_or_else(|e| panic!("{kind}: {e}"));
     let mut x = b.to_vec();
     let info = s
         .solve(b, &mut x, p)
         .unwrap_or_else(|e| panic!("{kind}: {e}"));
     if !kind.is_direct() && p.stopping == Stopping::Strong {
         assert!(
-            info.residuals.iter().all(|&r| r < 1e-9),
+            info.residuals().iter().all(|&r| r < 1e-9),
             "{kind}: {:?}",
-            info.residuals
+            info.residuals()
         );
     }
-    (x, *info.iterations.iter().max().unwrap())
+    (x, *info.iterations().iter().max().unwrap())
 }
 
 /// Largest vertex distance between two n×3 blocks.

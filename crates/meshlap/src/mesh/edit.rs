@@ -36,6 +36,24 @@ fn key(a: u32, b: u32) -> (u32, u32) {
     (a.min(b), a.max(b))
 }
 
+/// The next half-edge in the same face.
+fn next(h: u32) -> u32 {
+    if h % 3 == 2 {
+        h - 2
+    } else {
+        h + 1
+    }
+}
+
+/// The previous half-edge in the same face.
+fn prev(h: u32) -> u32 {
+    if h % 3 == 0 {
+        h + 2
+    } else {
+        h - 1
+    }
+}
+
 #[derive(Clone, Debug)]
 enum Change {
     Face(u32, [u32; 3]),
@@ -137,17 +155,22 @@ impl EditMesh {
     /// Source vertex of half-edge `h`.
     #[inline]
     pub fn from(&self, h: u32) -> u32 {
-        self.faces[h as usize / 3][h as usize % 3]
+        self.corner(h, 0)
     }
     /// Target vertex of half-edge `h`.
     #[inline]
     pub fn to(&self, h: u32) -> u32 {
-        self.faces[h as usize / 3][(h as usize + 1) % 3]
+        self.corner(h, 1)
     }
     /// The vertex of `h`'s face opposite to `h`.
     #[inline]
     pub fn opposite(&self, h: u32) -> u32 {
-        self.faces[h as usize / 3][(h as usize + 2) % 3]
+        self.corner(h, 2)
+    }
+    /// The corner `offset` places after the start of `h` in its face.
+    #[inline]
+    fn corner(&self, h: u32, offset: usize) -> u32 {
+        self.faces[h as usize / 3][(h as usize + offset) % 3]
     }
     /// Twin of `h`, or [`NONE`] on the boundary.
     #[inline]
@@ -329,8 +352,6 @@ impl EditMesh {
         let g = self.twin[h as usize];
         let (f1, f2) = (h / 3, g / 3);
         let (i, j, k, l) = (self.from(h), self.to(h), self.opposite(h), self.opposite(g));
-        let next = |x: u32| if x % 3 == 2 { x - 2 } else { x + 1 };
-        let prev = |x: u32| if x % 3 == 0 { x + 2 } else { x - 1 };
         // Outer twins: j→k, k→i (face 1), i→l, l→j (face 2).
         let t_jk = self.twin[next(h) as usize];
         let t_ki = self.twin[prev(h) as usize];
@@ -373,7 +394,6 @@ impl EditMesh {
             }
         }
         let start = start.or_else(|| faces.first().and_then(|&f| outgoing(f)))?;
-        let prev = |x: u32| if x % 3 == 0 { x + 2 } else { x - 1 };
         let mut fan = Fan {
             ring: Vec::with_capacity(faces.len() + 1),
             out: Vec::with_capacity(faces.len()),
@@ -443,7 +463,6 @@ impl EditMesh {
         let (a, b) = (fan.ring[first], fan.ring[last]);
         let w = self.push_vertex(pos_new);
         self.set_position(v, pos_v);
-        let prev = |x: u32| if x % 3 == 0 { x + 2 } else { x - 1 };
         // Re-label v → v' in the moving faces; v's edges to their inner ring
         // vertices become v'’s.
         for &s in &moving {
