@@ -119,9 +119,9 @@ pub fn bicg(
     let dinv = precond.map(Jacobi::inverse);
     let [r, rt, p, pt, q, qt] = ws.blocks::<6>(n * k);
     krylov::residual(op, b, x, k, r);
-    rt.copy_from_slice(r);
-    p.fill(0.0);
-    pt.fill(0.0);
+    krylov::copy(rt, r);
+    krylov::zero(p);
+    krylov::zero(pt);
     let bnorm = krylov::rhs_norms(b, k);
     // ρ₀ and the norms of the initial residual.
     let mut sums = r

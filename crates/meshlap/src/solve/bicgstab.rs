@@ -70,9 +70,9 @@ pub fn bicgstab(
     let n = op.dim();
     let [r, rh, p, v, t] = ws.blocks::<5>(n * k);
     krylov::residual(op, b, x, k, r);
-    rh.copy_from_slice(r);
-    p.fill(0.0);
-    v.fill(0.0);
+    krylov::copy(rh, r);
+    krylov::zero(p);
+    krylov::zero(v);
     let bnorm = krylov::rhs_norms(b, k);
     let rr0 = krylov::col_norms2(r, k);
     // r̂ = r⁽⁰⁾: ρ₀ = ‖r⁽⁰⁾‖², and ‖r̂‖ scales the breakdown tests.

@@ -98,7 +98,7 @@ pub fn cg(
                     *pv = rv * di;
                 }
             }),
-        None => p.copy_from_slice(r),
+        None => krylov::copy(p, r),
     }
     let mut rz = col_dots(r, p, k);
     let bnorm = krylov::rhs_norms(b, k);

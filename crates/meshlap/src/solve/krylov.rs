@@ -9,6 +9,9 @@ use super::csr::CHUNK;
 use super::{InputError, LinOp, Params, Stopping, MAX_COLUMNS};
 use rayon::prelude::*;
 
+/// Values of `f64` in a 4 KiB page.
+const PAGE: usize = 512;
+
 /// Buffers of the iterative solvers, kept between solves so that a repeated solve
 /// (a stateful solver such as [`crate::filter::ImplicitSolver`]) allocates nothing.
 ///
@@ -37,16 +40,22 @@ impl Workspace {
 
     /// `M` disjoint blocks of `len` values. A fresh allocation is zeroed lazily by the
     /// allocator, so the solver's first parallel pass touches its pages.
+    ///
+    /// Blocks start a whole number of 4 KiB pages apart, as separate large allocations
+    /// would: a load from one block then never shares its page offset with a recent
+    /// store to another at a nearby index, which the CPU would treat as a possible
+    /// dependency (4K aliasing) and stall the fused update passes on.
     pub(crate) fn blocks<const M: usize>(&mut self, len: usize) -> [&mut [f64]; M] {
         if len == 0 {
             return std::array::from_fn(|_| <&mut [f64]>::default());
         }
-        let need = M * len;
+        let stride = len.next_multiple_of(PAGE);
+        let need = M * stride;
         if self.data.len() < need {
             self.data = vec![0.0; need];
         }
-        let mut chunks = self.data[..need].chunks_exact_mut(len);
-        std::array::from_fn(|_| chunks.next().unwrap_or_default())
+        let mut chunks = self.data[..need].chunks_exact_mut(stride);
+        std::array::from_fn(|_| chunks.next().map_or(&mut [][..], |c| &mut c[..len]))
     }
 }
 
@@ -73,6 +82,19 @@ pub(crate) fn check(
         });
     }
     params.validate()
+}
+
+/// `dst = src`, in parallel (the first touch of fresh workspace pages is spread over
+/// the threads, like the passes that follow).
+pub(crate) fn copy(dst: &mut [f64], src: &[f64]) {
+    dst.par_chunks_mut(CHUNK)
+        .zip(src.par_chunks(CHUNK))
+        .for_each(|(d, s)| d.copy_from_slice(s));
+}
+
+/// `x = 0`, in parallel (see [`copy`]).
+pub(crate) fn zero(x: &mut [f64]) {
+    x.par_chunks_mut(CHUNK).for_each(|c| c.fill(0.0));
 }
 
 /// `r = b − A x`.
@@ -210,11 +232,15 @@ mod tests {
         a.fill(1.0);
         b.fill(2.0);
         c.fill(3.0);
-        assert_eq!(ws.len(), 12);
+        assert_eq!(ws.len(), 3 * PAGE);
         let [a, b] = ws.blocks::<2>(5);
         assert_eq!((a.len(), b.len()), (5, 5));
         assert_eq!(a[..4], [1.0; 4]);
-        assert_eq!(ws.len(), 12, "a smaller request reuses the buffer");
+        assert_eq!(ws.len(), 3 * PAGE, "a smaller request reuses the buffer");
+        // Blocks start whole pages apart.
+        let [a, b] = ws.blocks::<2>(700);
+        let gap = b.as_ptr() as usize - a.as_ptr() as usize;
+        assert_eq!(gap % 4096, 0);
         let [e] = ws.blocks::<1>(0);
         assert!(e.is_empty());
     }
