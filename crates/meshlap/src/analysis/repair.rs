@@ -56,8 +56,7 @@ pub enum RepairError {
 }
 
 /// How [`repair_sql`] removes negative weights.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize)]
-#[serde(rename_all = "kebab-case")]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum RepairMethod {
     /// Greedy edge swapping only (the paper's main heuristic).
     #[default]
@@ -68,39 +67,11 @@ pub enum RepairMethod {
     SwapSplit,
 }
 
-impl RepairMethod {
-    /// Every method.
-    pub const ALL: [RepairMethod; 3] = [
-        RepairMethod::Swap,
-        RepairMethod::Split,
-        RepairMethod::SwapSplit,
-    ];
-
-    /// The name used on the command line and in JSON.
-    pub fn name(self) -> &'static str {
-        match self {
-            RepairMethod::Swap => "swap",
-            RepairMethod::Split => "split",
-            RepairMethod::SwapSplit => "swap-split",
-        }
-    }
-}
-
-impl std::fmt::Display for RepairMethod {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl std::str::FromStr for RepairMethod {
-    type Err = RepairError;
-    fn from_str(s: &str) -> Result<Self, RepairError> {
-        RepairMethod::ALL
-            .into_iter()
-            .find(|m| m.name() == s)
-            .ok_or_else(|| RepairError::UnknownMethod(s.to_string()))
-    }
-}
+crate::names::option_names!(RepairMethod, RepairError, |s| RepairError::UnknownMethod(s.to_string()), {
+    Swap => "swap",
+    Split => "split",
+    SwapSplit => "swap-split",
+});
 
 /// Options of [`repair_sql`].
 #[derive(Clone, Copy, Debug)]
@@ -663,13 +634,5 @@ mod tests {
                 Err(RepairError::Dihedral(_))
             ));
         }
-        for method in RepairMethod::ALL {
-            assert_eq!(method.name().parse::<RepairMethod>().unwrap(), method);
-            assert_eq!(serde_json::to_value(method).unwrap(), method.name());
-        }
-        assert!(matches!(
-            "flip".parse::<RepairMethod>(),
-            Err(RepairError::UnknownMethod(_))
-        ));
     }
 }

@@ -14,8 +14,7 @@ use crate::solve::Params;
 use serde::Serialize;
 
 /// Which filter (without its parameters); see [`Filter`].
-#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash, Serialize)]
-#[serde(rename_all = "kebab-case")]
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
 pub enum FilterKind {
     /// Implicit fairing: N solves of `(I + λF)x' = x`.
     Implicit,
@@ -29,46 +28,16 @@ pub enum FilterKind {
     Ideal,
 }
 
-impl FilterKind {
-    /// Every filter.
-    pub const ALL: [FilterKind; 5] = [
-        FilterKind::Implicit,
-        FilterKind::Explicit,
-        FilterKind::Taubin,
-        FilterKind::Butterworth,
-        FilterKind::Ideal,
-    ];
-
-    /// The name used on the command line and in JSON.
-    pub fn name(self) -> &'static str {
-        match self {
-            FilterKind::Implicit => "implicit",
-            FilterKind::Explicit => "explicit",
-            FilterKind::Taubin => "taubin",
-            FilterKind::Butterworth => "butterworth",
-            FilterKind::Ideal => "ideal",
-        }
-    }
-}
-
-impl std::fmt::Display for FilterKind {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl std::str::FromStr for FilterKind {
-    type Err = FilterError;
-    fn from_str(s: &str) -> Result<Self, FilterError> {
-        FilterKind::ALL
-            .into_iter()
-            .find(|k| k.name() == s)
-            .ok_or_else(|| FilterError::UnknownName {
-                what: "filter",
-                got: s.to_string(),
-            })
-    }
-}
+crate::names::option_names!(FilterKind, FilterError, |s| FilterError::UnknownName {
+    what: "filter",
+    got: s.to_string(),
+}, {
+    Implicit => "implicit",
+    Explicit => "explicit",
+    Taubin => "taubin",
+    Butterworth => "butterworth",
+    Ideal => "ideal",
+});
 
 /// Implicit fairing (Desbrun et al. 1999; Zhang 2004 §4.10): `steps` solves of
 /// `(I + λF) x⁽ᵗ⁺¹⁾ = x⁽ᵗ⁾`, response `(1 + λγ)⁻ᴺ`.
@@ -464,14 +433,5 @@ mod tests {
             Filter::new(FilterKind::Implicit, &bad_tol),
             Err(FilterError::Solve(_))
         ));
-    }
-
-    #[test]
-    fn names_round_trip() {
-        for k in FilterKind::ALL {
-            assert_eq!(k.name().parse::<FilterKind>().unwrap(), k);
-            assert_eq!(serde_json::to_value(k).unwrap(), k.name());
-        }
-        assert!("gaussian".parse::<FilterKind>().is_err());
     }
 }

@@ -4,57 +4,29 @@
 use super::FilterError;
 use crate::mesh::TriMesh;
 use glam::DVec3;
-use serde::Serialize;
 
 /// Rescaling after filtering.
-#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash, Serialize)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Preserve {
     /// No rescaling.
     #[default]
-    #[serde(rename = "none")]
     None,
     /// Scale about the centroid to the input's enclosed volume (signed volume of the
     /// triangles; meaningful for closed meshes; skipped when either volume is 0).
-    #[serde(rename = "volume")]
     Volume,
     /// Scale uniformly to the input's bounding-box diagonal and re-center on its
     /// bounding-box center.
-    #[serde(rename = "bbox")]
     BBox,
 }
 
-impl Preserve {
-    /// Every rescaling.
-    pub const ALL: [Preserve; 3] = [Preserve::None, Preserve::Volume, Preserve::BBox];
-
-    /// The name used on the command line and in JSON.
-    pub fn name(self) -> &'static str {
-        match self {
-            Preserve::None => "none",
-            Preserve::Volume => "volume",
-            Preserve::BBox => "bbox",
-        }
-    }
-}
-
-impl std::fmt::Display for Preserve {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl std::str::FromStr for Preserve {
-    type Err = FilterError;
-    fn from_str(s: &str) -> Result<Self, FilterError> {
-        Preserve::ALL
-            .into_iter()
-            .find(|p| p.name() == s)
-            .ok_or_else(|| FilterError::UnknownName {
-                what: "rescaling",
-                got: s.to_string(),
-            })
-    }
-}
+crate::names::option_names!(Preserve, FilterError, |s| FilterError::UnknownName {
+    what: "rescaling",
+    got: s.to_string(),
+}, {
+    None => "none",
+    Volume => "volume",
+    BBox => "bbox",
+});
 
 /// Centroid (mean of the points).
 pub fn centroid(p: &[[f64; 3]]) -> [f64; 3] {
@@ -143,17 +115,5 @@ mod tests {
         let mut c = shrunk.clone();
         rescale(&m, &mut c, Preserve::None);
         assert_eq!(c, shrunk);
-    }
-
-    #[test]
-    fn names_round_trip() {
-        for p in Preserve::ALL {
-            assert_eq!(p.name().parse::<Preserve>().unwrap(), p);
-            assert_eq!(serde_json::to_value(p).unwrap(), p.name());
-        }
-        assert!(matches!(
-            "area".parse::<Preserve>(),
-            Err(FilterError::UnknownName { .. })
-        ));
     }
 }

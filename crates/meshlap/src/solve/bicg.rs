@@ -85,6 +85,14 @@ pub enum BicgError {
     Input(#[from] InputError),
 }
 
+fn breakdown(iteration: usize, column: usize, what: &'static str) -> BicgError {
+    BicgError::Breakdown {
+        iteration,
+        column,
+        what,
+    }
+}
+
 // Indices of the per-column sums of the update pass.
 const RR: usize = 0; // ‖r‖²
 const RHO: usize = 1; // ρ = r̃ᵀ M⁻¹ r
@@ -142,7 +150,7 @@ pub fn bicg(
             s
         })
         .reduce(Sums::default, Sums::add);
-    let mut active = vec![true; k];
+    let mut active = krylov::all_active(k);
     let mut rho_prev = [0.0f64; MAX_COLUMNS];
     let mut info = BicgInfo {
         info: Info::new(k),
@@ -157,24 +165,16 @@ pub fn bicg(
         }
     }
     let crit = Criterion::new(params);
-    let per_vertex = crit.per_vertex();
     let window = bicg_params.plateau_window;
     let mut it = 0;
     let (mut denom, mut qq) = ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]);
     while active.iter().any(|&a| a) && it < params.max_iterations {
         it += 1;
         let mut beta = [0.0f64; MAX_COLUMNS];
-        for c in 0..k {
-            if !active[c] {
-                continue;
-            }
+        for c in krylov::live(active) {
             let rho = sums.v[RHO][c];
-            if rho == 0.0 || rho.abs() <= 1e-15 * (sums.v[ZZ][c] * sums.v[RTRT][c]).sqrt() {
-                return Err(BicgError::Breakdown {
-                    iteration: it,
-                    column: c,
-                    what: "ρ = z̃ᵀr vanished",
-                });
+            if krylov::vanished(rho, (sums.v[ZZ][c] * sums.v[RTRT][c]).sqrt()) {
+                return Err(breakdown(it, c, "ρ = z̃ᵀr vanished"));
             }
             beta[c] = if it == 1 { 0.0 } else { rho / rho_prev[c] };
         }
@@ -202,24 +202,12 @@ pub fn bicg(
                 s
             })
             .reduce(Sums::default, Sums::add);
-        let fused = Fused {
-            w: pt,
-            dot: &mut denom,
-            norm2: &mut qq,
-        };
-        op.apply_fused(p, q, k, fused);
+        op.apply_fused(p, q, k, Fused::new(pt, &mut denom, &mut qq));
         op.apply_transpose(pt, qt, k);
         let mut alpha = [0.0f64; MAX_COLUMNS];
-        for c in 0..k {
-            if !active[c] {
-                continue;
-            }
-            if denom[c] == 0.0 || denom[c].abs() <= 1e-15 * (pn.v[1][c] * qq[c]).sqrt() {
-                return Err(BicgError::Breakdown {
-                    iteration: it,
-                    column: c,
-                    what: "p̃ᵀAp vanished",
-                });
+        for c in krylov::live(active) {
+            if krylov::vanished(denom[c], (pn.v[1][c] * qq[c]).sqrt()) {
+                return Err(breakdown(it, c, "p̃ᵀAp vanished"));
             }
             alpha[c] = sums.v[RHO][c] / denom[c];
             rho_prev[c] = sums.v[RHO][c];
@@ -242,12 +230,8 @@ pub fn bicg(
                     let (mut dx2, mut x2) = (0.0, 0.0);
                     for c in 0..k {
                         let j = row * k + c;
-                        let xo = xs[j];
-                        s.v[XX][c] += xo * xo;
-                        x2 += xo * xo;
                         let dx = alpha[c] * ps[j];
-                        dx2 += dx * dx;
-                        xs[j] = xo + dx;
+                        krylov::advance(&mut xs[j], dx, &mut s.v[XX][c], &mut x2, &mut dx2);
                         let rv = rs[j] - alpha[c] * qs[j];
                         let rtv = rts[j] - alpha[c] * qts[j];
                         rs[j] = rv;
@@ -257,17 +241,12 @@ pub fn bicg(
                         s.v[ZZ][c] += rv * rv * di * di;
                         s.v[RTRT][c] += rtv * rtv;
                     }
-                    if per_vertex && crit.moving(dx2, x2) {
-                        s.moving += 1;
-                    }
+                    s.moving += crit.moving(dx2, x2);
                 }
                 s
             })
             .reduce(Sums::default, Sums::add);
-        for c in 0..k {
-            if !active[c] {
-                continue;
-            }
+        for c in krylov::live(active) {
             info.info.iterations[c] = it;
             let rr = sums.v[RR][c];
             let h = &mut history[c];
@@ -306,15 +285,11 @@ mod tests {
         Stopping,
     };
 
-    fn run(
-        op: &dyn BiLinOp,
-        b: &[f64],
-        x: &mut [f64],
-        k: usize,
-        p: &Params,
-        pre: Option<&Jacobi>,
-    ) -> Result<BicgInfo, BicgError> {
-        bicg(op, b, x, k, &(*p).into(), pre, &mut Workspace::new())
+    type Solved = Result<BicgInfo, BicgError>;
+
+    /// BiCG with `p` and a fresh workspace.
+    fn go(op: &dyn BiLinOp, b: &[f64], x: &mut [f64], k: usize, p: BicgParams) -> Solved {
+        bicg(op, b, x, k, &p, None, &mut Workspace::new())
     }
 
     fn tutte_system(level: usize, lambda: f64) -> (Vec<f64>, CsrWithTranspose) {
@@ -341,7 +316,16 @@ mod tests {
                 tolerance: 1e-10,
                 ..Default::default()
             };
-            let info = run(&op, &b, &mut x, 3, &p, pre).unwrap();
+            let info = bicg(
+                &op,
+                &b,
+                &mut x,
+                3,
+                &BicgParams::from(p),
+                pre,
+                &mut Workspace::new(),
+            )
+            .unwrap();
             assert!(info.info.residuals.iter().all(|&r| r < 1e-9));
             let err = max_diff(&x, &want);
             assert!(err < 1e-8, "{err}");
@@ -358,7 +342,16 @@ mod tests {
         let m = crate::SparseMatrix::try_new_from_triplets(2, 2, &trip).unwrap();
         let op = CsrWithTranspose::new(CsrMatrix::from_csc(&m));
         let mut x = vec![0.0; 2];
-        let e = run(&op, &[1.0, 0.0], &mut x, 1, &Params::default(), None).unwrap_err();
+        let e = bicg(
+            &op,
+            &[1.0, 0.0],
+            &mut x,
+            1,
+            &BicgParams::default(),
+            None,
+            &mut Workspace::new(),
+        )
+        .unwrap_err();
         assert!(
             matches!(e, BicgError::Breakdown { iteration: 1, .. }),
             "{e}"
@@ -372,7 +365,7 @@ mod tests {
         let op_s = shifted_system(&sql, None, 30.0);
         let p = Params::default();
         let mut x = b.clone();
-        let ib = run(&op_t, &b, &mut x, 3, &p, None).unwrap();
+        let ib = go(&op_t, &b, &mut x, 3, BicgParams::from(p)).unwrap();
         let mut x = flat(&m);
         let ic = crate::solve::cg(&op_s, &b, &mut x, 3, &p, None, &mut Workspace::new()).unwrap();
         let (mb, mc) = (
@@ -384,39 +377,45 @@ mod tests {
 
     #[test]
     fn plateau_is_detected_on_an_ill_conditioned_system_and_not_on_a_well_conditioned_one() {
-        // Eigenvalues spread over 1..1e6: the residual stalls for many iterations.
         let n = 400;
-        let spread: Vec<f64> = (0..n)
-            .map(|i| 10f64.powf(6.0 * i as f64 / (n - 1) as f64))
-            .collect();
-        let p = Params {
+        let params = Params {
             stopping: Stopping::Strong,
             tolerance: 1e-8,
             ..Default::default()
         };
+        // BiCG on diag(values) from x = 0, b = 1.
+        let solve = |values: &[f64], window: usize| {
+            let mut x = vec![0.0; n];
+            let op = CsrWithTranspose::new(diagonal(values));
+            let p = BicgParams {
+                params,
+                plateau_window: window,
+            };
+            bicg(
+                &op,
+                &vec![1.0; n],
+                &mut x,
+                1,
+                &p,
+                None,
+                &mut Workspace::new(),
+            )
+            .unwrap()
+        };
+        // Eigenvalues spread over 1..1e6: the residual stalls for many iterations.
+        let spread: Vec<f64> = (0..n)
+            .map(|i| 10f64.powf(6.0 * i as f64 / (n - 1) as f64))
+            .collect();
         let window = BicgParams::default().plateau_window;
-        let b = vec![1.0; n];
-        let mut x = vec![0.0; n];
-        let op = CsrWithTranspose::new(diagonal(&spread));
-        let info = run(&op, &b, &mut x, 1, &p, None).unwrap();
+        let info = solve(&spread, window);
         let at = info.plateau_at[0].expect("a plateau on an ill-conditioned system");
         let h = &info.info.history[0];
         assert!(h[at] > 0.99 * h[at - window], "{at}: {h:?}");
         // Eigenvalues in [1, 2]: steady convergence, no plateau.
         let easy: Vec<f64> = (0..n).map(|i| 1.0 + i as f64 / n as f64).collect();
-        let mut x = vec![0.0; n];
-        let op = CsrWithTranspose::new(diagonal(&easy));
-        let info = run(&op, &b, &mut x, 1, &p, None).unwrap();
-        assert_eq!(info.plateau_at, vec![None]);
+        assert_eq!(solve(&easy, window).plateau_at, vec![None]);
         // Window 0 turns detection off.
-        let mut x = vec![0.0; n];
-        let off = BicgParams {
-            params: p,
-            plateau_window: 0,
-        };
-        let op = CsrWithTranspose::new(diagonal(&spread));
-        let info = bicg(&op, &b, &mut x, 1, &off, None, &mut Workspace::new()).unwrap();
-        assert_eq!(info.plateau_at, vec![None]);
+        assert_eq!(solve(&spread, 0).plateau_at, vec![None]);
     }
 
     #[test]
@@ -429,7 +428,7 @@ mod tests {
             tolerance: 1e-14,
             ..Default::default()
         };
-        match run(&op, &b, &mut x, 3, &p, None) {
+        match go(&op, &b, &mut x, 3, BicgParams::from(p)) {
             Err(BicgError::NoConvergence { info }) => {
                 assert_eq!(info.info.iterations, vec![3, 3, 3]);
                 assert!(info.info.residuals.iter().all(|&r| r > 1e-14));
@@ -475,11 +474,11 @@ mod tests {
             ..Default::default()
         };
         let mut x = b.clone();
-        let info = run(&counting, &b, &mut x, 3, &p, None).unwrap();
+        let info = go(&counting, &b, &mut x, 3, BicgParams::from(p)).unwrap();
         let its = *info.info.iterations.iter().max().unwrap();
         assert_eq!(counting.transposes.into_inner(), its);
         let mut y = b.clone();
-        run(&op, &b, &mut y, 3, &p, None).unwrap();
+        go(&op, &b, &mut y, 3, BicgParams::from(p)).unwrap();
         assert!(max_diff(&x, &y) < 1e-12);
     }
 
@@ -488,7 +487,15 @@ mod tests {
         let (b, op) = tutte_system(1, 5.0);
         let mut x = vec![0.0; 5];
         assert!(matches!(
-            run(&op, &b, &mut x, 3, &Params::default(), None),
+            bicg(
+                &op,
+                &b,
+                &mut x,
+                3,
+                &BicgParams::from(Params::default()),
+                None,
+                &mut Workspace::new()
+            ),
             Err(BicgError::Input(InputError::InitialGuess { .. }))
         ));
     }

@@ -51,8 +51,13 @@ const RHO: usize = 1; // r̂ᵀr
 const STEP: usize = 2; // ‖αp + ωs‖²
 const XX: usize = 3; // ‖x⁽ⁿ⁻¹⁾‖²
 
-/// Relative size below which a recurrence quantity counts as vanished.
-const BREAKDOWN: f64 = 1e-15;
+fn breakdown(iteration: usize, column: usize, what: &'static str) -> BicgstabError {
+    BicgstabError::Breakdown {
+        iteration,
+        column,
+        what,
+    }
+}
 
 /// Solves `A x = b` for the n×k row-major block `b` (k ≤ [`MAX_COLUMNS`]) with
 /// BiCGSTAB, starting from and overwriting `x`; `A` is any n×n [`LinOp`]. `ws` keeps
@@ -80,7 +85,10 @@ pub fn bicgstab(
     let (mut rho, mut rr) = ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]);
     rho[..k].copy_from_slice(&rr0);
     rr[..k].copy_from_slice(&rr0);
-    let mut active: Vec<bool> = rr0.iter().map(|&v| v != 0.0).collect();
+    let mut active = krylov::all_active(k);
+    for c in 0..k {
+        active[c] = rr0[c] != 0.0;
+    }
     let mut info = Info::new(k);
     if params.record_history {
         for c in 0..k {
@@ -88,7 +96,6 @@ pub fn bicgstab(
         }
     }
     let crit = Criterion::new(params);
-    let per_vertex = crit.per_vertex();
     let (mut rho_prev, mut alpha, mut omega) = (
         [1.0f64; MAX_COLUMNS],
         [0.0f64; MAX_COLUMNS],
@@ -104,16 +111,9 @@ pub fn bicgstab(
     while active.iter().any(|&a| a) && it < params.max_iterations {
         it += 1;
         let mut beta = [0.0f64; MAX_COLUMNS];
-        for c in 0..k {
-            if !active[c] {
-                continue;
-            }
-            if rho[c].abs() <= BREAKDOWN * rh_norm[c] * rr[c].sqrt() {
-                return Err(BicgstabError::Breakdown {
-                    iteration: it,
-                    column: c,
-                    what: "ρ = r̂ᵀr vanished",
-                });
+        for c in krylov::live(active) {
+            if krylov::vanished(rho[c], rh_norm[c] * rr[c].sqrt()) {
+                return Err(breakdown(it, c, "ρ = r̂ᵀr vanished"));
             }
             beta[c] = if it == 1 {
                 0.0
@@ -133,23 +133,14 @@ pub fn bicgstab(
                     }
                 }
             });
-        let fused = Fused {
-            w: rh,
-            dot: &mut rhv,
-            norm2: &mut vv,
-        };
-        op.apply_fused(p, v, k, fused);
+        op.apply_fused(p, v, k, Fused::new(rh, &mut rhv, &mut vv));
         for c in 0..k {
             if !active[c] {
                 alpha[c] = 0.0;
                 continue;
             }
-            if rhv[c].abs() <= BREAKDOWN * rh_norm[c] * vv[c].sqrt() {
-                return Err(BicgstabError::Breakdown {
-                    iteration: it,
-                    column: c,
-                    what: "r̂ᵀAp vanished",
-                });
+            if krylov::vanished(rhv[c], rh_norm[c] * vv[c].sqrt()) {
+                return Err(breakdown(it, c, "r̂ᵀAp vanished"));
             }
             alpha[c] = rho[c] / rhv[c];
         }
@@ -161,12 +152,7 @@ pub fn bicgstab(
                     *rv -= alpha[j % k] * vs[j];
                 }
             });
-        let fused = Fused {
-            w: r,
-            dot: &mut ts,
-            norm2: &mut tt,
-        };
-        op.apply_fused(r, t, k, fused);
+        op.apply_fused(r, t, k, Fused::new(r, &mut ts, &mut tt));
         for c in 0..k {
             omega[c] = if active[c] && tt[c] > 0.0 {
                 ts[c] / tt[c]
@@ -189,29 +175,20 @@ pub fn bicgstab(
                     let (mut dx2, mut x2) = (0.0, 0.0);
                     for c in 0..k {
                         let j = row * k + c;
-                        let xo = xs[j];
-                        s.v[XX][c] += xo * xo;
-                        x2 += xo * xo;
                         let dx = alpha[c] * ps[j] + omega[c] * rs[j];
                         s.v[STEP][c] += dx * dx;
-                        dx2 += dx * dx;
-                        xs[j] = xo + dx;
+                        krylov::advance(&mut xs[j], dx, &mut s.v[XX][c], &mut x2, &mut dx2);
                         let rv = rs[j] - omega[c] * ts[j];
                         rs[j] = rv;
                         s.v[RR][c] += rv * rv;
                         s.v[RHO][c] += rhs[j] * rv;
                     }
-                    if per_vertex && crit.moving(dx2, x2) {
-                        s.moving += 1;
-                    }
+                    s.moving += crit.moving(dx2, x2);
                 }
                 s
             })
             .reduce(Sums::default, Sums::add);
-        for c in 0..k {
-            if !active[c] {
-                continue;
-            }
+        for c in krylov::live(active) {
             info.iterations[c] = it;
             rr[c] = sums.v[RR][c];
             if params.record_history {
@@ -224,11 +201,7 @@ pub fn bicgstab(
                 continue;
             }
             if omega[c] == 0.0 {
-                return Err(BicgstabError::Breakdown {
-                    iteration: it,
-                    column: c,
-                    what: "ω = tᵀs/tᵀt vanished",
-                });
+                return Err(breakdown(it, c, "ω = tᵀs/tᵀt vanished"));
             }
             rho_prev[c] = rho[c];
             rho[c] = sums.v[RHO][c];
@@ -254,10 +227,6 @@ mod tests {
         (flat(&m), shifted_system(&tl, None, lambda))
     }
 
-    fn run(a: &CsrMatrix, b: &[f64], x: &mut [f64], p: &Params) -> Result<Info, BicgstabError> {
-        bicgstab(a, b, x, 3, p, &mut Workspace::new())
-    }
-
     #[test]
     fn agrees_with_lu() {
         let (b, a) = tutte_system(3, 30.0);
@@ -271,7 +240,7 @@ mod tests {
             tolerance: 1e-11,
             ..Default::default()
         };
-        let info = run(&a, &b, &mut x, &p).unwrap();
+        let info = bicgstab(&a, &b, &mut x, 3, &p, &mut Workspace::new()).unwrap();
         assert!(
             info.residuals.iter().all(|&r| r < 1e-9),
             "{:?}",
@@ -289,7 +258,7 @@ mod tests {
             max_iterations: 2,
             ..Default::default()
         };
-        match run(&a, &b, &mut x, &p) {
+        match bicgstab(&a, &b, &mut x, 3, &p, &mut Workspace::new()) {
             Err(BicgstabError::NoConvergence { info }) => {
                 assert_eq!(info.iterations, vec![2, 2, 2]);
             }
@@ -306,7 +275,7 @@ mod tests {
                 stopping,
                 ..Default::default()
             };
-            let info = run(&a, &b, &mut x, &p).unwrap();
+            let info = bicgstab(&a, &b, &mut x, 3, &p, &mut Workspace::new()).unwrap();
             (x, info)
         };
         let (_, weak) = solve(Stopping::Weak);
@@ -333,7 +302,7 @@ mod tests {
         let (b, a) = tutte_system(2, 30.0);
         let mut x = vec![0.0; b.len() - 3];
         assert!(matches!(
-            run(&a, &b, &mut x, &Params::default()),
+            bicgstab(&a, &b, &mut x, 3, &Params::default(), &mut Workspace::new()),
             Err(BicgstabError::Input(InputError::InitialGuess { .. }))
         ));
         let mut x = b.clone();
@@ -348,7 +317,15 @@ mod tests {
         let (b, a) = tutte_system(1, 3.0);
         let zero = vec![0.0; b.len()];
         let mut x = vec![0.0; b.len()];
-        let info = run(&a, &zero, &mut x, &Params::default()).unwrap();
+        let info = bicgstab(
+            &a,
+            &zero,
+            &mut x,
+            3,
+            &Params::default(),
+            &mut Workspace::new(),
+        )
+        .unwrap();
         assert_eq!(info.iterations, vec![0, 0, 0]);
         assert!(x.iter().all(|&v| v == 0.0));
     }

@@ -102,7 +102,7 @@ pub fn cg(
     }
     let mut rz = col_dots(r, p, k);
     let bnorm = krylov::rhs_norms(b, k);
-    let mut active = vec![true; k];
+    let mut active = krylov::all_active(k);
     let mut info = Info::new(k);
     let rr0 = col_norms2(r, k);
     for c in 0..k {
@@ -114,7 +114,6 @@ pub fn cg(
         }
     }
     let crit = Criterion::new(params);
-    let per_vertex = crit.per_vertex();
     let (mut pq, mut qq) = ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]);
     let mut it = 0;
     while active.iter().any(|&a| a) {
@@ -126,17 +125,9 @@ pub fn cg(
             });
         }
         it += 1;
-        let fused = Fused {
-            w: p,
-            dot: &mut pq,
-            norm2: &mut qq,
-        };
-        op.apply_fused(p, q, k, fused);
+        op.apply_fused(p, q, k, Fused::new(p, &mut pq, &mut qq));
         let mut alpha = [0.0f64; MAX_COLUMNS];
-        for c in 0..k {
-            if !active[c] {
-                continue;
-            }
+        for c in krylov::live(active) {
             if pq[c] <= 0.0 || pq[c].is_nan() {
                 if rz[c] == 0.0 {
                     active[c] = false;
@@ -162,29 +153,20 @@ pub fn cg(
                     let di = dinv.map_or(1.0, |d| d[blk * CHUNK + row]);
                     for c in 0..k {
                         let j = row * k + c;
-                        let xo = xs[j];
-                        s.v[XX][c] += xo * xo;
-                        x2 += xo * xo;
                         let dx = alpha[c] * ps[j];
-                        dx2 += dx * dx;
-                        xs[j] = xo + dx;
+                        krylov::advance(&mut xs[j], dx, &mut s.v[XX][c], &mut x2, &mut dx2);
                         rs[j] -= alpha[c] * qs[j];
                         s.v[RR][c] += rs[j] * rs[j];
                         s.v[RZ][c] += rs[j] * rs[j] * di;
                         s.v[PP][c] += ps[j] * ps[j];
                     }
-                    if per_vertex && crit.moving(dx2, x2) {
-                        s.moving += 1;
-                    }
+                    s.moving += crit.moving(dx2, x2);
                 }
                 s
             })
             .reduce(Sums::default, Sums::add);
         let mut beta = [0.0f64; MAX_COLUMNS];
-        for c in 0..k {
-            if !active[c] {
-                continue;
-            }
+        for c in krylov::live(active) {
             info.iterations[c] = it;
             let rr = sums.v[RR][c];
             if params.record_history {
@@ -232,17 +214,6 @@ mod tests {
         x
     }
 
-    fn run(
-        a: &dyn LinOp,
-        b: &[f64],
-        x: &mut [f64],
-        k: usize,
-        p: &Params,
-        pre: Option<&Jacobi>,
-    ) -> Result<Info, CgError> {
-        cg(a, b, x, k, p, pre, &mut Workspace::new())
-    }
-
     #[test]
     fn agrees_with_cholesky_strong() {
         let (m, _, sql, ..) = irregular(3);
@@ -257,7 +228,7 @@ mod tests {
                 tolerance: 1e-10,
                 ..Default::default()
             };
-            let info = run(&a, &b, &mut x, 3, &params, pre).unwrap();
+            let info = cg(&a, &b, &mut x, 3, &params, pre, &mut Workspace::new()).unwrap();
             assert!(
                 info.residuals.iter().all(|&r| r < 1e-9),
                 "{:?}",
@@ -279,11 +250,11 @@ mod tests {
             ..Default::default()
         };
         let mut x = b.clone();
-        let info = run(&a, &b, &mut x, 3, &params, None).unwrap();
+        let info = cg(&a, &b, &mut x, 3, &params, None, &mut Workspace::new()).unwrap();
         for c in 0..3 {
             let bc: Vec<f64> = (0..m.n_vertices()).map(|i| b[3 * i + c]).collect();
             let mut xc = bc.clone();
-            let ic = run(&a, &bc, &mut xc, 1, &params, None).unwrap();
+            let ic = cg(&a, &bc, &mut xc, 1, &params, None, &mut Workspace::new()).unwrap();
             assert_eq!(ic.iterations[0], info.iterations[c]);
             for i in 0..m.n_vertices() {
                 assert!((xc[i] - x[3 * i + c]).abs() < 1e-12);
@@ -302,7 +273,7 @@ mod tests {
                 stopping,
                 ..Default::default()
             };
-            run(&a, &b, &mut x, 3, &p, None).unwrap()
+            cg(&a, &b, &mut x, 3, &p, None, &mut Workspace::new()).unwrap()
         };
         let (w, wv, s) = (
             solve(Stopping::Weak),
@@ -324,11 +295,29 @@ mod tests {
         let a = diagonal(&d);
         let b = vec![1.0; 50];
         let mut x = vec![0.0; 50];
-        let e = run(&a, &b, &mut x, 1, &Params::default(), None).unwrap_err();
+        let e = cg(
+            &a,
+            &b,
+            &mut x,
+            1,
+            &Params::default(),
+            None,
+            &mut Workspace::new(),
+        )
+        .unwrap_err();
         assert!(matches!(e, CgError::NotPositiveDefinite { .. }), "{e}");
         // Jacobi sees the negative diagonal before iterating.
         let j = Jacobi::new(&a).unwrap();
-        let e = run(&a, &b, &mut x, 1, &Params::default(), Some(&j)).unwrap_err();
+        let e = cg(
+            &a,
+            &b,
+            &mut x,
+            1,
+            &Params::default(),
+            Some(&j),
+            &mut Workspace::new(),
+        )
+        .unwrap_err();
         assert!(
             matches!(e, CgError::NonPositiveDiagonal { row: 7, .. }),
             "{e}"
@@ -347,7 +336,7 @@ mod tests {
             tolerance: 1e-14,
             ..Default::default()
         };
-        match run(&a, &b, &mut x, 3, &p, None) {
+        match cg(&a, &b, &mut x, 3, &p, None, &mut Workspace::new()) {
             Err(CgError::NoConvergence { info }) => assert_eq!(info.iterations, vec![2, 2, 2]),
             other => panic!("{other:?}"),
         }
@@ -358,28 +347,33 @@ mod tests {
         let (m, _, sql, ..) = irregular(1);
         let a = shifted_system(&sql, None, 1.0);
         let b = flat(&m);
+        let fails = |b: &[f64], x: &mut [f64], p: &Params, pre: Option<&Jacobi>| match cg(
+            &a,
+            b,
+            x,
+            3,
+            p,
+            pre,
+            &mut Workspace::new(),
+        ) {
+            Err(CgError::Input(e)) => e,
+            other => panic!("{other:?}"),
+        };
         let p = Params::default();
-        let mut short = vec![0.0; b.len() - 1];
-        let e = run(&a, &b, &mut short, 3, &p, None).unwrap_err();
-        assert!(matches!(e, CgError::Input(InputError::InitialGuess { .. })));
         let mut x = b.clone();
-        let e = run(&a, &b[1..], &mut x[1..], 3, &p, None).unwrap_err();
-        assert!(matches!(
-            e,
-            CgError::Input(InputError::RightHandSide { .. })
-        ));
+        let e = fails(&b, &mut x[1..], &p, None);
+        assert!(matches!(e, InputError::InitialGuess { .. }));
+        let e = fails(&b[1..], &mut x[1..], &p, None);
+        assert!(matches!(e, InputError::RightHandSide { .. }));
         let zero_tol = Params {
             tolerance: 0.0,
             ..Default::default()
         };
-        let e = run(&a, &b, &mut x, 3, &zero_tol, None).unwrap_err();
-        assert!(matches!(e, CgError::Input(InputError::Tolerance(_))));
+        let e = fails(&b, &mut x, &zero_tol, None);
+        assert!(matches!(e, InputError::Tolerance(_)));
         let wrong = Jacobi::from_diagonal(vec![1.0; 3]).unwrap();
-        let e = run(&a, &b, &mut x, 3, &p, Some(&wrong)).unwrap_err();
-        assert!(matches!(
-            e,
-            CgError::Input(InputError::Preconditioner { .. })
-        ));
+        let e = fails(&b, &mut x, &p, Some(&wrong));
+        assert!(matches!(e, InputError::Preconditioner { .. }));
     }
 
     #[test]

@@ -42,15 +42,24 @@ impl CsrMatrix {
     /// The transpose `Aᵀ` as CSR (a transpose of the storage, O(nnz); each row's
     /// columns ascending).
     pub fn transpose(&self) -> CsrMatrix {
-        let (ptr, col, val) = transpose_storage(
+        let (ptr, col, val) = self.by_columns(|i| i as u32);
+        Self::from_parts(self.ncols, self.nrows, ptr, col, val)
+    }
+
+    /// The entries compressed by columns (rows ascending in each), row indices as
+    /// `index` makes them.
+    fn by_columns<T: Copy + Default>(
+        &self,
+        index: impl Fn(usize) -> T,
+    ) -> (Vec<usize>, Vec<T>, Vec<f64>) {
+        transpose_storage(
             self.ncols,
             self.nrows,
             |i| self.row_range(i),
             |p| self.col[p] as usize,
             &self.val,
-            |i| i as u32,
-        );
-        Self::from_parts(self.ncols, self.nrows, ptr, col, val)
+            index,
+        )
     }
 
     /// The CSR of the transpose of a CSC matrix: the CSC arrays read as rows.
@@ -289,15 +298,7 @@ impl CsrMatrix {
 
     /// Converts back to faer's CSC (for the direct solvers).
     pub fn to_csc(&self) -> SparseMatrix {
-        // CSC(A) = CSR(Aᵀ): transpose the storage.
-        let (col_ptr, row_idx, vals) = transpose_storage(
-            self.ncols,
-            self.nrows,
-            |i| self.row_range(i),
-            |p| self.col[p] as usize,
-            &self.val,
-            |i| i,
-        );
+        let (col_ptr, row_idx, vals) = self.by_columns(|i| i);
         faer::sparse::SparseColMat::new(
             faer::sparse::SymbolicSparseColMat::new_checked(
                 self.nrows, self.ncols, col_ptr, None, row_idx,
@@ -350,12 +351,17 @@ mod tests {
     use crate::mesh::{builtin, topology::Topology};
     use crate::solve::LinOp;
 
+    /// The Tutte Laplacian of a cube (non-symmetric), as faer's CSC and as CSR.
+    fn tutte() -> (SparseMatrix, CsrMatrix) {
+        let m = builtin::cube(3).unwrap();
+        let f = crate::operator::tutte::tutte(&Topology::new(&m).unwrap()).unwrap();
+        let a = CsrMatrix::from_csc(&f);
+        (f, a)
+    }
+
     #[test]
     fn blocked_product_matches_faer() {
-        let m = builtin::cube(3).unwrap();
-        let t = Topology::new(&m).unwrap();
-        let f = crate::operator::tutte::tutte(&t).unwrap();
-        let a = CsrMatrix::from_csc(&f);
+        let (f, a) = tutte();
         let n = f.nrows();
         for k in [1usize, 2, 3] {
             let x: Vec<f64> = (0..n * k).map(|i| (i as f64 * 0.37).sin()).collect();
@@ -382,10 +388,7 @@ mod tests {
 
     #[test]
     fn transpose_equals_the_transpose_of_the_csc() {
-        let m = builtin::cube(3).unwrap();
-        let t = Topology::new(&m).unwrap();
-        let f = crate::operator::tutte::tutte(&t).unwrap();
-        let a = CsrMatrix::from_csc(&f);
+        let (f, a) = tutte();
         // Same entries in the same order as reading faer's CSC as rows.
         assert_eq!(a.transpose(), CsrMatrix::transpose_of_csc(&f));
         assert_eq!(a.transpose().transpose(), a);

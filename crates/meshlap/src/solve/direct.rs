@@ -76,15 +76,29 @@ pub enum DirectError {
     Input(#[from] InputError),
 }
 
-/// A sparsity pattern, compressed by columns, to check refactorizations against.
+/// What a symbolic analysis was made for: the sparsity pattern, compressed by
+/// columns (refactorizations are checked against it), and how long it took.
 #[derive(Clone, Debug, PartialEq)]
 struct Pattern {
     n: usize,
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
+    seconds: f64,
 }
 
 impl Pattern {
+    /// Runs the symbolic analysis `analyse` of the square matrix `a`, timed.
+    fn analyse<T>(
+        a: &SparseMatrix,
+        analyse: impl FnOnce(SymbolicSparseColMatRef<'_, usize>) -> Result<T, FaerError>,
+    ) -> Result<(T, Self), DirectError> {
+        let t = Instant::now();
+        let mut pattern = Pattern::of(a.symbolic())?;
+        let inner = analyse(a.symbolic()).map_err(DirectError::Faer)?;
+        pattern.seconds = t.elapsed().as_secs_f64();
+        Ok((inner, pattern))
+    }
+
     fn of(a: SymbolicSparseColMatRef<'_, usize>) -> Result<Self, DirectError> {
         if a.nrows() != a.ncols() {
             return Err(DirectError::NotSquare {
@@ -103,6 +117,7 @@ impl Pattern {
             n: a.nrows(),
             col_ptr,
             row_idx,
+            seconds: 0.0,
         })
     }
 
@@ -128,27 +143,33 @@ fn faer_error(e: impl Into<FaerError>) -> DirectError {
     DirectError::Faer(e.into())
 }
 
-/// Copies the n×k row-major block `b` into a faer matrix, applies `solve`, copies back.
+/// Copies the n×k row-major block `b` into a faer matrix, applies `solve`, copies back;
+/// returns `info` with the seconds this took.
 fn solve_block(
+    info: DirectInfo,
     n: usize,
     b: &mut [f64],
     k: usize,
-    solve: impl FnOnce(faer::MatMut<'_, f64>),
-) -> Result<(), InputError> {
+    solve: impl FnOnce(faer::MatMut<'_, f64>) -> Result<(), DirectError>,
+) -> Result<DirectInfo, DirectError> {
+    let t = Instant::now();
     if k == 0 {
-        return Err(InputError::Columns { k });
+        return Err(InputError::Columns { k }.into());
     }
     if b.len() != n * k {
-        return Err(InputError::RightHandSide { n, k, len: b.len() });
+        return Err(InputError::RightHandSide { n, k, len: b.len() }.into());
     }
     let mut m = Mat::from_fn(n, k, |i, c| b[i * k + c]);
-    solve(m.as_mut());
+    solve(m.as_mut())?;
     for i in 0..n {
         for c in 0..k {
             b[i * k + c] = m[(i, c)];
         }
     }
-    Ok(())
+    Ok(DirectInfo {
+        solve_seconds: t.elapsed().as_secs_f64(),
+        ..info
+    })
 }
 
 /// The symbolic analysis of a sparse Cholesky factorization of one sparsity pattern
@@ -159,25 +180,22 @@ fn solve_block(
 pub struct SymbolicCholesky {
     inner: Arc<cholesky::SymbolicCholesky<usize>>,
     pattern: Pattern,
-    seconds: f64,
 }
 
 impl SymbolicCholesky {
     /// Analyses the pattern of the n×n matrix `a` (its lower triangle is read).
     pub fn new(a: &SparseMatrix) -> Result<Self, DirectError> {
-        let t = Instant::now();
-        let pattern = Pattern::of(a.symbolic())?;
-        let inner = cholesky::factorize_symbolic_cholesky(
-            a.symbolic(),
-            Side::Lower,
-            Default::default(),
-            Default::default(),
-        )
-        .map_err(faer_error)?;
+        let (inner, pattern) = Pattern::analyse(a, |s| {
+            cholesky::factorize_symbolic_cholesky(
+                s,
+                Side::Lower,
+                Default::default(),
+                Default::default(),
+            )
+        })?;
         Ok(SymbolicCholesky {
             inner: Arc::new(inner),
             pattern,
-            seconds: t.elapsed().as_secs_f64(),
         })
     }
 
@@ -190,7 +208,7 @@ impl SymbolicCholesky {
     pub fn factor(self, a: &SparseMatrix) -> Result<CholeskySolver, DirectError> {
         let mut solver = CholeskySolver {
             info: DirectInfo {
-                symbolic_seconds: self.seconds,
+                symbolic_seconds: self.pattern.seconds,
                 matrix_nnz: self.pattern.nnz(),
                 factor_nnz: Some(self.factor_nnz()),
                 ..Default::default()
@@ -261,22 +279,14 @@ impl CholeskySolver {
     /// Solves `A x = b` in place for the n×k row-major block `b`; returns
     /// [`DirectInfo`] with the solve's seconds.
     pub fn solve_in_place(&self, b: &mut [f64], k: usize) -> Result<DirectInfo, DirectError> {
-        let t = Instant::now();
         let sym = &self.symbolic.inner;
-        let par = faer::get_global_parallelism();
-        let mut mem = MemBuffer::try_new(sym.solve_in_place_scratch::<f64>(k.max(1), par))
-            .map_err(faer_error)?;
-        solve_block(self.symbolic.pattern.n, b, k, |m| {
-            LltRef::<usize, f64>::new(sym, &self.values).solve_in_place_with_conj(
-                Conj::No,
-                m,
-                par,
-                MemStack::new(&mut mem),
-            )
-        })?;
-        Ok(DirectInfo {
-            solve_seconds: t.elapsed().as_secs_f64(),
-            ..self.info
+        solve_block(self.info, self.symbolic.pattern.n, b, k, |m| {
+            let par = faer::get_global_parallelism();
+            let scratch = sym.solve_in_place_scratch::<f64>(m.ncols(), par);
+            let mut mem = MemBuffer::try_new(scratch).map_err(faer_error)?;
+            let llt = LltRef::<usize, f64>::new(sym, &self.values);
+            llt.solve_in_place_with_conj(Conj::No, m, par, MemStack::new(&mut mem));
+            Ok(())
         })
     }
 }
@@ -287,20 +297,13 @@ impl CholeskySolver {
 pub struct SymbolicLu {
     inner: FaerSymbolicLu<usize>,
     pattern: Pattern,
-    seconds: f64,
 }
 
 impl SymbolicLu {
     /// Analyses the pattern of the n×n matrix `a`.
     pub fn new(a: &SparseMatrix) -> Result<Self, DirectError> {
-        let t = Instant::now();
-        let pattern = Pattern::of(a.symbolic())?;
-        let inner = FaerSymbolicLu::try_new(a.symbolic()).map_err(faer_error)?;
-        Ok(SymbolicLu {
-            inner,
-            pattern,
-            seconds: t.elapsed().as_secs_f64(),
-        })
+        let (inner, pattern) = Pattern::analyse(a, FaerSymbolicLu::try_new)?;
+        Ok(SymbolicLu { inner, pattern })
     }
 
     /// Numeric factorization of `a`, which must have the analysed pattern.
@@ -308,7 +311,7 @@ impl SymbolicLu {
         let (lu, numeric_seconds) = lu_numeric(&self, a)?;
         Ok(LuSolver {
             info: DirectInfo {
-                symbolic_seconds: self.seconds,
+                symbolic_seconds: self.pattern.seconds,
                 numeric_seconds,
                 matrix_nnz: self.pattern.nnz(),
                 ..Default::default()
@@ -367,13 +370,9 @@ impl LuSolver {
     /// Solves `A x = b` in place for the n×k row-major block `b`; returns
     /// [`DirectInfo`] with the solve's seconds.
     pub fn solve_in_place(&self, b: &mut [f64], k: usize) -> Result<DirectInfo, DirectError> {
-        let t = Instant::now();
-        solve_block(self.symbolic.pattern.n, b, k, |m| {
-            self.lu.solve_in_place_with_conj(Conj::No, m)
-        })?;
-        Ok(DirectInfo {
-            solve_seconds: t.elapsed().as_secs_f64(),
-            ..self.info
+        solve_block(self.info, self.symbolic.pattern.n, b, k, |m| {
+            self.lu.solve_in_place_with_conj(Conj::No, m);
+            Ok(())
         })
     }
 }

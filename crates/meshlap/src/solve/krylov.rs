@@ -68,7 +68,12 @@ pub(crate) fn check(
     k: usize,
     params: &Params,
 ) -> Result<(), InputError> {
-    let n = op.dim();
+    check_sizes(op.dim(), b, x, k)?;
+    params.validate()
+}
+
+/// Checks that `b` and `x` are n×k blocks with 1 ≤ k ≤ [`MAX_COLUMNS`].
+pub(crate) fn check_sizes(n: usize, b: &[f64], x: &[f64], k: usize) -> Result<(), InputError> {
     if k == 0 || k > MAX_COLUMNS {
         return Err(InputError::Columns { k });
     }
@@ -81,7 +86,7 @@ pub(crate) fn check(
             want: b.len(),
         });
     }
-    params.validate()
+    Ok(())
 }
 
 /// `dst = src`, in parallel (the first touch of fresh workspace pages is spread over
@@ -112,6 +117,41 @@ pub(crate) fn rhs_norms(b: &[f64], k: usize) -> Vec<f64> {
         .iter()
         .map(|v| v.sqrt().max(f64::MIN_POSITIVE))
         .collect()
+}
+
+/// Relative size below which a quantity a Krylov recurrence divides by counts as
+/// vanished.
+const BREAKDOWN: f64 = 1e-15;
+
+/// Whether `v`, a quantity a recurrence divides by, vanished relative to `scale` (the
+/// product of the norms of its factors).
+pub(crate) fn vanished(v: f64, scale: f64) -> bool {
+    v == 0.0 || v.abs() <= BREAKDOWN * scale
+}
+
+/// One entry of the update `x ← x + dx`, accumulating what the weak criteria read:
+/// the old `x²` into its column's sum `xx` and its vertex's sum `x2`, and `dx²` into
+/// its vertex's sum `dx2`.
+#[inline(always)]
+pub(crate) fn advance(x: &mut f64, dx: f64, xx: &mut f64, x2: &mut f64, dx2: &mut f64) {
+    let xo = *x;
+    *xx += xo * xo;
+    *x2 += xo * xo;
+    *dx2 += dx * dx;
+    *x = xo + dx;
+}
+
+/// Which of the (at most [`MAX_COLUMNS`]) columns are still iterating.
+pub(crate) type Active = [bool; MAX_COLUMNS];
+
+/// The first `k` columns active.
+pub(crate) fn all_active(k: usize) -> Active {
+    std::array::from_fn(|c| c < k)
+}
+
+/// The columns active in `active` (a copy: the loop body may retire its column).
+pub(crate) fn live(active: Active) -> impl Iterator<Item = usize> {
+    (0..MAX_COLUMNS).filter(move |&c| active[c])
 }
 
 /// Per-column sums of one parallel pass: `N` quantities per column, and the number of
@@ -160,15 +200,11 @@ impl Criterion {
         }
     }
 
-    /// True when the vertex counts are needed (the weak-vertex criterion).
-    pub fn per_vertex(&self) -> bool {
-        self.stopping == Stopping::WeakVertex
-    }
-
-    /// Whether a vertex whose update has squared length `dx2`, from a position of
-    /// squared length `x2`, is still moving (weak-vertex criterion).
-    pub fn moving(&self, dx2: f64, x2: f64) -> bool {
-        dx2 >= self.eps2 * x2 && dx2 > 0.0
+    /// 1 when the weak-vertex criterion is in use and a vertex whose update has
+    /// squared length `dx2`, from a position of squared length `x2`, is still moving;
+    /// else 0 (the count is only read by that criterion).
+    pub fn moving(&self, dx2: f64, x2: f64) -> usize {
+        usize::from(self.stopping == Stopping::WeakVertex && dx2 >= self.eps2 * x2 && dx2 > 0.0)
     }
 
     /// Whether a column has converged: `step2` = ‖x⁽ⁿ⁾ − x⁽ⁿ⁻¹⁾‖², `xx` = ‖x⁽ⁿ⁻¹⁾‖²,

@@ -36,6 +36,8 @@ pub mod direct;
 mod krylov;
 mod op;
 
+pub(crate) use krylov::check_sizes;
+
 pub use bicg::{bicg, BicgError, BicgInfo, BicgParams};
 pub use bicgstab::{bicgstab, BicgstabError};
 pub use cg::{cg, CgError};
@@ -50,8 +52,7 @@ use serde::Serialize;
 pub const MAX_COLUMNS: usize = 8;
 
 /// When to stop an iterative solve.
-#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash, Serialize, Default)]
-#[serde(rename_all = "kebab-case")]
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash, Default)]
 pub enum Stopping {
     /// The paper's weak criterion, per coordinate column c:
     /// `‖x_c⁽ⁿ⁾ − x_c⁽ⁿ⁻¹⁾‖ < ε‖x_c⁽ⁿ⁻¹⁾‖`. Zhang writes it for `x_i` with the strong
@@ -67,35 +68,11 @@ pub enum Stopping {
     Strong,
 }
 
-impl Stopping {
-    /// Every criterion.
-    pub const ALL: [Stopping; 3] = [Stopping::Weak, Stopping::WeakVertex, Stopping::Strong];
-
-    /// The name used on the command line and in JSON.
-    pub fn name(self) -> &'static str {
-        match self {
-            Stopping::Weak => "weak",
-            Stopping::WeakVertex => "weak-vertex",
-            Stopping::Strong => "strong",
-        }
-    }
-}
-
-impl std::fmt::Display for Stopping {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl std::str::FromStr for Stopping {
-    type Err = InputError;
-    fn from_str(s: &str) -> Result<Self, InputError> {
-        Stopping::ALL
-            .into_iter()
-            .find(|v| v.name() == s)
-            .ok_or_else(|| InputError::UnknownStopping(s.to_string()))
-    }
-}
+crate::names::option_names!(Stopping, InputError, |s| InputError::UnknownStopping(s.to_string()), {
+    Weak => "weak",
+    WeakVertex => "weak-vertex",
+    Strong => "strong",
+});
 
 /// Parameters of the iterative solvers.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -416,17 +393,5 @@ mod tests {
             ..Default::default()
         };
         assert_eq!(p.validate(), Err(InputError::MaxIterations));
-    }
-
-    #[test]
-    fn stopping_names_round_trip() {
-        for s in Stopping::ALL {
-            assert_eq!(s.name().parse::<Stopping>().unwrap(), s);
-            assert_eq!(serde_json::to_value(s).unwrap(), s.name());
-        }
-        assert!(matches!(
-            "strongest".parse::<Stopping>(),
-            Err(InputError::UnknownStopping(_))
-        ));
     }
 }

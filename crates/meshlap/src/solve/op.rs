@@ -24,6 +24,13 @@ pub struct Fused<'a> {
     pub norm2: &'a mut [f64],
 }
 
+impl<'a> Fused<'a> {
+    /// The reductions against `w`, written to `dot` and `norm2`.
+    pub fn new(w: &'a [f64], dot: &'a mut [f64], norm2: &'a mut [f64]) -> Self {
+        Fused { w, dot, norm2 }
+    }
+}
+
 /// A square linear operator applied to n×k blocks stored row-major (entry (i, c) at
 /// index `i·k + c`).
 pub trait LinOp: Sync {
