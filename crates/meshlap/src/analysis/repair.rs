@@ -17,7 +17,7 @@
 //!    **splits** the higher-degree endpoint (then the other) with a progressive-mesh
 //!    vertex split ([`crate::mesh::edit::EditMesh::split_vertex`], Hoppe 1996): its
 //!    fan is halved (every rotation of the cut is tried, inside; every inner cut
-//!    neighbour, on the boundary), the two halves' centres move a third of the way
+//!    neighbor, on the boundary), the two halves' centres move a third of the way
 //!    towards their ring parts' centroids, and the cut that most raises the smallest
 //!    affected weight is kept (only if it strictly raises it, and, when a threshold is
 //!    set, passes a geometric check: non-degenerate faces, no face turned by 90° or
@@ -237,7 +237,7 @@ fn flip_geometry_ok(m: &EditMesh, h: u32, max_deg: f64) -> bool {
 
 /// Geometric check after a split of `v` into `v`, `w` that added `new_faces`: every
 /// face around them is non-degenerate and turns less than 90° from the old fan's
-/// normal `old`, and each new face meets its neighbours at most at `max_deg`.
+/// normal `old`, and each new face meets its neighbors at most at `max_deg`.
 fn split_geometry_ok(
     m: &EditMesh,
     v: u32,
@@ -263,7 +263,7 @@ fn split_geometry_ok(
 
 /// Tries to raise the smallest weight around edge (i, j) by splitting i or j
 /// (the higher degree first). Candidate cuts halve the fan at every rotation (inside)
-/// or at every inner neighbour (on the boundary); the best one that strictly raises
+/// or at every inner neighbor (on the boundary); the best one that strictly raises
 /// the smallest weight of the affected region is kept. Returns the new vertex.
 fn try_split(m: &mut EditMesh, i: u32, j: u32, max_dihedral: Option<f64>) -> Option<u32> {
     let mut ends = [i, j];
@@ -515,12 +515,12 @@ mod tests {
             .count()
     }
 
-    /// A fan of `k` triangles around a centre on an icosphere-like cap: a closed mesh
+    /// A fan of `k` triangles around a center on an icosphere-like cap: a closed mesh
     /// with one very high-degree vertex, which makes negative SQL weights.
     fn high_degree_mesh() -> TriMesh {
         let mut m = builtin::icosphere(2).unwrap();
         // Collapse-free construction: add a vertex above face 0..k fan by splitting
-        // every face around vertex 0's neighbourhood into a cone at a new apex.
+        // every face around vertex 0's neighborhood into a cone at a new apex.
         let apex = m.positions.len() as u32;
         m.positions.push([0.0, 0.0, 1.3]);
         let mut faces = Vec::new();

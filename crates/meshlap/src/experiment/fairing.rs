@@ -11,7 +11,7 @@
 //! solution), so the paper's remark that the weak criterion stops BiCG on a residual
 //! "plateau" is measured: `error` is the largest vertex displacement from the direct
 //! solution over the bounding-box diagonal. The BiCG plateau detector of
-//! [`crate::solve::bicg`] is reported too.
+//! [`crate::solve::bicg()`] is reported too.
 //!
 //! The SQL can have negative weights (Zhang §3.7), and then `I + λS` may be
 //! indefinite. They are counted; with [`FairingOptions::repair_sql`] they are first

@@ -27,7 +27,7 @@ pub fn butterworth_response(order: usize, passband: f64, gamma: f64) -> f64 {
 }
 
 /// The factorization of every factor `Q_k`: Cholesky for a symmetric F, LU otherwise,
-/// analysed once and refactored numerically for each k.
+/// analyzed once and refactored numerically for each k.
 enum Factor {
     Cholesky(CholeskySolver),
     Lu(Box<LuSolver>),

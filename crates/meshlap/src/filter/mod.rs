@@ -1,5 +1,5 @@
 //! Mesh filters built on an operator F (sign convention `F = D − W`, so `−F·x` is the
-//! Laplacian vector pointing towards the neighbours): every filter is a function of
+//! Laplacian vector pointing towards the neighbors): every filter is a function of
 //! F applied to the n×3 positions, `x' = h(F) x`, with frequency response h(γ) on F's
 //! eigenvalues γ (Zhang 2004 §2.6, §4.10).
 //!

@@ -4,7 +4,7 @@
 //! (Taubin 1995, *A signal processing approach to fair surface design*).
 //!
 //! F is n×n with the sign `F = D − W` (positive semi-definite), so `−F·x` points
-//! towards the neighbours and `(I − λF)` averages; positions are the n×3 row-major
+//! towards the neighbors and `(I − λF)` averages; positions are the n×3 row-major
 //! block. Responses on an eigenvalue γ of F: `(1 − λγ)ᴺ` and `((1 − λγ)(1 − μγ))ᴺ`.
 //! Boundary vertices are treated like interior ones (whatever F does at the
 //! boundary). For the Tutte Laplacian (γ ∈ [0, 2]) the explicit filter is stable for

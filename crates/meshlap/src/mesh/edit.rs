@@ -14,10 +14,10 @@
 //!   manifold without duplicate faces). Vertices and face count are unchanged.
 //! - [`EditMesh::split_vertex`]: the "vertex split" of Hoppe's progressive meshes
 //!   (Hoppe 1996), the alternative Zhang (2004, §3.7) names for removing high degrees:
-//!   the fan of v is cut at two of its neighbours `a`, `b` into two consecutive parts;
+//!   the fan of v is cut at two of its neighbors `a`, `b` into two consecutive parts;
 //!   v keeps the first, a new vertex v' takes the second, and the faces (v, b, v'),
 //!   (v', a, v) close the gap (one face (v, b, v') for a boundary vertex, whose fan is
-//!   cut at one neighbour). The Euler characteristic, manifoldness and orientation are
+//!   cut at one neighbor). The Euler characteristic, manifoldness and orientation are
 //!   preserved; d_v + d_v' = d + 4 inside (d + 3 on the boundary), and `a`, `b` gain one.
 //!
 //! [`EditMesh::checkpoint`] / [`EditMesh::rollback`] undo every edit since the
@@ -82,9 +82,9 @@ pub struct EditMesh {
 /// The fan of a vertex in rotation order (see [`EditMesh::fan`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Fan {
-    /// Neighbours `u_0, u_1, …` in rotation order (counter-clockwise for a
+    /// Neighbors `u_0, u_1, …` in rotation order (counter-clockwise for a
     /// counter-clockwise oriented mesh). On the boundary `u_0` and the last one are the
-    /// boundary neighbours.
+    /// boundary neighbors.
     pub ring: Vec<u32>,
     /// Outgoing half-edge `v → u_a` of the face `(v, u_a, u_{a+1})`, one per face.
     pub out: Vec<u32>,
@@ -177,7 +177,7 @@ impl EditMesh {
     pub fn twin(&self, h: u32) -> u32 {
         self.twin[h as usize]
     }
-    /// Degree (number of neighbours) of `v`.
+    /// Degree (number of neighbors) of `v`.
     #[inline]
     pub fn degree(&self, v: u32) -> u32 {
         self.degree[v as usize]
@@ -448,12 +448,12 @@ impl EditMesh {
         let nf = fan.out.len();
         let (first, last) = if fan.closed {
             if first >= nf || last >= nf || first == last {
-                return Err(illegal("the cut needs two distinct neighbours"));
+                return Err(illegal("the cut needs two distinct neighbors"));
             }
             (first, last)
         } else {
             if first != 0 || last == 0 || last >= nf {
-                return Err(illegal("a boundary fan is cut at one inner neighbour"));
+                return Err(illegal("a boundary fan is cut at one inner neighbor"));
             }
             (0, last)
         };

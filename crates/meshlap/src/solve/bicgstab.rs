@@ -4,7 +4,7 @@
 //! smooths BiCG's irregular convergence.
 //!
 //! Like [`super::cg()`] and [`super::bicg()`] it solves the k columns together with
-//! per-column scalars, honours every [`Stopping`](super::Stopping) criterion (the weak
+//! per-column scalars, honors every [`Stopping`](super::Stopping) criterion (the weak
 //! ones on the update `x⁽ⁿ⁾ − x⁽ⁿ⁻¹⁾ = αp + ωs` of the whole iteration) and reports a
 //! vanishing `ρ = r̂ᵀr`, `r̂ᵀv` or `ω` as [`BicgstabError::Breakdown`].
 //!

@@ -65,7 +65,7 @@ pub enum DirectError {
         ncols: usize,
     },
     /// A refactorization was given a matrix of another sparsity pattern than the one
-    /// analysed; analyse the new pattern instead.
+    /// analyzed; analyze the new pattern instead.
     #[error("the matrix does not have the sparsity pattern of the symbolic analysis")]
     PatternMismatch,
     /// faer ran out of memory or indices.
@@ -87,14 +87,14 @@ struct Pattern {
 }
 
 impl Pattern {
-    /// Runs the symbolic analysis `analyse` of the square matrix `a`, timed.
-    fn analyse<T>(
+    /// Runs the symbolic analysis `analyze` of the square matrix `a`, timed.
+    fn analyze<T>(
         a: &SparseMatrix,
-        analyse: impl FnOnce(SymbolicSparseColMatRef<'_, usize>) -> Result<T, FaerError>,
+        analyze: impl FnOnce(SymbolicSparseColMatRef<'_, usize>) -> Result<T, FaerError>,
     ) -> Result<(T, Self), DirectError> {
         let t = Instant::now();
         let mut pattern = Pattern::of(a.symbolic())?;
-        let inner = analyse(a.symbolic()).map_err(DirectError::Faer)?;
+        let inner = analyze(a.symbolic()).map_err(DirectError::Faer)?;
         pattern.seconds = t.elapsed().as_secs_f64();
         Ok((inner, pattern))
     }
@@ -183,9 +183,9 @@ pub struct SymbolicCholesky {
 }
 
 impl SymbolicCholesky {
-    /// Analyses the pattern of the n×n matrix `a` (its lower triangle is read).
+    /// Analyzes the pattern of the n×n matrix `a` (its lower triangle is read).
     pub fn new(a: &SparseMatrix) -> Result<Self, DirectError> {
-        let (inner, pattern) = Pattern::analyse(a, |s| {
+        let (inner, pattern) = Pattern::analyze(a, |s| {
             cholesky::factorize_symbolic_cholesky(
                 s,
                 Side::Lower,
@@ -204,7 +204,7 @@ impl SymbolicCholesky {
         self.inner.len_val()
     }
 
-    /// Numeric factorization of `a`, which must have the analysed pattern.
+    /// Numeric factorization of `a`, which must have the analyzed pattern.
     pub fn factor(self, a: &SparseMatrix) -> Result<CholeskySolver, DirectError> {
         let mut solver = CholeskySolver {
             info: DirectInfo {
@@ -300,13 +300,13 @@ pub struct SymbolicLu {
 }
 
 impl SymbolicLu {
-    /// Analyses the pattern of the n×n matrix `a`.
+    /// Analyzes the pattern of the n×n matrix `a`.
     pub fn new(a: &SparseMatrix) -> Result<Self, DirectError> {
-        let (inner, pattern) = Pattern::analyse(a, FaerSymbolicLu::try_new)?;
+        let (inner, pattern) = Pattern::analyze(a, FaerSymbolicLu::try_new)?;
         Ok(SymbolicLu { inner, pattern })
     }
 
-    /// Numeric factorization of `a`, which must have the analysed pattern.
+    /// Numeric factorization of `a`, which must have the analyzed pattern.
     pub fn factor(self, a: &SparseMatrix) -> Result<LuSolver, DirectError> {
         let (lu, numeric_seconds) = lu_numeric(&self, a)?;
         Ok(LuSolver {

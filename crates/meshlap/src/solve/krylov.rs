@@ -16,7 +16,7 @@ const PAGE: usize = 512;
 /// (a stateful solver such as [`crate::filter::ImplicitSolver`]) allocates nothing.
 ///
 /// A solver takes the blocks it needs from the workspace; their contents on entry are
-/// unspecified (each solver initialises what it reads).
+/// unspecified (each solver initializes what it reads).
 #[derive(Clone, Debug, Default)]
 pub struct Workspace {
     data: Vec<f64>,
