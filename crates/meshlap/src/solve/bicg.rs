@@ -13,10 +13,7 @@
 //!   plateaus on Igea and Isis at λ = 100.
 
 use super::krylov::{self, Criterion, Sums};
-use super::{
-    csr::CHUNK, relative_residuals, BiLinOp, Fused, Info, InputError, Jacobi, Params, Workspace,
-    MAX_COLUMNS,
-};
+use super::{csr::CHUNK, BiLinOp, Fused, Info, InputError, Jacobi, Params, Workspace, MAX_COLUMNS};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::time::Instant;
@@ -267,8 +264,7 @@ pub fn bicg(
     if params.record_history {
         info.info.history = history;
     }
-    info.info.residuals = relative_residuals(op, x, b, k);
-    info.info.seconds = start.elapsed().as_secs_f64();
+    krylov::finish(&mut info.info, op, x, b, k, start);
     if active.iter().any(|&a| a) {
         return Err(BicgError::NoConvergence {
             info: Box::new(info),

@@ -13,9 +13,7 @@
 //! norm of the stopping test and the next ρ. Five n×k work blocks (s overwrites r).
 
 use super::krylov::{self, Criterion, Sums};
-use super::{
-    csr::CHUNK, relative_residuals, Fused, Info, InputError, LinOp, Params, Workspace, MAX_COLUMNS,
-};
+use super::{csr::CHUNK, Fused, Info, InputError, LinOp, Params, Workspace, MAX_COLUMNS};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -207,8 +205,7 @@ pub fn bicgstab(
             rho[c] = sums.v[RHO][c];
         }
     }
-    info.residuals = relative_residuals(op, x, b, k);
-    info.seconds = start.elapsed().as_secs_f64();
+    krylov::finish(&mut info, op, x, b, k, start);
     if active.iter().any(|&a| a) {
         return Err(BicgstabError::NoConvergence {
             info: Box::new(info),

@@ -10,10 +10,7 @@
 //! an iteration is bound by memory bandwidth.
 
 use super::krylov::{self, col_dots, col_norms2, Criterion, Sums};
-use super::{
-    csr::CHUNK, relative_residuals, Fused, Info, InputError, Jacobi, LinOp, Params, Workspace,
-    MAX_COLUMNS,
-};
+use super::{csr::CHUNK, Fused, Info, InputError, Jacobi, LinOp, Params, Workspace, MAX_COLUMNS};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -118,8 +115,7 @@ pub fn cg(
     let mut it = 0;
     while active.iter().any(|&a| a) {
         if it >= params.max_iterations {
-            info.residuals = relative_residuals(op, x, b, k);
-            info.seconds = start.elapsed().as_secs_f64();
+            krylov::finish(&mut info, op, x, b, k, start);
             return Err(CgError::NoConvergence {
                 info: Box::new(info),
             });
@@ -195,8 +191,7 @@ pub fn cg(
                 }
             });
     }
-    info.residuals = relative_residuals(op, x, b, k);
-    info.seconds = start.elapsed().as_secs_f64();
+    krylov::finish(&mut info, op, x, b, k, start);
     Ok(info)
 }
 

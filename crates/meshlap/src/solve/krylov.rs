@@ -6,8 +6,9 @@
 //! chunks of [`CHUNK`] rows and reduce up to [`MAX_COLUMNS`] columns at once.
 
 use super::csr::CHUNK;
-use super::{InputError, LinOp, Params, Stopping, MAX_COLUMNS};
+use super::{relative_residuals, Info, InputError, LinOp, Params, Stopping, MAX_COLUMNS};
 use rayon::prelude::*;
+use std::time::Instant;
 
 /// Values of `f64` in a 4 KiB page.
 const PAGE: usize = 512;
@@ -87,6 +88,20 @@ pub(crate) fn check_sizes(n: usize, b: &[f64], x: &[f64], k: usize) -> Result<()
         });
     }
     Ok(())
+}
+
+/// Completes `info` at the end of a solve: the recomputed residuals of `x` and the
+/// seconds since `start`.
+pub(crate) fn finish(
+    info: &mut Info,
+    op: &(impl LinOp + ?Sized),
+    x: &[f64],
+    b: &[f64],
+    k: usize,
+    start: Instant,
+) {
+    info.residuals = relative_residuals(op, x, b, k);
+    info.seconds = start.elapsed().as_secs_f64();
 }
 
 /// `dst = src`, in parallel (the first touch of fresh workspace pages is spread over

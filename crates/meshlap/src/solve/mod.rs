@@ -317,7 +317,7 @@ pub fn shifted_system(f: &crate::SparseMatrix, mass: Option<&[f64]>, lambda: f64
 
 /// Relative residuals `‖B x_c − b_c‖/‖b_c‖` of the n×k blocks `x`, `b`, recomputed
 /// from scratch (absolute residuals for zero columns of `b`).
-pub fn relative_residuals(op: &dyn LinOp, x: &[f64], b: &[f64], k: usize) -> Vec<f64> {
+pub fn relative_residuals(op: &(impl LinOp + ?Sized), x: &[f64], b: &[f64], k: usize) -> Vec<f64> {
     let mut r = vec![0.0; b.len()];
     krylov::residual(op, b, x, k, &mut r);
     let rn = krylov::col_norms2(&r, k);
