@@ -43,9 +43,10 @@ impl Workspace {
     /// allocator, so the solver's first parallel pass touches its pages.
     ///
     /// Blocks start a whole number of 4 KiB pages apart, as separate large allocations
-    /// would: a load from one block then never shares its page offset with a recent
-    /// store to another at a nearby index, which the CPU would treat as a possible
-    /// dependency (4K aliasing) and stall the fused update passes on.
+    /// do: entries of two blocks share their page offset only at the same index, so a
+    /// load in a fused pass never matches the page offset of a store just issued to a
+    /// nearby index of another block (4K aliasing, which the CPU treats as a possible
+    /// dependency and waits on).
     pub(crate) fn blocks<const M: usize>(&mut self, len: usize) -> [&mut [f64]; M] {
         if len == 0 {
             return std::array::from_fn(|_| <&mut [f64]>::default());
