@@ -50,3 +50,17 @@ pub fn spinner(msg: String) -> indicatif::ProgressBar {
     }
     bar
 }
+
+/// A clap value parser for an option enum of the library: accepts exactly the
+/// library's names (`T::ALL` mapped by `name`, listed in `--help`) and parses them
+/// with the library's `FromStr`, so no value falls back silently.
+pub fn one_of<T>(
+    names: impl IntoIterator<Item = &'static str>,
+) -> impl clap::builder::TypedValueParser<Value = T>
+where
+    T: std::str::FromStr + Clone + Send + Sync + 'static,
+    T::Err: Into<Box<dyn std::error::Error + Send + Sync + 'static>>,
+{
+    use clap::builder::TypedValueParser;
+    clap::builder::PossibleValuesParser::new(names).try_map(|s| s.parse::<T>())
+}

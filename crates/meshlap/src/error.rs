@@ -19,6 +19,12 @@ pub enum Error {
     /// A filter failed.
     #[error(transparent)]
     Filter(#[from] crate::filter::FilterError),
+    /// A smoothing iteration `Hᵖx` could not run.
+    #[error(transparent)]
+    Smoothing(#[from] crate::analysis::smoothing::SmoothingError),
+    /// Removing the SQL's negative weights failed.
+    #[error(transparent)]
+    Repair(#[from] crate::analysis::repair::RepairError),
     /// A spectral computation failed.
     #[error(transparent)]
     Spectral(#[from] crate::spectral::SpectralError),

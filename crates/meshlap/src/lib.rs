@@ -40,6 +40,7 @@ pub mod input;
 pub mod io;
 pub mod mesh;
 pub mod metric;
+mod names;
 pub mod operator;
 pub mod partition;
 pub mod plot;

@@ -1,7 +1,7 @@
 //! `meshlap iterate`.
 
 use crate::common::{print_json, MeshArgs};
-use meshlap::analysis::smoothing::{gershgorin_k, iterate};
+use meshlap::analysis::smoothing::{iterate, IterateOptions, SmoothingStep};
 use meshlap::io::{write_mesh, WriteOptions};
 use meshlap::operator::{Operator, OperatorKind};
 use serde::Serialize;
@@ -21,7 +21,7 @@ pub struct Args {
     #[arg(long, short)]
     pub kind: OperatorKind,
     /// Number of applications of H.
-    #[arg(long, short = 'p', default_value_t = 100)]
+    #[arg(long, short = 'p', default_value_t = IterateOptions::default().steps)]
     pub steps: usize,
     /// The k of H = I − F/k (default: max(max F_ii, Gershgorin bound / 2), admissible).
     #[arg(long)]
@@ -41,33 +41,28 @@ pub struct Args {
 struct IterateJson<'a> {
     kind: OperatorKind,
     k: f64,
-    steps: &'a [meshlap::analysis::smoothing::SmoothingStep],
+    steps: &'a [SmoothingStep],
 }
 
 pub fn run(args: &Args) -> meshlap::Result<()> {
     let input = args.mesh.open()?;
     let op = Operator::assemble(args.kind, &input.mesh, &input.topology, &Default::default())?;
-    let k = match args.k {
-        Some(k) if k > 0.0 && k.is_finite() => k,
-        Some(k) => {
-            return Err(meshlap::Error::InvalidArgument(format!(
-                "--k must be positive, got {k}"
-            )))
-        }
-        None => gershgorin_k(&op.matrix),
+    let opts = IterateOptions {
+        k: args.k,
+        steps: args.steps,
     };
-    let (steps, x) = iterate(
+    let run = iterate(
         &op.matrix,
-        k,
         &input.mesh.positions,
         &input.topology.degrees(),
-        args.steps,
-    );
+        &opts,
+    )?;
     if let Some(path) = &args.output {
         let mut m = input.mesh.clone();
-        m.positions = x;
+        m.positions = run.positions;
         write_mesh(path, &m, &WriteOptions::default())?;
     }
+    let (k, steps) = (run.k, run.steps);
     if args.json {
         return print_json(&IterateJson {
             kind: args.kind,

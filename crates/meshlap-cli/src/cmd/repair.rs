@@ -1,8 +1,9 @@
 //! `meshlap repair-sql`.
 
-use crate::common::{print_json, MeshArgs};
-use meshlap::analysis::repair::{repair_sql, RepairMethod, RepairOptions};
+use crate::common::{one_of, print_json, MeshArgs};
+use meshlap::analysis::repair::{repair_sql, RepairError, RepairMethod, RepairOptions};
 use meshlap::io::{write_mesh, WriteOptions};
+use meshlap::mesh::MeshError;
 use std::path::PathBuf;
 
 /// Remove the negative weights of the symmetric quasi-Laplacian (SQL) by greedy edge
@@ -22,14 +23,15 @@ pub struct Args {
     /// Output mesh with the edited connectivity (written atomically).
     #[arg(long, short)]
     pub output: PathBuf,
-    /// Refuse flips whose two new triangles meet at more than this angle (degrees)
-    /// between their normals, or that fold over.
+    /// Refuse flips whose two new triangles meet at more than this angle (degrees, in
+    /// (0, 180]) between their normals, or that fold over.
     #[arg(long, value_name = "DEGREES")]
     pub max_dihedral: Option<f64>,
     /// swap: greedy edge swapping (vertices unchanged); split: vertex splits only;
     /// swap-split: swap, and split an endpoint where no swap of the edge helps.
-    #[arg(long, value_enum, default_value_t = MethodArg::Swap)]
-    pub method: MethodArg,
+    #[arg(long, default_value_t = RepairMethod::default(),
+          value_parser = one_of::<RepairMethod>(RepairMethod::ALL.map(RepairMethod::name)))]
+    pub method: RepairMethod,
     /// Print machine-readable JSON (keys: method, negative_before, min_weight_before,
     /// flips, splits, vertices_added, rejected, negative_after, min_weight_after,
     /// remaining).
@@ -37,29 +39,19 @@ pub struct Args {
     pub json: bool,
 }
 
-/// `--method` values.
-#[derive(clap::ValueEnum, Clone, Copy, Debug)]
-pub enum MethodArg {
-    /// Greedy edge swapping.
-    Swap,
-    /// Vertex splits.
-    Split,
-    /// Swapping, then vertex splits where swapping cannot help.
-    SwapSplit,
-}
-
 pub fn run(args: &Args) -> meshlap::Result<()> {
     let input = args.mesh.open()?;
     let opts = RepairOptions {
         max_dihedral_degrees: args.max_dihedral,
-        method: match args.method {
-            MethodArg::Swap => RepairMethod::Swap,
-            MethodArg::Split => RepairMethod::Split,
-            MethodArg::SwapSplit => RepairMethod::SwapSplit,
-        },
+        method: args.method,
         ..Default::default()
     };
-    let (mesh, report) = repair_sql(&input.mesh, &opts)?;
+    let (mesh, report) = repair_sql(&input.mesh, &opts).map_err(|e| match e {
+        RepairError::Mesh(MeshError::NonManifoldEdge { .. }) => meshlap::Error::InvalidArgument(
+            format!("{e}; run `meshlap clean --split-nonmanifold` first"),
+        ),
+        e => e.into(),
+    })?;
     write_mesh(&args.output, &mesh, &WriteOptions::default())?;
     if args.json {
         return print_json(&report);

@@ -1,28 +1,15 @@
 //! `meshlap smooth`.
 
-use crate::common::{print_json, spinner, MeshArgs};
-use meshlap::filter::{apply, Filter, FilterOptions, FilterReport, Preserve, SolverKind};
+use crate::common::{one_of, print_json, spinner, MeshArgs};
+use meshlap::filter::{
+    apply, ButterworthOptions, Filter, FilterError, FilterKind, FilterReport, FilterSettings,
+    Preserve, SolverKind, TaubinOptions, DEFAULT_DENSE_LIMIT,
+};
 use meshlap::io::{write_mesh, WriteOptions};
 use meshlap::operator::{Operator, OperatorKind};
-use meshlap::solve::{Params, Stopping};
+use meshlap::solve::{Params, SolveInfo, Stopping};
 use serde::Serialize;
 use std::path::PathBuf;
-
-/// Which filter `smooth` applies.
-#[derive(Copy, Clone, Debug, PartialEq, Eq, clap::ValueEnum, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum FilterName {
-    /// Implicit fairing: N solves of (I + λF)x' = x (Desbrun 1999; Zhang 2004 §4.10).
-    Implicit,
-    /// Explicit Laplacian smoothing x' = (I − λF)ᴺx.
-    Explicit,
-    /// Taubin λ|μ smoothing (non-shrinking), pass-band --kpb.
-    Taubin,
-    /// Butterworth low-pass of order --order and pass-band --passband (Zhang & Fiume 2003).
-    Butterworth,
-    /// Ideal low-pass through the dense eigendecomposition (small meshes only).
-    Ideal,
-}
 
 /// Smooth (low-pass filter) a mesh with a Laplacian operator F and write the result.
 ///
@@ -32,11 +19,12 @@ pub enum FilterName {
 ///   explicit     (1 − λγ)^N    Laplacian smoothing (shrinks)
 ///   taubin       ((1 − λγ)(1 − μγ))^N, 1/λ + 1/μ = kpb (does not shrink)
 ///   butterworth  1 / (1 + (γ/passband)^(2·order))
-///   ideal        keeps γ ≤ passband exactly (dense eigendecomposition, ≤ 3000 vertices)
+///   ideal        keeps γ ≤ passband exactly (dense eigendecomposition, small meshes)
 ///
-/// Implicit fairing solvers: cg and pcg (Jacobi) and cholesky need a symmetric
-/// operator (kl, sql, sstl, gl, cotan); bicg, bicgstab and lu take any; cg-sym solves
-/// the symmetrised system S(I + λF)x = Sb — for the Tutte Laplacian the paper's
+/// Implicit fairing solvers: auto (the default) picks cg for a symmetric operator and
+/// bicg otherwise; cg and pcg (Jacobi) and cholesky need a symmetric operator (kl,
+/// sql, sstl, gl, cotan); bicg, bicgstab and lu take any; cg-sym solves the
+/// symmetrized system S(I + λF)x = Sb — for the Tutte Laplacian the paper's
 /// "CG (TL)", (D + λK)x = Db. The SQL with negative weights may make the system
 /// indefinite: that is reported as an error (run `meshlap repair-sql` first).
 ///
@@ -49,8 +37,9 @@ pub struct Args {
     #[arg(long, short)]
     pub output: PathBuf,
     /// Filter to apply.
-    #[arg(long, value_enum, default_value_t = FilterName::Implicit)]
-    pub filter: FilterName,
+    #[arg(long, default_value_t = FilterKind::Implicit,
+          value_parser = one_of::<FilterKind>(FilterKind::ALL.map(FilterKind::name)))]
+    pub filter: FilterKind,
     /// Shorthand for `--filter implicit`.
     #[arg(long, conflicts_with = "filter")]
     pub implicit: bool,
@@ -62,40 +51,43 @@ pub struct Args {
     /// keep λ·γ_max < 2 for stability: λ ≤ 1 for the TL).
     #[arg(long)]
     pub lambda: Option<f64>,
-    /// Linear solver of implicit fairing (default: cg for a symmetric operator, bicg
+    /// Linear solver of implicit fairing (auto: cg for a symmetric operator, bicg
     /// otherwise).
-    #[arg(long, value_parser = ["cg", "pcg", "bicg", "cg-sym", "bicgstab", "cholesky", "lu"])]
-    pub solver: Option<String>,
+    #[arg(long, default_value_t = SolverKind::Auto,
+          value_parser = one_of::<SolverKind>(SolverKind::ALL.map(SolverKind::name)))]
+    pub solver: SolverKind,
     /// Stopping criterion of the iterative solvers: weak (the paper's: the update of
     /// each coordinate column is below tol × its size), weak-vertex (the same per
     /// vertex), strong (‖Bx − b‖ < tol·‖b‖).
-    #[arg(long = "stop", default_value = "weak", value_parser = ["weak", "weak-vertex", "strong"])]
-    pub stop: String,
+    #[arg(long = "stop", default_value_t = Params::default().stopping,
+          value_parser = one_of::<Stopping>(Stopping::ALL.map(Stopping::name)))]
+    pub stop: Stopping,
     /// Tolerance ε of the stopping criterion.
-    #[arg(long, default_value_t = 1e-5)]
+    #[arg(long, default_value_t = Params::default().tolerance)]
     pub tol: f64,
     /// Iteration cap of the iterative solvers.
-    #[arg(long, default_value_t = 10_000)]
+    #[arg(long, default_value_t = Params::default().max_iterations)]
     pub max_iterations: usize,
     /// Steps: implicit solves (default 1), explicit steps (default 10), Taubin pairs
     /// (default 10).
     #[arg(long, short = 'n')]
     pub steps: Option<usize>,
     /// Taubin pass-band k_PB = 1/λ + 1/μ (0 < kpb < 1/λ).
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = TaubinOptions::default().k_pb)]
     pub kpb: f64,
     /// Butterworth order s.
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, default_value_t = ButterworthOptions::DEFAULT_ORDER)]
     pub order: usize,
     /// Pass-band γ_PB of the Butterworth and ideal filters (an eigenvalue of F).
     #[arg(long)]
     pub passband: Option<f64>,
     /// Rescale afterwards: volume (enclosed volume, closed meshes), bbox (bounding
     /// box) or none.
-    #[arg(long, default_value = "none")]
+    #[arg(long, default_value_t = Preserve::None,
+          value_parser = one_of::<Preserve>(Preserve::ALL.map(Preserve::name)))]
     pub preserve: Preserve,
     /// Largest mesh for the dense ideal filter.
-    #[arg(long, default_value_t = meshlap::filter::DEFAULT_DENSE_LIMIT)]
+    #[arg(long, default_value_t = DEFAULT_DENSE_LIMIT)]
     pub dense_limit: usize,
     /// Print machine-readable JSON.
     #[arg(long)]
@@ -104,7 +96,7 @@ pub struct Args {
 
 #[derive(Serialize)]
 struct SmoothJson<'a> {
-    filter: FilterName,
+    filter: FilterKind,
     operator: OperatorKind,
     vertices: usize,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -122,25 +114,48 @@ struct SmoothJson<'a> {
     seconds: f64,
     volume_before: f64,
     volume_after: f64,
-    /// Per solve: iterations and residuals per column, relative-residual history and
-    /// BiCG plateau.
-    solves: &'a [meshlap::solve::Info],
+    /// Per solve: iterations and residuals per column, relative-residual history, the
+    /// BiCG plateau or the factorization.
+    solves: &'a [SolveInfo],
     output: String,
 }
 
-fn invalid(msg: String) -> meshlap::Error {
-    meshlap::Error::InvalidArgument(msg)
+/// The library's error, with the command-line hint for fixing it where there is one.
+fn with_hint(e: FilterError) -> meshlap::Error {
+    let hint = match &e {
+        FilterError::MissingPassband { .. } => "pass --passband",
+        FilterError::NeedsSymmetric { .. } => "use --solver bicg, cg-sym, bicgstab or lu",
+        FilterError::TooLarge { .. } => "raise --dense-limit or use --filter butterworth",
+        FilterError::Solve(s) if s.is_not_positive_definite() => {
+            "an SQL with negative weights can cause this: run `meshlap repair-sql` first, or use --solver lu or bicg"
+        }
+        _ => return e.into(),
+    };
+    meshlap::Error::InvalidArgument(format!("{e}; {hint}"))
 }
 
 pub fn run(args: &Args) -> meshlap::Result<()> {
-    let name = if args.implicit {
-        FilterName::Implicit
+    let kind = if args.implicit {
+        FilterKind::Implicit
     } else {
         args.filter
     };
-    if !(args.tol > 0.0 && args.tol.is_finite()) {
-        return Err(invalid(format!("--tol must be positive, got {}", args.tol)));
-    }
+    let settings = FilterSettings {
+        lambda: args.lambda,
+        steps: args.steps,
+        solver: Some(args.solver),
+        params: Some(Params {
+            tolerance: args.tol,
+            stopping: args.stop,
+            max_iterations: args.max_iterations,
+            ..Default::default()
+        }),
+        k_pb: Some(args.kpb),
+        order: Some(args.order),
+        passband: args.passband,
+        dense_limit: Some(args.dense_limit),
+    };
+    let filter = Filter::new(kind, &settings).map_err(with_hint)?;
     let input = args.mesh.open()?;
     let op = Operator::assemble(
         args.operator,
@@ -148,74 +163,22 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         &input.topology,
         &Default::default(),
     )?;
-    let stopping: Stopping = args.stop.parse()?;
-    let params = Params {
-        tolerance: args.tol,
-        stopping,
-        max_iterations: args.max_iterations,
-        ..Default::default()
-    };
-    let passband = || {
-        args.passband
-            .ok_or_else(|| invalid(format!("--filter {name:?} needs --passband").to_lowercase()))
-    };
-    let mut solver_used = None;
-    let filter = match name {
-        FilterName::Implicit => {
-            let solver = match &args.solver {
-                Some(s) => s.parse()?,
-                None if meshlap::filter::implicit::is_symmetric(&op.matrix) => SolverKind::Cg,
-                None => SolverKind::Bicg,
-            };
-            solver_used = Some(solver);
-            Filter::Implicit {
-                lambda: args.lambda.unwrap_or(30.0),
-                steps: args.steps.unwrap_or(1),
-                solver,
-            }
-        }
-        FilterName::Explicit => Filter::Explicit {
-            lambda: args.lambda.unwrap_or(0.5),
-            steps: args.steps.unwrap_or(10),
-        },
-        FilterName::Taubin => Filter::Taubin {
-            lambda: args.lambda.unwrap_or(0.5),
-            k_pb: args.kpb,
-            steps: args.steps.unwrap_or(10),
-        },
-        FilterName::Butterworth => Filter::Butterworth {
-            order: args.order,
-            passband: passband()?,
-        },
-        FilterName::Ideal => Filter::Ideal {
-            passband: passband()?,
-        },
-    };
-    let opts = FilterOptions {
-        params,
-        preserve: args.preserve,
-        dense_limit: args.dense_limit,
-    };
-    let bar = spinner(format!("{name:?} filtering").to_lowercase());
-    let result = apply(&input.mesh, &op.matrix, &filter, &opts);
+    let bar = spinner(format!("{kind} filtering"));
+    let result = apply(&input.mesh, &op.matrix, &filter, args.preserve);
     bar.finish_and_clear();
-    let (positions, report) = result?;
+    let (positions, report) = result.map_err(with_hint)?;
     let mut mesh = input.mesh.clone();
     mesh.positions = positions;
     write_mesh(&args.output, &mesh, &WriteOptions::default())?;
-    let (lambda, iterative) = match filter {
-        Filter::Implicit { lambda, solver, .. } => (Some(lambda), !solver.is_direct()),
-        Filter::Explicit { lambda, .. } | Filter::Taubin { lambda, .. } => (Some(lambda), false),
-        _ => (None, false),
-    };
     if args.json {
+        let iterative = report.solver.is_some_and(|s| !s.is_direct());
         return print_json(&SmoothJson {
-            filter: name,
+            filter: kind,
             operator: args.operator,
             vertices: mesh.n_vertices(),
-            lambda,
-            solver: solver_used,
-            stop: iterative.then_some(stopping),
+            lambda: filter.lambda(),
+            solver: report.solver,
+            stop: iterative.then_some(args.stop),
             tolerance: iterative.then_some(args.tol),
             preserve: args.preserve,
             iterations: &report.iterations,
@@ -228,14 +191,14 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
             output: args.output.display().to_string(),
         });
     }
-    print_text(args, name, solver_used, &report);
+    print_text(args, kind, &report);
     Ok(())
 }
 
-fn print_text(args: &Args, name: FilterName, solver: Option<SolverKind>, r: &FilterReport) {
-    let what = match solver {
-        Some(s) => format!("{name:?} with {s}").to_lowercase(),
-        None => format!("{name:?}").to_lowercase(),
+fn print_text(args: &Args, kind: FilterKind, r: &FilterReport) {
+    let what = match r.solver {
+        Some(s) => format!("{kind} with {s}"),
+        None => kind.to_string(),
     };
     println!("{what} on F = {}", args.operator);
     if !r.solves.is_empty() {
@@ -252,7 +215,8 @@ fn print_text(args: &Args, name: FilterName, solver: Option<SolverKind>, r: &Fil
         if let Some(p) = r
             .solves
             .iter()
-            .flat_map(|i| i.plateau_at.iter().flatten())
+            .filter_map(SolveInfo::plateau_at)
+            .flat_map(|p| p.iter().flatten())
             .min()
         {
             println!("BiCG plateau first seen at iteration {p}");

@@ -17,7 +17,7 @@
 //!    **splits** the higher-degree endpoint (then the other) with a progressive-mesh
 //!    vertex split ([`crate::mesh::edit::EditMesh::split_vertex`], Hoppe 1996): its
 //!    fan is halved (every rotation of the cut is tried, inside; every inner cut
-//!    neighbour, on the boundary), the two halves' centres move a third of the way
+//!    neighbor, on the boundary), the two halves' centres move a third of the way
 //!    towards their ring parts' centroids, and the cut that most raises the smallest
 //!    affected weight is kept (only if it strictly raises it, and, when a threshold is
 //!    set, passes a geometric check: non-degenerate faces, no face turned by 90° or
@@ -35,13 +35,28 @@
 
 use crate::mesh::edit::{EditMesh, NONE};
 use crate::mesh::{MeshError, TriMesh};
+use glam::DVec3;
 use serde::Serialize;
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
+/// Why [`repair_sql`] failed.
+#[derive(Debug, thiserror::Error)]
+pub enum RepairError {
+    /// The mesh cannot be edited: a non-manifold edge (split it first, e.g. with the
+    /// cleaning's non-manifold splitting) or an out-of-range index.
+    #[error(transparent)]
+    Mesh(#[from] MeshError),
+    /// The dihedral threshold is not an angle in (0°, 180°].
+    #[error("the largest dihedral angle must be in (0°, 180°], got {0}°")]
+    Dihedral(f64),
+    /// Not the name of a repair method.
+    #[error("unknown repair method `{0}` (swap, split, swap-split)")]
+    UnknownMethod(String),
+}
+
 /// How [`repair_sql`] removes negative weights.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "kebab-case")]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum RepairMethod {
     /// Greedy edge swapping only (the paper's main heuristic).
     #[default]
@@ -52,11 +67,17 @@ pub enum RepairMethod {
     SwapSplit,
 }
 
+crate::names::option_names!(RepairMethod, RepairError, |s| RepairError::UnknownMethod(s.to_string()), {
+    Swap => "swap",
+    Split => "split",
+    SwapSplit => "swap-split",
+});
+
 /// Options of [`repair_sql`].
 #[derive(Clone, Copy, Debug)]
 pub struct RepairOptions {
-    /// Largest angle (degrees) allowed between the normals of the two triangles a
-    /// flip creates; `None` disables the geometric check.
+    /// Largest angle (degrees, in (0, 180]) allowed between the normals of the two
+    /// triangles a flip creates; `None` disables the geometric check.
     pub max_dihedral_degrees: Option<f64>,
     /// Swapping, splitting or both.
     pub method: RepairMethod,
@@ -181,27 +202,18 @@ fn region_min(m: &EditMesh, verts: &[u32]) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
-type P = [f64; 3];
-fn sub(a: P, b: P) -> P {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+fn position(m: &EditMesh, v: u32) -> DVec3 {
+    DVec3::from(m.positions()[v as usize])
 }
-fn cross(u: P, w: P) -> P {
-    [
-        u[1] * w[2] - u[2] * w[1],
-        u[2] * w[0] - u[0] * w[2],
-        u[0] * w[1] - u[1] * w[0],
-    ]
+fn face_normal(m: &EditMesh, t: [u32; 3]) -> DVec3 {
+    let [a, b, c] = t.map(|v| position(m, v));
+    (b - a).cross(c - a)
 }
-fn dot(a: P, b: P) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn face_normal(m: &EditMesh, t: [u32; 3]) -> P {
-    let p = |v: u32| m.positions()[v as usize];
-    cross(sub(p(t[1]), p(t[0])), sub(p(t[2]), p(t[0])))
-}
-fn angle_deg(a: P, b: P) -> f64 {
-    let (la, lb) = (dot(a, a).sqrt(), dot(b, b).sqrt());
-    (dot(a, b) / (la * lb)).clamp(-1.0, 1.0).acos().to_degrees()
+fn angle_deg(a: DVec3, b: DVec3) -> f64 {
+    (a.dot(b) / (a.length() * b.length()))
+        .clamp(-1.0, 1.0)
+        .acos()
+        .to_degrees()
 }
 
 /// Geometric check of a flip of `h` (before flipping): the two new triangles are
@@ -212,8 +224,12 @@ fn flip_geometry_ok(m: &EditMesh, h: u32, max_deg: f64) -> bool {
     let (n1, n2) = (face_normal(m, [k, i, l]), face_normal(m, [l, j, k]));
     let o1 = face_normal(m, [i, j, k]);
     let o2 = face_normal(m, [j, i, l]);
-    let old = [o1[0] + o2[0], o1[1] + o2[1], o1[2] + o2[2]];
-    if dot(n1, n1) == 0.0 || dot(n2, n2) == 0.0 || dot(n1, old) <= 0.0 || dot(n2, old) <= 0.0 {
+    let old = o1 + o2;
+    if n1.length_squared() == 0.0
+        || n2.length_squared() == 0.0
+        || n1.dot(old) <= 0.0
+        || n2.dot(old) <= 0.0
+    {
         return false;
     }
     angle_deg(n1, n2) <= max_deg
@@ -221,11 +237,18 @@ fn flip_geometry_ok(m: &EditMesh, h: u32, max_deg: f64) -> bool {
 
 /// Geometric check after a split of `v` into `v`, `w` that added `new_faces`: every
 /// face around them is non-degenerate and turns less than 90° from the old fan's
-/// normal `old`, and each new face meets its neighbours at most at `max_deg`.
-fn split_geometry_ok(m: &EditMesh, v: u32, w: u32, new_faces: usize, old: P, max_deg: f64) -> bool {
+/// normal `old`, and each new face meets its neighbors at most at `max_deg`.
+fn split_geometry_ok(
+    m: &EditMesh,
+    v: u32,
+    w: u32,
+    new_faces: usize,
+    old: DVec3,
+    max_deg: f64,
+) -> bool {
     for &f in m.vertex_faces(v).iter().chain(m.vertex_faces(w)) {
         let n = face_normal(m, m.faces()[f as usize]);
-        if dot(n, n) == 0.0 || dot(n, old) <= 0.0 {
+        if n.length_squared() == 0.0 || n.dot(old) <= 0.0 {
             return false;
         }
     }
@@ -240,14 +263,24 @@ fn split_geometry_ok(m: &EditMesh, v: u32, w: u32, new_faces: usize, old: P, max
 
 /// Tries to raise the smallest weight around edge (i, j) by splitting i or j
 /// (the higher degree first). Candidate cuts halve the fan at every rotation (inside)
-/// or at every inner neighbour (on the boundary); the best one that strictly raises
+/// or at every inner neighbor (on the boundary); the best one that strictly raises
 /// the smallest weight of the affected region is kept. Returns the new vertex.
 fn try_split(m: &mut EditMesh, i: u32, j: u32, max_dihedral: Option<f64>) -> Option<u32> {
     let mut ends = [i, j];
     if m.degree(j) > m.degree(i) {
         ends.swap(0, 1);
     }
-    let mut best: Option<(f64, u32, usize, usize, P, P)> = None;
+    // The best cut: the smallest affected weight after it, the vertex, the cut and
+    // the two new positions.
+    struct Cut {
+        after: f64,
+        v: u32,
+        first: usize,
+        last: usize,
+        pv: [f64; 3],
+        pw: [f64; 3],
+    }
+    let mut best: Option<Cut> = None;
     for v in ends {
         let Some(fan) = m.fan(v) else { continue };
         let nf = fan.out.len();
@@ -262,33 +295,28 @@ fn try_split(m: &mut EditMesh, i: u32, j: u32, max_dihedral: Option<f64>) -> Opt
             }
             (2..nf - 1).map(|t| (0, t)).collect()
         };
-        let p = m.positions()[v as usize];
-        let old_normal = fan.out.iter().fold([0.0; 3], |acc, &h| {
-            let n = face_normal(m, m.faces()[h as usize / 3]);
-            [acc[0] + n[0], acc[1] + n[1], acc[2] + n[2]]
-        });
+        let p = position(m, v);
+        let old_normal: DVec3 = fan
+            .out
+            .iter()
+            .map(|&h| face_normal(m, m.faces()[h as usize / 3]))
+            .sum();
         for (first, last) in cuts {
             // v and v' move a third of the way towards the centroids of their parts
             // of the ring (a progressive-mesh vertex split without stored positions).
-            let part = |from: usize, to: usize| -> P {
-                let mut c = [0.0; 3];
+            let part = |from: usize, to: usize| -> [f64; 3] {
+                let mut c = DVec3::ZERO;
                 let mut k = 0.0;
                 let mut a = from;
                 loop {
-                    let q = m.positions()[fan.ring[a] as usize];
-                    c = [c[0] + q[0], c[1] + q[1], c[2] + q[2]];
+                    c += position(m, fan.ring[a]);
                     k += 1.0;
                     if a == to {
                         break;
                     }
                     a = (a + 1) % fan.ring.len();
                 }
-                let c = [c[0] / k, c[1] / k, c[2] / k];
-                [
-                    p[0] + (c[0] - p[0]) / 3.0,
-                    p[1] + (c[1] - p[1]) / 3.0,
-                    p[2] + (c[2] - p[2]) / 3.0,
-                ]
+                (p + (c / k - p) / 3.0).to_array()
             };
             let (pv, pw) = if fan.closed {
                 (part(first, last), part(last, first))
@@ -307,15 +335,29 @@ fn try_split(m: &mut EditMesh, i: u32, j: u32, max_dihedral: Option<f64>) -> Opt
                 max_dihedral.is_none_or(|d| split_geometry_ok(m, v, w, added, old_normal, d));
             let after = region_min(m, &[v, w, a, b]);
             m.rollback();
-            if ok_geometry && after > before && best.as_ref().is_none_or(|b| after > b.0) {
-                best = Some((after, v, first, last, pv, pw));
+            if ok_geometry && after > before && best.as_ref().is_none_or(|b| after > b.after) {
+                best = Some(Cut {
+                    after,
+                    v,
+                    first,
+                    last,
+                    pv,
+                    pw,
+                });
             }
         }
         if best.is_some() {
             break;
         }
     }
-    let (_, v, first, last, pv, pw) = best?;
+    let Cut {
+        v,
+        first,
+        last,
+        pv,
+        pw,
+        ..
+    } = best?;
     m.split_vertex(v, first, last, pv, pw).ok()
 }
 
@@ -323,10 +365,19 @@ fn try_split(m: &mut EditMesh, i: u32, j: u32, max_dihedral: Option<f64>) -> Opt
 /// returns the edited mesh and a report. Swapping keeps the vertices and the face
 /// count; each vertex split appends one vertex (at the end, so earlier indices are
 /// unchanged) and two faces (one on the boundary). Refuses non-manifold edges.
+///
+/// # Errors
+/// [`RepairError::Mesh`] for a mesh with a non-manifold edge;
+/// [`RepairError::Dihedral`] for a threshold outside (0°, 180°].
 pub fn repair_sql(
     mesh: &TriMesh,
     opts: &RepairOptions,
-) -> Result<(TriMesh, RepairReport), MeshError> {
+) -> Result<(TriMesh, RepairReport), RepairError> {
+    if let Some(d) = opts.max_dihedral_degrees {
+        if !(d > 0.0 && d <= 180.0) {
+            return Err(RepairError::Dihedral(d));
+        }
+    }
     let mut fm = EditMesh::new(mesh)?;
     let before = negative_weights(&fm);
     let mut heap: BinaryHeap<Entry> = before
@@ -464,12 +515,12 @@ mod tests {
             .count()
     }
 
-    /// A fan of `k` triangles around a centre on an icosphere-like cap: a closed mesh
+    /// A fan of `k` triangles around a center on an icosphere-like cap: a closed mesh
     /// with one very high-degree vertex, which makes negative SQL weights.
     fn high_degree_mesh() -> TriMesh {
         let mut m = builtin::icosphere(2).unwrap();
         // Collapse-free construction: add a vertex above face 0..k fan by splitting
-        // every face around vertex 0's neighbourhood into a cone at a new apex.
+        // every face around vertex 0's neighborhood into a cone at a new apex.
         let apex = m.positions.len() as u32;
         m.positions.push([0.0, 0.0, 1.3]);
         let mut faces = Vec::new();
@@ -566,7 +617,22 @@ mod tests {
         let m = TriMesh::new(vec![[0.0; 3]; 5], vec![[0, 1, 2], [1, 0, 3], [0, 1, 4]]);
         assert!(matches!(
             repair_sql(&m, &RepairOptions::default()),
-            Err(MeshError::NonManifoldEdge { .. })
+            Err(RepairError::Mesh(MeshError::NonManifoldEdge { .. }))
         ));
+    }
+
+    #[test]
+    fn bad_options_are_typed_errors() {
+        let m = builtin::torus(10, 8).unwrap();
+        for d in [0.0, -5.0, 190.0, f64::NAN] {
+            let opts = RepairOptions {
+                max_dihedral_degrees: Some(d),
+                ..Default::default()
+            };
+            assert!(matches!(
+                repair_sql(&m, &opts),
+                Err(RepairError::Dihedral(_))
+            ));
+        }
     }
 }

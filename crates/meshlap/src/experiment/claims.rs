@@ -18,7 +18,7 @@
 use super::{sig, yes_no, ExperimentError, Table};
 use crate::analysis::properties::{analyze, PropertyOptions, PropertyReport};
 use crate::analysis::repair::{repair_sql, RepairOptions, RepairReport};
-use crate::analysis::smoothing::{gershgorin_k, iterate, SmoothingStep};
+use crate::analysis::smoothing::{iterate, IterateOptions, SmoothingStep};
 use crate::input::Input;
 use crate::operator::{sql::BoundaryDiagonal, Operator, OperatorKind, OperatorOptions};
 use crate::plot::{Chart, Scale, Series};
@@ -295,8 +295,10 @@ pub fn limits(
             &OperatorOptions::default(),
         )
         .map_err(|e| input_err(input, e))?;
-        let k = gershgorin_k(&op.matrix);
-        let (st, _) = iterate(&op.matrix, k, &input.mesh.positions, &degrees, steps);
+        let opts = IterateOptions { k: None, steps };
+        let run = iterate(&op.matrix, &input.mesh.positions, &degrees, &opts)
+            .map_err(|e| input_err(input, e))?;
+        let (k, st) = (run.k, run.steps);
         // Ratios are compared while the variance is well above rounding level (1e-20
         // of the input's); below that, quotients of rounding errors mean nothing.
         let floor = st[0].variance * 1e-20;

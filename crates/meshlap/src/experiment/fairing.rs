@@ -11,7 +11,7 @@
 //! solution), so the paper's remark that the weak criterion stops BiCG on a residual
 //! "plateau" is measured: `error` is the largest vertex displacement from the direct
 //! solution over the bounding-box diagonal. The BiCG plateau detector of
-//! [`crate::solve::bicg`] is reported too.
+//! [`crate::solve::bicg()`] is reported too.
 //!
 //! The SQL can have negative weights (Zhang §3.7), and then `I + λS` may be
 //! indefinite. They are counted; with [`FairingOptions::repair_sql`] they are first
@@ -26,10 +26,11 @@
 use super::{sig, ExperimentError, Outputs, Table};
 use crate::analysis::repair::{repair_sql, RepairOptions};
 use crate::filter::implicit::{symmetrizer, ImplicitSolver, SolverKind};
+use crate::filter::FilterError;
 use crate::mesh::{topology::Topology, TriMesh};
 use crate::operator::{sql::sql, tutte::tutte};
 use crate::plot::{Chart, Scale, Series};
-use crate::solve::{direct::CholeskySolver, Info, Params, SolveError};
+use crate::solve::{direct::CholeskySolver, Params, SolveError, SolveInfo};
 use serde::Serialize;
 
 /// Options of [`fairing_table`].
@@ -244,21 +245,39 @@ fn max_vertex_distance(a: &[f64], b: &[f64], scale: f64) -> f64 {
 
 /// Times `solver` on `b` (median of `repeat`), returning the last solution and info.
 fn timed(
-    solver: &ImplicitSolver,
+    solver: &mut ImplicitSolver,
     b: &[f64],
     params: &Params,
     repeat: usize,
-) -> Result<(Vec<f64>, Info, f64), SolveError> {
+) -> Result<(Vec<f64>, SolveInfo, f64), FilterError> {
     let mut times = Vec::with_capacity(repeat.max(1));
     let mut last = None;
     for _ in 0..repeat.max(1) {
         let mut x = b.to_vec();
         let info = solver.solve(b, &mut x, params)?;
-        times.push(info.seconds);
+        times.push(info.seconds());
         last = Some((x, info));
     }
     let (x, info) = last.expect("at least one run");
     Ok((x, info, median(times)))
+}
+
+/// A run with what `info` recorded (BiCG's plateau, none for the other solvers).
+fn recorded(method: Method, lambda: f64, seconds: f64, info: &SolveInfo) -> Run {
+    let k = info.iterations().len();
+    Run {
+        method,
+        lambda,
+        seconds,
+        iterations: info.iterations().to_vec(),
+        residuals: info.residuals().to_vec(),
+        error: None,
+        plateau_at: info
+            .plateau_at()
+            .map_or_else(|| vec![None; k], <[_]>::to_vec),
+        history: info.history().to_vec(),
+        failure: None,
+    }
 }
 
 fn failed(method: Method, lambda: f64, e: impl std::fmt::Display) -> Run {
@@ -324,55 +343,48 @@ pub fn fairing_table(
     for &lambda in &opts.lambdas {
         // Direct references.
         progress(&format!("λ = {lambda}: direct solutions"));
-        let cg_sql = ImplicitSolver::new(&s, lambda, SolverKind::Cg);
+        let mut cg_sql = ImplicitSolver::new(&s, lambda, SolverKind::Cg);
         let want_sql = cg_sql.as_ref().ok().and_then(|solver| {
             let chol = CholeskySolver::new(&solver.system_matrix().to_csc()).ok()?;
             let mut x = b.clone();
             chol.solve_in_place(&mut x, 3).ok()?;
             Some(x)
         });
-        let cg_tl = ImplicitSolver::new(&tl, lambda, SolverKind::CgSym)?;
+        let mut cg_tl = ImplicitSolver::new(&tl, lambda, SolverKind::CgSym)?;
         let want_tl = {
-            let chol = CholeskySolver::new(&cg_tl.system_matrix().to_csc())?;
+            let chol =
+                CholeskySolver::new(&cg_tl.system_matrix().to_csc()).map_err(SolveError::from)?;
             let mut x: Vec<f64> = b.iter().enumerate().map(|(j, v)| v * s_tl[j / 3]).collect();
-            chol.solve_in_place(&mut x, 3)?;
+            chol.solve_in_place(&mut x, 3).map_err(SolveError::from)?;
             x
         };
-        let bicg = ImplicitSolver::new(&tl, lambda, SolverKind::Bicg)?;
+        let mut bicg = ImplicitSolver::new(&tl, lambda, SolverKind::Bicg)?;
         for method in Method::ALL {
             progress(&format!("λ = {lambda}: {}", method.label()));
             let (solver, want) = match method {
-                Method::CgSql => match &cg_sql {
+                Method::CgSql => match &mut cg_sql {
                     Ok(s) => (s, want_sql.as_deref()),
                     Err(e) => {
                         table.runs.push(failed(method, lambda, e));
                         continue;
                     }
                 },
-                Method::CgTl => (&cg_tl, Some(want_tl.as_slice())),
-                Method::BicgTl => (&bicg, Some(want_tl.as_slice())),
+                Method::CgTl => (&mut cg_tl, Some(want_tl.as_slice())),
+                Method::BicgTl => (&mut bicg, Some(want_tl.as_slice())),
             };
             match timed(solver, &b, &opts.params, opts.repeat) {
                 Ok((x, info, seconds)) => table.runs.push(Run {
-                    method,
-                    lambda,
-                    seconds,
                     error: want.map(|w| max_vertex_distance(&x, w, scale)),
-                    iterations: info.iterations,
-                    residuals: info.residuals,
-                    plateau_at: info.plateau_at,
-                    history: info.history,
                     failure: None,
+                    ..recorded(method, lambda, seconds, &info)
                 }),
-                Err(SolveError::NoConvergence { info }) => {
-                    let mut r = failed(method, lambda, "no convergence within the cap");
-                    r.iterations = info.iterations;
-                    r.residuals = info.residuals;
-                    r.history = info.history;
-                    r.plateau_at = info.plateau_at;
-                    table.runs.push(r);
-                }
-                Err(e) => table.runs.push(failed(method, lambda, e)),
+                Err(e) => table.runs.push(match e.unconverged() {
+                    Some(info) => Run {
+                        failure: Some("no convergence within the cap".into()),
+                        ..recorded(method, lambda, f64::NAN, &info)
+                    },
+                    None => failed(method, lambda, e),
+                }),
             }
         }
     }

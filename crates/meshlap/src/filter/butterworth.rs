@@ -14,45 +14,70 @@
 //!
 //! F is n×n with the sign `F = D − W`; positions are the n×3 row-major block.
 
+use super::{ButterworthOptions, Filter, FilterError};
 use crate::solve::{
-    self,
-    direct::{CholeskySolver, LuSolver},
-    CsrMatrix, Info, SolveError, SparseOperator,
+    relative_residuals, CholeskySolver, CsrMatrix, DirectError, DirectInfo, Info, LuSolver,
+    SolveInfo,
 };
 use crate::SparseMatrix;
-use std::time::Instant;
 
 /// The analytic response `1 / (1 + (γ/γ_PB)^{2s})`.
 pub fn butterworth_response(order: usize, passband: f64, gamma: f64) -> f64 {
     1.0 / (1.0 + (gamma / passband).powi(2 * order as i32))
 }
 
-/// Applies the Butterworth filter to the n×3 row-major `x` in place; returns one
-/// [`Info`] per factor (relative residual of each factor's solve).
+/// The factorization of every factor `Q_k`: Cholesky for a symmetric F, LU otherwise,
+/// analyzed once and refactored numerically for each k.
+enum Factor {
+    Cholesky(CholeskySolver),
+    Lu(Box<LuSolver>),
+}
+
+impl Factor {
+    fn new(q: &SparseMatrix, symmetric: bool) -> Result<Self, DirectError> {
+        Ok(if symmetric {
+            Factor::Cholesky(CholeskySolver::new(q)?)
+        } else {
+            Factor::Lu(Box::new(LuSolver::new(q)?))
+        })
+    }
+    fn refactor(&mut self, q: &SparseMatrix) -> Result<(), DirectError> {
+        match self {
+            Factor::Cholesky(s) => s.refactor(q),
+            Factor::Lu(s) => s.refactor(q),
+        }
+    }
+    fn solve_in_place(&self, x: &mut [f64]) -> Result<DirectInfo, DirectError> {
+        match self {
+            Factor::Cholesky(s) => s.solve_in_place(x, 3),
+            Factor::Lu(s) => s.solve_in_place(x, 3),
+        }
+    }
+}
+
+/// Applies the Butterworth filter `opts` with the n×n operator `f` (`F = D − W`) to
+/// the n×3 row-major `x` in place; returns the record of each factor's solve (its
+/// relative residual and factorization).
 pub fn butterworth(
     f: &SparseMatrix,
     x: &mut [f64],
-    order: usize,
-    passband: f64,
-) -> Result<Vec<Info>, SolveError> {
-    if order == 0 {
-        return Err(SolveError::InvalidParameter(
-            "Butterworth order must be ≥ 1".into(),
-        ));
+    opts: &ButterworthOptions,
+) -> Result<Vec<SolveInfo>, FilterError> {
+    Filter::Butterworth(*opts).validate()?;
+    let (order, c) = (opts.order, opts.passband);
+    if x.len() != 3 * f.nrows() || f.nrows() != f.ncols() {
+        return Err(FilterError::Positions {
+            len: x.len(),
+            n: f.nrows(),
+        });
     }
-    if !(passband > 0.0 && passband.is_finite()) {
-        return Err(SolveError::InvalidParameter(format!(
-            "Butterworth pass-band must be positive, got {passband}"
-        )));
-    }
-    let c = passband;
     let a = CsrMatrix::from_csc(f);
     let a2 = a.matmul(&a);
     let symmetric = super::implicit::is_symmetric(f);
     let ones = vec![1.0; f.nrows()];
-    let mut chol: Option<CholeskySolver> = None;
-    let mut lu: Option<LuSolver> = None;
+    let mut factor: Option<Factor> = None;
     let mut infos = Vec::with_capacity(order);
+    let solve_error = |e: DirectError| FilterError::Solve(e.into());
     for k in 0..order {
         let theta = std::f64::consts::PI * (2 * k + 1) as f64 / (2 * order) as f64;
         // Q = I − (2cos θ/c) F + F²/c²
@@ -60,34 +85,25 @@ pub fn butterworth(
             .add(1.0 / (c * c), &a, -2.0 * theta.cos() / c)
             .shifted(&ones, 1.0);
         let qc = q.to_csc();
-        let t = Instant::now();
+        let solver = match factor.take() {
+            Some(mut s) => {
+                s.refactor(&qc).map_err(solve_error)?;
+                s
+            }
+            None => Factor::new(&qc, symmetric).map_err(solve_error)?,
+        };
         let b = x.to_vec();
-        if symmetric {
-            match &mut chol {
-                Some(s) => s.refactor(&qc)?,
-                None => chol = Some(CholeskySolver::new(&qc)?),
-            }
-            if let Some(s) = &chol {
-                s.solve_in_place(x, 3)?;
-            }
-        } else {
-            match &mut lu {
-                Some(s) => s.refactor(&qc)?,
-                None => lu = Some(LuSolver::new(&qc)?),
-            }
-            if let Some(s) = &lu {
-                s.solve_in_place(x, 3)?;
-            }
-        }
-        let seconds = t.elapsed().as_secs_f64();
-        let op = SparseOperator::from_csr(q, None);
-        infos.push(Info {
-            iterations: vec![0; 3],
-            residuals: solve::relative_residuals(&op, x, &b, 3),
-            history: vec![Vec::new(); 3],
-            plateau_at: vec![None; 3],
-            seconds,
+        let factorization = solver.solve_in_place(x).map_err(solve_error)?;
+        infos.push(SolveInfo::Direct {
+            info: Info {
+                iterations: vec![0; 3],
+                residuals: relative_residuals(&q, x, &b, 3),
+                history: vec![Vec::new(); 3],
+                seconds: factorization.solve_seconds,
+            },
+            factorization,
         });
+        factor = Some(solver);
     }
     Ok(infos)
 }
@@ -112,7 +128,15 @@ mod tests {
                 let cols = [idx, (idx + 7) % n, (idx + 31) % n];
                 let mut x: Vec<f64> = (0..n).flat_map(|i| cols.map(|c| evd.U()[(i, c)])).collect();
                 let x0 = x.clone();
-                butterworth(&f, &mut x, order, pb).unwrap();
+                butterworth(
+                    &f,
+                    &mut x,
+                    &ButterworthOptions {
+                        order,
+                        passband: pb,
+                    },
+                )
+                .unwrap();
                 for (c, &col) in cols.iter().enumerate() {
                     let h = butterworth_response(order, pb, evd.S()[col]);
                     for i in 0..n {
@@ -139,7 +163,11 @@ mod tests {
             let v: Vec<f64> = (0..n).map(|i| evd.U()[(i, idx)] / d[i].sqrt()).collect();
             let mut x: Vec<f64> = v.iter().flat_map(|&a| [a, 2.0 * a, -a]).collect();
             let x0 = x.clone();
-            butterworth(&f, &mut x, order, pb).unwrap();
+            let opts = ButterworthOptions {
+                order,
+                passband: pb,
+            };
+            butterworth(&f, &mut x, &opts).unwrap();
             let h = butterworth_response(order, pb, evd.S()[idx]);
             for j in 0..3 * n {
                 assert!((x[j] - h * x0[j]).abs() < 1e-10);
@@ -153,8 +181,24 @@ mod tests {
         let t = Topology::new(&m).unwrap();
         let f = tutte(&t).unwrap();
         let mut x = vec![1.0; 36];
-        assert!(butterworth(&f, &mut x, 0, 0.5).is_err());
-        assert!(butterworth(&f, &mut x, 2, -0.5).is_err());
-        assert!(butterworth(&f, &mut x, 2, f64::INFINITY).is_err());
+        let opts = |order, passband| ButterworthOptions { order, passband };
+        assert!(matches!(
+            butterworth(&f, &mut x, &opts(0, 0.5)),
+            Err(FilterError::ZeroOrder)
+        ));
+        assert!(matches!(
+            butterworth(&f, &mut x, &opts(2, -0.5)),
+            Err(FilterError::NotPositive { .. })
+        ));
+        assert!(butterworth(&f, &mut x, &opts(2, f64::INFINITY)).is_err());
+        let mut short = vec![1.0; 35];
+        assert!(matches!(
+            butterworth(&f, &mut short, &opts(2, 0.5)),
+            Err(FilterError::Positions { .. })
+        ));
+        // One record per factor, each with its factorization.
+        let infos = butterworth(&f, &mut x, &opts(3, 0.5)).unwrap();
+        assert_eq!(infos.len(), 3);
+        assert!(infos.iter().all(|i| i.factorization().is_some()));
     }
 }

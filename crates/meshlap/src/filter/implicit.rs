@@ -6,51 +6,54 @@
 //! semi-definite), so `I + λF` is positive definite for λ > 0 and symmetric exactly
 //! when F is (KL, SQL without negative weights, SSTL, GL, cotangent stiffness).
 //!
-//! [`ImplicitSolver`] is the reusable solver: it assembles the system once for an
-//! operator and a solver kind, keeps everything the kind needs across solves (the
-//! CSR matrix, its transpose for BiCG, the symmetrised system for `cg-sym`, the
-//! Cholesky or LU factorisation) and, on [`ImplicitSolver::set_lambda`], refactors
-//! reusing the symbolic analysis. [`implicit_fairing`] is the one-shot function.
+//! [`ImplicitSolver`] is the stateful solver and the one route to every solver kind
+//! (geometry-central's pattern): it assembles the system once for an operator and a
+//! solver kind and keeps everything the kind needs across solves — the CSR matrix, its
+//! transpose for BiCG, the Jacobi preconditioner, the symmetrized system for `cg-sym`,
+//! the Cholesky or LU factorization, and the iterative solvers' buffers. On
+//! [`ImplicitSolver::set_lambda`] the direct kinds refactor numerically, reusing the
+//! symbolic analysis. [`implicit_fairing`] is the one-shot function.
 //!
 //! Systems per solver kind:
 //! - `cg`, `pcg`, `cholesky`: `(I + λF)x = b`, F must be symmetric (checked: a
 //!   non-symmetric F is an error, never a silent wrong answer);
 //! - `bicg`, `bicgstab`, `lu`: `(I + λF)x = b`, any F;
 //! - `cg-sym`: `S(I + λF)x = Sb` with S a positive diagonal making `S·F` symmetric
-//!   ([`diagonal_symmetrizer`]), scaled so the off-diagonal entries of `S·F` have mean
+//!   ([`symmetrizer`]), scaled so the off-diagonal entries of `S·F` have mean
 //!   magnitude 1. For the Tutte Laplacian `T = D⁻¹K` this gives S = D and the paper's
-//!   `(D + λK)x = Db` ("CG (TL)" of Table 1). Same solution as the unsymmetrised
-//!   system, SPD, so CG applies.
+//!   `(D + λK)x = Db` ("CG (TL)" of Table 1). Same solution as the unsymmetrized
+//!   system, SPD, so CG applies;
+//! - `auto` (the default): `cg` for a symmetric F, `bicg` otherwise.
 //!
 //! The SQL with negative weights can make `I + λS` indefinite: CG reports
-//! [`SolveError::NotPositiveDefinite`] on a non-positive curvature and Cholesky on a
-//! non-positive pivot.
+//! [`crate::solve::CgError::NotPositiveDefinite`] on a non-positive curvature and
+//! Cholesky [`crate::solve::DirectError::NotPositiveDefinite`] on a non-positive pivot.
 
-use super::FilterError;
+use super::options::{positive, ImplicitOptions};
+use super::{FilterError, FilterKind};
 use crate::analysis::properties::{asymmetry, diagonal_symmetrizer};
 use crate::solve::{
-    self,
-    cg::Preconditioner,
-    direct::{CholeskySolver, LuSolver},
-    CsrMatrix, Info, LinearOperator, Params, SolveError, SparseOperator,
+    bicg, bicgstab, cg, check_sizes, relative_residuals, CholeskySolver, CsrMatrix,
+    CsrWithTranspose, DirectError, DirectInfo, Info, InputError, Jacobi, LuSolver, Params,
+    SolveError, SolveInfo, Workspace,
 };
 use crate::SparseMatrix;
-use serde::Serialize;
-use std::time::Instant;
 
 /// Linear solver of the implicit filter.
-#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash, Serialize)]
-#[serde(rename_all = "kebab-case")]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
 pub enum SolverKind {
+    /// Chosen from the operator: CG for a symmetric F, BiCG otherwise.
+    #[default]
+    Auto,
     /// Conjugate gradients (symmetric F).
     Cg,
     /// Jacobi-preconditioned CG (symmetric F).
     Pcg,
     /// Bi-conjugate gradients (any F).
     Bicg,
-    /// CG on the symmetrised system `S(I + λF)x = Sb` (the paper's "CG (TL)").
+    /// CG on the symmetrized system `S(I + λF)x = Sb` (the paper's "CG (TL)").
     CgSym,
-    /// faer's BiCGSTAB (any F; stops on the strong criterion only).
+    /// BiCGSTAB (any F).
     Bicgstab,
     /// Sparse Cholesky (symmetric F).
     Cholesky,
@@ -58,31 +61,21 @@ pub enum SolverKind {
     Lu,
 }
 
+crate::names::option_names!(SolverKind, FilterError, |s| FilterError::UnknownName {
+    what: "solver",
+    got: s.to_string(),
+}, {
+    Auto => "auto",
+    Cg => "cg",
+    Pcg => "pcg",
+    Bicg => "bicg",
+    CgSym => "cg-sym",
+    Bicgstab => "bicgstab",
+    Cholesky => "cholesky",
+    Lu => "lu",
+});
+
 impl SolverKind {
-    /// Every kind.
-    pub const ALL: [SolverKind; 7] = [
-        SolverKind::Cg,
-        SolverKind::Pcg,
-        SolverKind::Bicg,
-        SolverKind::CgSym,
-        SolverKind::Bicgstab,
-        SolverKind::Cholesky,
-        SolverKind::Lu,
-    ];
-
-    /// Name as accepted on the command line.
-    pub fn name(self) -> &'static str {
-        match self {
-            SolverKind::Cg => "cg",
-            SolverKind::Pcg => "pcg",
-            SolverKind::Bicg => "bicg",
-            SolverKind::CgSym => "cg-sym",
-            SolverKind::Bicgstab => "bicgstab",
-            SolverKind::Cholesky => "cholesky",
-            SolverKind::Lu => "lu",
-        }
-    }
-
     /// True for the kinds that need a symmetric F.
     pub fn needs_symmetric(self) -> bool {
         matches!(
@@ -95,25 +88,15 @@ impl SolverKind {
     pub fn is_direct(self) -> bool {
         matches!(self, SolverKind::Cholesky | SolverKind::Lu)
     }
-}
 
-impl std::fmt::Display for SolverKind {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl std::str::FromStr for SolverKind {
-    type Err = FilterError;
-    fn from_str(s: &str) -> Result<Self, FilterError> {
-        SolverKind::ALL
-            .into_iter()
-            .find(|k| k.name() == s)
-            .ok_or_else(|| {
-                FilterError::InvalidParameter(format!(
-                    "unknown solver `{s}` (cg, pcg, bicg, cg-sym, bicgstab, cholesky, lu)"
-                ))
-            })
+    /// The kind that runs for operator `f`: [`SolverKind::Auto`] becomes CG for a
+    /// symmetric F and BiCG otherwise; the other kinds stay.
+    pub fn resolve(self, f: &SparseMatrix) -> SolverKind {
+        match self {
+            SolverKind::Auto if is_symmetric(f) => SolverKind::Cg,
+            SolverKind::Auto => SolverKind::Bicg,
+            kind => kind,
+        }
     }
 }
 
@@ -154,68 +137,75 @@ pub fn symmetrizer(f: &SparseMatrix) -> Option<Vec<f64>> {
 }
 
 enum Prepared {
-    Cg(SparseOperator, Preconditioner),
-    Bicg(SparseOperator),
-    CgSym { op: SparseOperator, s: Vec<f64> },
-    Bicgstab(SparseMatrix),
-    Cholesky(SparseOperator, CholeskySolver),
-    Lu(SparseOperator, Box<LuSolver>),
+    /// CG or PCG on `I + λF`.
+    Cg {
+        a: CsrMatrix,
+        jacobi: Option<Jacobi>,
+    },
+    /// BiCG on `I + λF` and its transpose.
+    Bicg(CsrWithTranspose),
+    /// CG on `S(I + λF)`; `I + λF` kept for the residuals of the original system.
+    CgSym {
+        a: CsrMatrix,
+        original: CsrMatrix,
+        s: Vec<f64>,
+    },
+    /// BiCGSTAB on `I + λF`.
+    Bicgstab(CsrMatrix),
+    /// `I + λF` and its Cholesky factorization.
+    Cholesky(CsrMatrix, CholeskySolver),
+    /// `I + λF` and its LU factorization.
+    Lu(CsrMatrix, Box<LuSolver>),
 }
 
-/// Reusable solver of `(I + λF) x = b` (see the module documentation).
+/// Stateful solver of `(I + λF) x = b` for n×3 blocks (see the module documentation).
 pub struct ImplicitSolver {
     f: CsrMatrix,
     kind: SolverKind,
     lambda: f64,
-    /// Symmetriser for `cg-sym`.
-    s: Option<Vec<f64>>,
     prepared: Prepared,
+    workspace: Workspace,
 }
 
-fn check_lambda(lambda: f64) -> Result<(), FilterError> {
-    if lambda > 0.0 && lambda.is_finite() {
-        Ok(())
-    } else {
-        Err(FilterError::InvalidParameter(format!(
-            "λ must be positive and finite, got {lambda}"
-        )))
-    }
+fn direct(e: DirectError) -> FilterError {
+    FilterError::Solve(e.into())
 }
 
 impl ImplicitSolver {
-    /// Prepares the system `(I + λF)` for `kind`: checks that F suits the kind, builds
-    /// the matrices and, for the direct kinds, factors. F is n×n with `F = D − W`.
+    /// Prepares the system `I + λF` for `kind` ([`SolverKind::Auto`] is resolved
+    /// here): checks that F (n×n, `F = D − W`) suits the kind, builds the matrices and,
+    /// for the direct kinds, factors.
+    ///
+    /// # Errors
+    /// λ not positive and finite; F not square; a kind needing a symmetric F given a
+    /// non-symmetric one ([`FilterError::NeedsSymmetric`]); `cg-sym` without a
+    /// symmetrizer; a failed factorization (an indefinite `I + λS` for Cholesky).
     pub fn new(f: &SparseMatrix, lambda: f64, kind: SolverKind) -> Result<Self, FilterError> {
-        check_lambda(lambda)?;
+        positive(lambda, "λ")?;
         if f.nrows() != f.ncols() {
-            return Err(FilterError::InvalidParameter(format!(
-                "operator is {}×{}, not square",
-                f.nrows(),
-                f.ncols()
-            )));
+            return Err(FilterError::OperatorSize {
+                rows: f.nrows(),
+                cols: f.ncols(),
+                n: f.nrows(),
+            });
         }
+        let kind = kind.resolve(f);
         if kind.needs_symmetric() && !is_symmetric(f) {
-            return Err(FilterError::InvalidParameter(format!(
-                "solver {kind} needs a symmetric operator; this one is not (use bicg, cg-sym, bicgstab or lu)"
-            )));
+            return Err(FilterError::NeedsSymmetric { solver: kind });
         }
         let s = if kind == SolverKind::CgSym {
-            Some(symmetrizer(f).ok_or_else(|| {
-                FilterError::Spectrum(
-                    "cg-sym needs an operator with a positive diagonal symmetrizer (TL, SDL, mean-value, or any symmetric one)".into(),
-                )
-            })?)
+            Some(symmetrizer(f).ok_or(FilterError::NoSymmetrizer { what: "cg-sym" })?)
         } else {
             None
         };
         let f = CsrMatrix::from_csc(f);
-        let prepared = Self::prepare(&f, lambda, kind, s.as_deref())?;
+        let prepared = Self::prepare(&f, lambda, kind, s)?;
         Ok(ImplicitSolver {
             f,
             kind,
             lambda,
-            s,
             prepared,
+            workspace: Workspace::new(),
         })
     }
 
@@ -223,59 +213,64 @@ impl ImplicitSolver {
         f: &CsrMatrix,
         lambda: f64,
         kind: SolverKind,
-        s: Option<&[f64]>,
+        s: Option<Vec<f64>>,
     ) -> Result<Prepared, FilterError> {
-        let ones = vec![1.0; f.nrows()];
-        let b = f.shifted(&ones, lambda);
-        Ok(match kind {
-            SolverKind::Cg => Prepared::Cg(SparseOperator::from_csr(b, None), Preconditioner::None),
-            SolverKind::Pcg => {
-                Prepared::Cg(SparseOperator::from_csr(b, None), Preconditioner::Jacobi)
-            }
-            SolverKind::Bicg => {
-                let bt = CsrMatrix::transpose_of_csc(&b.to_csc());
-                Prepared::Bicg(SparseOperator::from_csr(b, Some(bt)))
-            }
-            SolverKind::CgSym => {
-                let s = s.expect("symmetrizer computed in new");
-                // S(I + λF) = S + λ·S·F, symmetrised to remove rounding asymmetry.
-                let sf = f.scale_rows(s);
-                let sym = sf.add(0.5, &CsrMatrix::transpose_of_csc(&sf.to_csc()), 0.5);
+        let b = f.shifted(&vec![1.0; f.nrows()], lambda);
+        Ok(match (kind, s) {
+            (SolverKind::CgSym, Some(s)) => {
+                // S(I + λF) = S + λ·S·F, symmetrized to remove rounding asymmetry.
+                let sf = f.scale_rows(&s);
+                let sym = sf.add(0.5, &sf.transpose(), 0.5);
                 Prepared::CgSym {
-                    op: SparseOperator::from_csr(sym.shifted(s, lambda), None),
-                    s: s.to_vec(),
+                    a: sym.shifted(&s, lambda),
+                    original: b,
+                    s,
                 }
             }
-            SolverKind::Bicgstab => Prepared::Bicgstab(b.to_csc()),
-            SolverKind::Cholesky => {
-                let chol = CholeskySolver::new(&b.to_csc())?;
-                Prepared::Cholesky(SparseOperator::from_csr(b, None), chol)
+            (SolverKind::CgSym, None) => return Err(FilterError::NoSymmetrizer { what: "cg-sym" }),
+            (SolverKind::Cg | SolverKind::Auto, _) => Prepared::Cg { a: b, jacobi: None },
+            (SolverKind::Pcg, _) => {
+                let jacobi = Jacobi::new(&b).map_err(|e| FilterError::Solve(e.into()))?;
+                Prepared::Cg {
+                    a: b,
+                    jacobi: Some(jacobi),
+                }
             }
-            SolverKind::Lu => {
-                let lu = Box::new(LuSolver::new(&b.to_csc())?);
-                Prepared::Lu(SparseOperator::from_csr(b, None), lu)
+            (SolverKind::Bicg, _) => Prepared::Bicg(CsrWithTranspose::new(b)),
+            (SolverKind::Bicgstab, _) => Prepared::Bicgstab(b),
+            (SolverKind::Cholesky, _) => {
+                let chol = CholeskySolver::new(&b.to_csc()).map_err(direct)?;
+                Prepared::Cholesky(b, chol)
+            }
+            (SolverKind::Lu, _) => {
+                let lu = Box::new(LuSolver::new(&b.to_csc()).map_err(direct)?);
+                Prepared::Lu(b, lu)
             }
         })
     }
 
-    /// Changes λ; the direct kinds refactor reusing their symbolic analysis.
+    /// Changes λ; the direct kinds refactor numerically, reusing their symbolic
+    /// analysis. A failed refactorization leaves the solver as it was.
     pub fn set_lambda(&mut self, lambda: f64) -> Result<(), FilterError> {
-        check_lambda(lambda)?;
-        // The direct kinds refactor in place with their symbolic analysis; a failed
-        // refactorisation leaves the solver as it was.
+        positive(lambda, "λ")?;
+        let shifted = |f: &CsrMatrix| f.shifted(&vec![1.0; f.nrows()], lambda);
         match &mut self.prepared {
-            Prepared::Cholesky(op, chol) => {
-                let b = self.f.shifted(&vec![1.0; self.f.nrows()], lambda);
-                chol.refactor(&b.to_csc())?;
-                *op = SparseOperator::from_csr(b, None);
+            Prepared::Cholesky(a, chol) => {
+                let b = shifted(&self.f);
+                chol.refactor(&b.to_csc()).map_err(direct)?;
+                *a = b;
             }
-            Prepared::Lu(op, lu) => {
-                let b = self.f.shifted(&vec![1.0; self.f.nrows()], lambda);
-                lu.refactor(&b.to_csc())?;
-                *op = SparseOperator::from_csr(b, None);
+            Prepared::Lu(a, lu) => {
+                let b = shifted(&self.f);
+                lu.refactor(&b.to_csc()).map_err(direct)?;
+                *a = b;
             }
             _ => {
-                self.prepared = Self::prepare(&self.f, lambda, self.kind, self.s.as_deref())?;
+                let s = match &self.prepared {
+                    Prepared::CgSym { s, .. } => Some(s.clone()),
+                    _ => None,
+                };
+                self.prepared = Self::prepare(&self.f, lambda, self.kind, s)?;
             }
         }
         self.lambda = lambda;
@@ -286,7 +281,7 @@ impl ImplicitSolver {
     pub fn lambda(&self) -> f64 {
         self.lambda
     }
-    /// The solver kind.
+    /// The solver kind that runs (never [`SolverKind::Auto`]).
     pub fn kind(&self) -> SolverKind {
         self.kind
     }
@@ -295,103 +290,131 @@ impl ImplicitSolver {
         self.f.nrows()
     }
 
-    /// The matrix the solver actually works on (`I + λF`, or `S(I + λF)` for `cg-sym`),
-    /// as CSR.
-    pub fn system_matrix(&self) -> CsrMatrix {
+    /// The matrix the solver works on (`I + λF`, or `S(I + λF)` for `cg-sym`), as CSR.
+    pub fn system_matrix(&self) -> &CsrMatrix {
         match &self.prepared {
-            Prepared::Cg(op, _)
-            | Prepared::Bicg(op)
-            | Prepared::CgSym { op, .. }
-            | Prepared::Cholesky(op, _)
-            | Prepared::Lu(op, _) => op.matrix().clone(),
-            Prepared::Bicgstab(a) => CsrMatrix::from_csc(a),
+            Prepared::Cg { a, .. }
+            | Prepared::CgSym { a, .. }
+            | Prepared::Bicgstab(a)
+            | Prepared::Cholesky(a, _)
+            | Prepared::Lu(a, _) => a,
+            Prepared::Bicg(op) => op.matrix(),
+        }
+    }
+
+    /// The factorization of a direct kind (times and fill).
+    pub fn factorization(&self) -> Option<DirectInfo> {
+        match &self.prepared {
+            Prepared::Cholesky(_, c) => Some(c.info()),
+            Prepared::Lu(_, l) => Some(l.info()),
+            _ => None,
         }
     }
 
     /// Solves `(I + λF) x = b` for the n×3 row-major block `b`, starting from `x`
-    /// (iterative kinds; the direct ones overwrite it). `Info::residuals` are the
-    /// relative residuals of the unsymmetrised system `‖(I + λF)x − b‖/‖b‖` per column.
-    pub fn solve(&self, b: &[f64], x: &mut [f64], params: &Params) -> Result<Info, SolveError> {
-        let n = self.dim();
-        if b.len() != 3 * n || x.len() != 3 * n {
-            return Err(SolveError::Dimension(format!(
-                "the system has {n} vertices; right-hand side and initial guess need {} values each, got {} and {}",
-                3 * n,
-                b.len(),
-                x.len()
-            )));
-        }
+    /// (iterative kinds; the direct ones overwrite it). The residuals reported are those
+    /// of the unsymmetrized system `‖(I + λF)x − b‖/‖b‖` per column, whichever system
+    /// the kind solves; `params` apply to the iterative kinds.
+    pub fn solve(
+        &mut self,
+        b: &[f64],
+        x: &mut [f64],
+        params: &Params,
+    ) -> Result<SolveInfo, FilterError> {
+        let input = |e: InputError| FilterError::Solve(e.into());
+        check_sizes(self.dim(), b, x, 3).map_err(input)?;
+        params.validate().map_err(input)?;
+        Ok(self.run(b, x, params)?)
+    }
+
+    fn run(&mut self, b: &[f64], x: &mut [f64], params: &Params) -> Result<SolveInfo, SolveError> {
         let k = 3;
-        match &self.prepared {
-            Prepared::Cg(op, pre) => solve::cg::cg(op, b, x, k, params, *pre),
-            Prepared::Bicg(op) => solve::bicg::bicg(op, b, x, k, params, Preconditioner::None),
-            Prepared::CgSym { op, s } => {
-                let sb: Vec<f64> = b.iter().enumerate().map(|(j, v)| v * s[j / k]).collect();
-                let mut info = solve::cg::cg(op, &sb, x, k, params, Preconditioner::None)?;
-                // Report residuals of the original system, comparable with BiCG's.
-                let ones = vec![1.0; n];
-                let orig = SparseOperator::from_csr(self.f.shifted(&ones, self.lambda), None);
-                info.residuals = solve::relative_residuals(&orig, x, b, k);
-                Ok(info)
+        let ws = &mut self.workspace;
+        Ok(match &self.prepared {
+            Prepared::Cg { a, jacobi } => {
+                SolveInfo::Iterative(cg(a, b, x, k, params, jacobi.as_ref(), ws)?)
             }
-            Prepared::Bicgstab(a) => solve::bicgstab::bicgstab(a, b, x, k, params),
-            Prepared::Cholesky(op, c) => direct_info(op, b, x, k, |x| c.solve_in_place(x, k)),
-            Prepared::Lu(op, l) => direct_info(op, b, x, k, |x| l.solve_in_place(x, k)),
+            Prepared::Bicg(op) => SolveInfo::Bicg(bicg(op, b, x, k, &(*params).into(), None, ws)?),
+            Prepared::CgSym { a, original, s } => {
+                let sb: Vec<f64> = b.iter().enumerate().map(|(j, v)| v * s[j / k]).collect();
+                let mut info = cg(a, &sb, x, k, params, None, ws)?;
+                // Residuals of the original system, comparable with BiCG's.
+                info.residuals = relative_residuals(original, x, b, k);
+                SolveInfo::Iterative(info)
+            }
+            Prepared::Bicgstab(a) => SolveInfo::Iterative(bicgstab(a, b, x, k, params, ws)?),
+            Prepared::Cholesky(a, c) => direct_solve(a, b, x, k, |x| c.solve_in_place(x, k))?,
+            Prepared::Lu(a, l) => direct_solve(a, b, x, k, |x| l.solve_in_place(x, k))?,
+        })
+    }
+
+    /// `steps` solves `(I + λF) x⁽ᵗ⁺¹⁾ = x⁽ᵗ⁾` from the n×3 row-major positions `x`
+    /// (overwritten), each starting from the previous positions; the record of each.
+    pub fn fair(
+        &mut self,
+        x: &mut [f64],
+        steps: usize,
+        params: &Params,
+    ) -> Result<Vec<SolveInfo>, FilterError> {
+        if steps == 0 {
+            return Err(FilterError::NoSteps {
+                filter: FilterKind::Implicit,
+            });
         }
+        let mut b = x.to_vec();
+        let mut infos = Vec::with_capacity(steps);
+        for _ in 0..steps {
+            b.copy_from_slice(x);
+            infos.push(self.solve(&b, x, params)?);
+        }
+        Ok(infos)
     }
 }
 
-fn direct_info(
-    op: &dyn LinearOperator,
+fn direct_solve(
+    a: &CsrMatrix,
     b: &[f64],
     x: &mut [f64],
     k: usize,
-    solve: impl FnOnce(&mut [f64]) -> Result<(), SolveError>,
-) -> Result<Info, SolveError> {
-    let t = Instant::now();
+    solve: impl FnOnce(&mut [f64]) -> Result<DirectInfo, DirectError>,
+) -> Result<SolveInfo, SolveError> {
     x.copy_from_slice(b);
-    solve(x)?;
-    let seconds = t.elapsed().as_secs_f64();
-    Ok(Info {
-        iterations: vec![0; k],
-        residuals: solve::relative_residuals(op, x, b, k),
-        history: vec![Vec::new(); k],
-        plateau_at: vec![None; k],
-        seconds,
+    let factorization = solve(x)?;
+    Ok(SolveInfo::Direct {
+        info: Info {
+            iterations: vec![0; k],
+            residuals: relative_residuals(a, x, b, k),
+            history: vec![Vec::new(); k],
+            seconds: factorization.solve_seconds,
+        },
+        factorization,
     })
 }
 
-/// One-shot implicit fairing: `steps` solves `(I + λF) x⁽ᵗ⁺¹⁾ = x⁽ᵗ⁾` from the n×3
-/// row-major positions `x` (overwritten), each starting from the previous positions.
-/// Returns the solver information of every step.
+/// One-shot implicit fairing with `opts` (λ, steps, solver, iterative parameters) of
+/// the n×3 row-major positions `x` (overwritten) under the n×n operator `f`
+/// (`F = D − W`): an [`ImplicitSolver`] run for `opts.steps` solves. Returns the
+/// record of every solve.
 pub fn implicit_fairing(
     f: &SparseMatrix,
     x: &mut [f64],
-    lambda: f64,
-    steps: usize,
-    kind: SolverKind,
-    params: &Params,
-) -> Result<Vec<Info>, FilterError> {
-    if steps == 0 {
-        return Err(FilterError::InvalidParameter(
-            "implicit fairing needs at least one step".into(),
-        ));
+    opts: &ImplicitOptions,
+) -> Result<Vec<SolveInfo>, FilterError> {
+    if opts.steps == 0 {
+        return Err(FilterError::NoSteps {
+            filter: FilterKind::Implicit,
+        });
     }
-    let solver = ImplicitSolver::new(f, lambda, kind)?;
-    let mut infos = Vec::with_capacity(steps);
-    for _ in 0..steps {
-        let b = x.to_vec();
-        infos.push(solver.solve(&b, x, params)?);
-    }
-    Ok(infos)
+    ImplicitSolver::new(f, opts.lambda, opts.solver)?.fair(x, opts.steps, &opts.params)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::{builtin, topology::Topology};
+    use crate::filter::test_util::{bumpy_sphere, positions};
+    use crate::mesh::topology::Topology;
     use crate::operator::{kirchhoff::kirchhoff, sql::sql, tutte::tutte};
-    use crate::solve::Stopping;
+    use crate::solve::{test_util::max_diff, Stopping};
 
     fn strong() -> Params {
         Params {
@@ -401,26 +424,19 @@ mod tests {
         }
     }
 
-    fn max_diff(a: &[f64], b: &[f64]) -> f64 {
-        a.iter()
-            .zip(b)
-            .map(|(x, y)| (x - y).abs())
-            .fold(0.0, f64::max)
+    fn setup() -> (Vec<f64>, Topology) {
+        let (m, t) = bumpy_sphere();
+        (positions(&m), t)
     }
 
-    fn setup() -> (Vec<f64>, Topology) {
-        let m = builtin::icosphere(2).unwrap();
-        let t = Topology::new(&m).unwrap();
-        let x = m
-            .positions
-            .iter()
-            .enumerate()
-            .flat_map(|(i, p)| {
-                let s = 1.0 + 0.05 * ((i * 7919) % 13) as f64 / 13.0;
-                p.map(|c| c * s)
-            })
-            .collect();
-        (x, t)
+    fn fair(f: &SparseMatrix, x: &mut [f64], lambda: f64, steps: usize, solver: SolverKind) {
+        let opts = ImplicitOptions {
+            lambda,
+            steps,
+            solver,
+            params: strong(),
+        };
+        implicit_fairing(f, x, &opts).unwrap_or_else(|e| panic!("{solver}: {e}"));
     }
 
     #[test]
@@ -436,28 +452,40 @@ mod tests {
         let want = CsrMatrix::from_csc(&kirchhoff(&t)).shifted(&d, 7.0);
         let got = solver.system_matrix();
         assert_eq!(got.nnz(), want.nnz());
-        assert_eq!(got, want);
+        assert_eq!(*got, want);
     }
 
     #[test]
     fn every_solver_agrees_with_the_direct_one() {
+        use SolverKind::*;
         let (x0, t) = setup();
         let tl = tutte(&t).unwrap();
-        let mut want = x0.clone();
-        implicit_fairing(&tl, &mut want, 5.0, 2, SolverKind::Lu, &strong()).unwrap();
-        for kind in [SolverKind::Bicg, SolverKind::CgSym, SolverKind::Bicgstab] {
-            let mut x = x0.clone();
-            implicit_fairing(&tl, &mut x, 5.0, 2, kind, &strong()).unwrap();
-            assert!(max_diff(&x, &want) < 1e-8, "{kind}");
-        }
         let s = sql(&t, Default::default()).unwrap();
-        let mut want = x0.clone();
-        implicit_fairing(&s, &mut want, 5.0, 2, SolverKind::Cholesky, &strong()).unwrap();
-        for kind in [SolverKind::Cg, SolverKind::Pcg, SolverKind::Lu] {
-            let mut x = x0.clone();
-            implicit_fairing(&s, &mut x, 5.0, 2, kind, &strong()).unwrap();
-            assert!(max_diff(&x, &want) < 1e-8, "{kind}");
+        let cases = [
+            (&tl, Lu, [Auto, Bicg, CgSym, Bicgstab]),
+            (&s, Cholesky, [Auto, Cg, Pcg, Lu]),
+        ];
+        for (f, reference, kinds) in cases {
+            let mut want = x0.clone();
+            fair(f, &mut want, 5.0, 2, reference);
+            for kind in kinds {
+                let mut x = x0.clone();
+                fair(f, &mut x, 5.0, 2, kind);
+                assert!(max_diff(&x, &want) < 1e-8, "{kind}");
+            }
         }
+    }
+
+    #[test]
+    fn auto_resolves_from_the_operator() {
+        let (_, t) = setup();
+        let s = sql(&t, Default::default()).unwrap();
+        let tl = tutte(&t).unwrap();
+        assert_eq!(SolverKind::Auto.resolve(&s), SolverKind::Cg);
+        assert_eq!(SolverKind::Auto.resolve(&tl), SolverKind::Bicg);
+        assert_eq!(SolverKind::Lu.resolve(&s), SolverKind::Lu);
+        let solver = ImplicitSolver::new(&tl, 1.0, SolverKind::Auto).unwrap();
+        assert_eq!(solver.kind(), SolverKind::Bicg);
     }
 
     #[test]
@@ -468,6 +496,7 @@ mod tests {
             let e = ImplicitSolver::new(&tl, 1.0, kind)
                 .err()
                 .expect("must fail");
+            assert!(matches!(e, FilterError::NeedsSymmetric { solver } if solver == kind));
             assert!(e.to_string().contains("symmetric"), "{e}");
         }
         assert!(ImplicitSolver::new(&tl, -1.0, SolverKind::Lu).is_err());
@@ -478,36 +507,121 @@ mod tests {
     fn set_lambda_refactors_and_matches_a_fresh_solver() {
         let (x0, t) = setup();
         let s = sql(&t, Default::default()).unwrap();
-        for kind in [SolverKind::Cholesky, SolverKind::Lu, SolverKind::Cg] {
-            let mut reused = ImplicitSolver::new(&s, 3.0, kind).unwrap();
+        let tl = tutte(&t).unwrap();
+        let cases = [
+            (&s, SolverKind::Cholesky),
+            (&s, SolverKind::Lu),
+            (&s, SolverKind::Cg),
+            (&s, SolverKind::Pcg),
+            (&tl, SolverKind::CgSym),
+            (&tl, SolverKind::Bicg),
+        ];
+        for (f, kind) in cases {
+            let mut reused = ImplicitSolver::new(f, 3.0, kind).unwrap();
+            let symbolic = reused.factorization().map(|i| i.symbolic_seconds);
             reused.set_lambda(40.0).unwrap();
             assert_eq!(reused.lambda(), 40.0);
-            let fresh = ImplicitSolver::new(&s, 40.0, kind).unwrap();
+            assert_eq!(
+                reused.factorization().map(|i| i.symbolic_seconds),
+                symbolic,
+                "{kind}: the symbolic analysis is kept"
+            );
+            let mut fresh = ImplicitSolver::new(f, 40.0, kind).unwrap();
+            assert_eq!(reused.system_matrix(), fresh.system_matrix());
             let (mut a, mut b) = (x0.clone(), x0.clone());
             reused.solve(&x0, &mut a, &strong()).unwrap();
             fresh.solve(&x0, &mut b, &strong()).unwrap();
             assert!(max_diff(&a, &b) < 1e-9, "{kind}");
         }
+        let mut solver = ImplicitSolver::new(&s, 3.0, SolverKind::Cg).unwrap();
+        assert!(solver.set_lambda(0.0).is_err());
+        assert_eq!(solver.lambda(), 3.0);
+    }
+
+    #[test]
+    fn repeated_solves_reuse_the_buffers_and_agree() {
+        let (x0, t) = setup();
+        let tl = tutte(&t).unwrap();
+        for kind in [SolverKind::Bicg, SolverKind::Bicgstab, SolverKind::CgSym] {
+            let mut solver = ImplicitSolver::new(&tl, 30.0, kind).unwrap();
+            let mut runs = Vec::new();
+            for _ in 0..2 {
+                let mut x = x0.clone();
+                let info = solver.solve(&x0, &mut x, &Params::default()).unwrap();
+                runs.push((x, info.iterations().to_vec()));
+            }
+            assert!(!solver.workspace.is_empty());
+            assert_eq!(runs[0], runs[1], "{kind}");
+        }
+    }
+
+    #[test]
+    fn reports_carry_what_each_solver_knows() {
+        let (x0, t) = setup();
+        let s = sql(&t, Default::default()).unwrap();
+        let tl = tutte(&t).unwrap();
+        let run = |f: &SparseMatrix, kind| {
+            let mut solver = ImplicitSolver::new(f, 10.0, kind).unwrap();
+            let mut x = x0.clone();
+            solver.solve(&x0, &mut x, &Params::default()).unwrap()
+        };
+        let bicg = run(&tl, SolverKind::Bicg);
+        assert_eq!(bicg.plateau_at().map(<[_]>::len), Some(3));
+        let json = serde_json::to_value(&bicg).unwrap();
+        assert!(json.get("plateau_at").is_some() && json.get("iterations").is_some());
+        let cg = run(&s, SolverKind::Cg);
+        assert!(cg.plateau_at().is_none() && cg.factorization().is_none());
+        let json = serde_json::to_value(&cg).unwrap();
+        assert!(json.get("plateau_at").is_none() && json.get("history").is_some());
+        let chol = run(&s, SolverKind::Cholesky);
+        let f = chol
+            .factorization()
+            .expect("a direct solve reports its factorization");
+        assert!(f.factor_nnz.unwrap() > 0 && f.numeric_seconds > 0.0);
+        assert_eq!(chol.iterations(), &[0, 0, 0]);
+        assert!(chol.residuals().iter().all(|&r| r < 1e-12));
+        let json = serde_json::to_value(&chol).unwrap();
+        assert!(json["factorization"]["factor_nnz"].as_u64().unwrap() > 0);
     }
 
     #[test]
     fn wrong_sizes_are_errors() {
         let (x0, t) = setup();
-        let s = ImplicitSolver::new(&kirchhoff(&t), 1.0, SolverKind::Cg).unwrap();
+        let mut s = ImplicitSolver::new(&kirchhoff(&t), 1.0, SolverKind::Cg).unwrap();
         let mut x = vec![0.0; 5];
         assert!(matches!(
             s.solve(&x0, &mut x, &Params::default()),
-            Err(SolveError::Dimension(_))
+            Err(FilterError::Solve(SolveError::Input(
+                InputError::InitialGuess { .. }
+            )))
         ));
         let mut y = x0.clone();
-        assert!(implicit_fairing(
-            &kirchhoff(&t),
-            &mut y,
-            1.0,
-            0,
-            SolverKind::Cg,
-            &Params::default()
-        )
-        .is_err());
+        let zero = ImplicitOptions {
+            steps: 0,
+            ..Default::default()
+        };
+        assert!(matches!(
+            implicit_fairing(&kirchhoff(&t), &mut y, &zero),
+            Err(FilterError::NoSteps { .. })
+        ));
+    }
+
+    #[test]
+    fn an_indefinite_system_is_reported_as_such() {
+        // diag(1, 1, -50, 1, ...) as F: I + λF has a negative diagonal entry.
+        let n = 12;
+        let d: Vec<f64> = (0..n).map(|i| if i == 2 { -50.0 } else { 1.0 }).collect();
+        let f = crate::solve::test_util::diagonal(&d).to_csc();
+        let b: Vec<f64> = (0..3 * n).map(|i| 1.0 + i as f64).collect();
+        for kind in [SolverKind::Cg, SolverKind::Pcg, SolverKind::Cholesky] {
+            let result = ImplicitSolver::new(&f, 1.0, kind).and_then(|mut s| {
+                let mut x = b.clone();
+                s.solve(&b, &mut x, &Params::default())
+            });
+            match result {
+                Err(FilterError::Solve(e)) => assert!(e.is_not_positive_definite(), "{kind}: {e}"),
+                other => panic!("{kind}: {other:?}"),
+            }
+        }
     }
 }

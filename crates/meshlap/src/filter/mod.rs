@@ -1,5 +1,5 @@
 //! Mesh filters built on an operator F (sign convention `F = D − W`, so `−F·x` is the
-//! Laplacian vector pointing towards the neighbours): every filter is a function of
+//! Laplacian vector pointing towards the neighbors): every filter is a function of
 //! F applied to the n×3 positions, `x' = h(F) x`, with frequency response h(γ) on F's
 //! eigenvalues γ (Zhang 2004 §2.6, §4.10).
 //!
@@ -11,33 +11,110 @@
 //! | [`Filter::Butterworth`] | `1 / (1 + (γ/γ_PB)^{2s})` | [`butterworth`] | Zhang & Fiume 2003 |
 //! | [`Filter::Ideal`] | `[γ ≤ γ_PB]` through the dense ED transform | [`ideal`] | Zhang 2004 §2.6 |
 //!
-//! [`apply`] runs one of them on a mesh and rescales afterwards ([`preserve`]); the
-//! paper's Table 1 (CG vs BiCG for implicit fairing) is [`crate::experiment::fairing`].
+//! The library owns every default and rule: [`Filter::new`] builds a filter from the
+//! optional [`FilterSettings`] a front end collects, [`apply`] runs it on a mesh
+//! (choosing the solver of implicit fairing from the operator when asked,
+//! [`SolverKind::Auto`]) and rescales afterwards ([`preserve`]). The stateful solver
+//! of implicit fairing is [`ImplicitSolver`]; the paper's Table 1 (CG vs BiCG) is
+//! [`crate::experiment::fairing`].
 
 pub mod butterworth;
 pub mod ideal;
 pub mod implicit;
+mod options;
 pub mod polynomial;
 pub mod preserve;
 
 pub use implicit::{implicit_fairing, ImplicitSolver, SolverKind};
+pub use options::{
+    ButterworthOptions, ExplicitOptions, Filter, FilterKind, FilterSettings, IdealOptions,
+    ImplicitOptions, TaubinOptions, DEFAULT_DENSE_LIMIT,
+};
 pub use preserve::{volume, Preserve};
 
 use crate::mesh::TriMesh;
-use crate::solve::{CsrMatrix, Info, Params, SolveError};
+use crate::solve::{CsrMatrix, SolveError, SolveInfo};
 use crate::SparseMatrix;
 use serde::Serialize;
 use std::time::Instant;
 
-/// Errors of the filters.
+/// Errors of the filters. The parameter errors name the rule broken; the fix is a
+/// parameter within it.
 #[derive(Debug, thiserror::Error)]
 pub enum FilterError {
-    /// A linear solve failed.
+    /// A linear solve failed (see [`SolveError`] for causes).
     #[error(transparent)]
     Solve(#[from] SolveError),
-    /// A parameter is out of range.
-    #[error("{0}")]
-    InvalidParameter(String),
+    /// A parameter that must be positive and finite is not.
+    #[error("{name} must be positive and finite, got {value}")]
+    NotPositive {
+        /// The parameter.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// A parameter that must be a number ≥ 0 is not.
+    #[error("{name} must be a number ≥ 0, got {value}")]
+    NotNonNegative {
+        /// The parameter.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// Zero steps.
+    #[error("the {filter} filter needs at least one step")]
+    NoSteps {
+        /// The filter.
+        filter: FilterKind,
+    },
+    /// Taubin's pass-band must lie in (0, 1/λ) so that μ < −λ.
+    #[error("Taubin needs 0 < k_PB < 1/λ = {limit}, got k_PB = {k_pb}")]
+    TaubinPassband {
+        /// The pass-band given.
+        k_pb: f64,
+        /// 1/λ.
+        limit: f64,
+    },
+    /// The Butterworth order is 0.
+    #[error("the Butterworth order must be at least 1")]
+    ZeroOrder,
+    /// The Butterworth and ideal filters have no default pass-band.
+    #[error("the {filter} filter needs a pass-band γ_PB (an eigenvalue of the operator)")]
+    MissingPassband {
+        /// The filter.
+        filter: FilterKind,
+    },
+    /// The operator does not fit the mesh.
+    #[error("the operator is {rows}×{cols} for {n} vertices")]
+    OperatorSize {
+        /// Rows.
+        rows: usize,
+        /// Columns.
+        cols: usize,
+        /// Vertices.
+        n: usize,
+    },
+    /// The positions do not fit the operator.
+    #[error("{len} coordinates for an operator on {n} vertices")]
+    Positions {
+        /// Coordinates given.
+        len: usize,
+        /// n.
+        n: usize,
+    },
+    /// The solver needs a symmetric operator (CG, PCG, Cholesky); use one for
+    /// non-symmetric systems (BiCG, CG on the symmetrized system, BiCGSTAB, LU).
+    #[error("solver {solver} needs a symmetric operator; this one is not")]
+    NeedsSymmetric {
+        /// The solver asked for.
+        solver: SolverKind,
+    },
+    /// No positive diagonal S makes `S·F` symmetric.
+    #[error("{what} needs an operator with a positive diagonal symmetrizer (TL, SDL, mean-value, or any symmetric one)")]
+    NoSymmetrizer {
+        /// Which computation.
+        what: &'static str,
+    },
     /// The dense ED transform is limited to small meshes.
     #[error(
         "the ideal low-pass needs a dense eigendecomposition; n = {n} is above the limit {limit}"
@@ -48,85 +125,49 @@ pub enum FilterError {
         /// The limit.
         limit: usize,
     },
-    /// The operator has no real spectrum the filter can use.
-    #[error("{0}")]
-    Spectrum(String),
-}
-
-/// Which filter; see the module documentation.
-#[derive(Copy, Clone, Debug, PartialEq)]
-pub enum Filter {
-    /// `N` implicit steps `(I + λF)x' = x`.
-    Implicit {
-        /// λ > 0.
-        lambda: f64,
-        /// Steps N ≥ 1.
-        steps: usize,
-        /// The solver.
-        solver: SolverKind,
-    },
-    /// `N` explicit steps `x' = (I − λF)x`.
-    Explicit {
-        /// λ > 0.
-        lambda: f64,
-        /// Steps.
-        steps: usize,
-    },
-    /// `N` Taubin λ|μ pairs with pass-band `k_PB = 1/λ + 1/μ`.
-    Taubin {
-        /// λ > 0.
-        lambda: f64,
-        /// Pass-band frequency `k_PB` (0 < k_PB < 1/λ).
-        k_pb: f64,
-        /// Pairs.
-        steps: usize,
-    },
-    /// Butterworth low-pass of order `order` and pass-band `passband`.
-    Butterworth {
-        /// Order s ≥ 1.
-        order: usize,
-        /// γ_PB > 0.
-        passband: f64,
-    },
-    /// Ideal low-pass: keep the ED components with eigenvalue ≤ `passband`.
-    Ideal {
-        /// γ_PB.
-        passband: f64,
+    /// The dense symmetric eigensolver did not converge.
+    #[error("the dense eigendecomposition of the ideal low-pass did not converge")]
+    EigenNoConvergence,
+    /// Not the name of a filter, solver or rescaling.
+    #[error("unknown {what} `{got}`")]
+    UnknownName {
+        /// What was named.
+        what: &'static str,
+        /// The name given.
+        got: String,
     },
 }
 
-/// Default size limit of the dense ideal filter: a 3000×3000 eigendecomposition
-/// needs about 150 MB and some seconds (the paper's cow, 2,903 vertices, fits).
-pub const DEFAULT_DENSE_LIMIT: usize = 3000;
+impl FilterError {
+    /// What the solver did before it stopped at the iteration cap, if that is why the
+    /// filter failed ([`SolveError::unconverged`]).
+    pub fn unconverged(&self) -> Option<SolveInfo> {
+        match self {
+            FilterError::Solve(e) => e.unconverged(),
+            _ => None,
+        }
+    }
+}
 
 /// What [`apply`] did.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct FilterReport {
+    /// The solver implicit fairing used ([`SolverKind::Auto`] resolved).
+    pub solver: Option<SolverKind>,
     /// Solver information per solve (implicit steps, Butterworth factors).
-    pub solves: Vec<Info>,
+    pub solves: Vec<SolveInfo>,
     /// Iterations per coordinate column, summed over the solves (0 for direct ones).
     pub iterations: Vec<usize>,
     /// Seconds spent in linear solves.
     pub solve_seconds: f64,
     /// Final relative residuals `‖Bx − b‖/‖b‖` per column of the last solve.
     pub residuals: Vec<f64>,
-    /// Total seconds (assembly of the systems, factorisations, solves, rescaling).
+    /// Total seconds (assembly of the systems, factorizations, solves, rescaling).
     pub seconds: f64,
     /// Enclosed volume before (signed).
     pub volume_before: f64,
     /// Enclosed volume after filtering and rescaling.
     pub volume_after: f64,
-}
-
-/// Options of [`apply`].
-#[derive(Clone, Copy, Debug, Default)]
-pub struct FilterOptions {
-    /// Iterative-solver parameters (tolerance, stopping criterion, cap).
-    pub params: Params,
-    /// Rescaling afterwards.
-    pub preserve: Preserve,
-    /// Largest n for the dense ideal filter ([`DEFAULT_DENSE_LIMIT`] when 0).
-    pub dense_limit: usize,
 }
 
 fn flat(p: &[[f64; 3]]) -> Vec<f64> {
@@ -136,94 +177,62 @@ fn unflat(x: &[f64]) -> Vec<[f64; 3]> {
     x.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
 }
 
-fn positive(v: f64, name: &str) -> Result<(), FilterError> {
-    if v > 0.0 && v.is_finite() {
-        Ok(())
-    } else {
-        Err(FilterError::InvalidParameter(format!(
-            "{name} must be positive and finite, got {v}"
-        )))
-    }
-}
-
-/// Filters `mesh`'s positions with operator `f` (n×n, `F = D − W`). Returns the new
-/// positions (same vertex order) and a report.
+/// Filters `mesh`'s positions with the n×n operator `f` (`F = D − W`, n the vertex
+/// count) and rescales as `preserve` says. Returns the new positions (same vertex
+/// order) and a report.
 pub fn apply(
     mesh: &TriMesh,
     f: &SparseMatrix,
     filter: &Filter,
-    opts: &FilterOptions,
+    preserve: Preserve,
 ) -> Result<(Vec<[f64; 3]>, FilterReport), FilterError> {
     let start = Instant::now();
     let n = mesh.n_vertices();
     if f.nrows() != n || f.ncols() != n {
-        return Err(FilterError::InvalidParameter(format!(
-            "operator is {}×{} for {n} vertices",
-            f.nrows(),
-            f.ncols()
-        )));
+        return Err(FilterError::OperatorSize {
+            rows: f.nrows(),
+            cols: f.ncols(),
+            n,
+        });
     }
+    filter.validate()?;
     let mut report = FilterReport {
         volume_before: volume(&mesh.positions, &mesh.faces),
         ..Default::default()
     };
     let mut x = flat(&mesh.positions);
-    match *filter {
-        Filter::Implicit {
-            lambda,
-            steps,
-            solver,
-        } => {
-            report.solves = implicit_fairing(f, &mut x, lambda, steps, solver, &opts.params)?;
+    match filter {
+        Filter::Implicit(o) => {
+            let mut solver = ImplicitSolver::new(f, o.lambda, o.solver)?;
+            report.solver = Some(solver.kind());
+            report.solves = solver.fair(&mut x, o.steps, &o.params)?;
         }
-        Filter::Explicit { lambda, steps } => {
-            positive(lambda, "λ")?;
-            polynomial::explicit(&CsrMatrix::from_csc(f), &mut x, lambda, steps);
-        }
-        Filter::Taubin {
-            lambda,
-            k_pb,
-            steps,
-        } => {
-            polynomial::taubin(&CsrMatrix::from_csc(f), &mut x, lambda, k_pb, steps)?;
-        }
-        Filter::Butterworth { order, passband } => {
-            report.solves = butterworth::butterworth(f, &mut x, order, passband)?;
-        }
-        Filter::Ideal { passband } => {
-            let limit = if opts.dense_limit == 0 {
-                DEFAULT_DENSE_LIMIT
-            } else {
-                opts.dense_limit
-            };
-            if n > limit {
-                return Err(FilterError::TooLarge { n, limit });
-            }
-            x = ideal::ideal_lowpass(f, &x, passband)?;
-        }
+        Filter::Explicit(o) => polynomial::explicit(&CsrMatrix::from_csc(f), &mut x, o)?,
+        Filter::Taubin(o) => polynomial::taubin(&CsrMatrix::from_csc(f), &mut x, o)?,
+        Filter::Butterworth(o) => report.solves = butterworth::butterworth(f, &mut x, o)?,
+        Filter::Ideal(o) => x = ideal::ideal_lowpass(f, &x, o)?,
     }
     let mut out = unflat(&x);
-    preserve::rescale(mesh, &mut out, opts.preserve);
+    preserve::rescale(mesh, &mut out, preserve);
     report.volume_after = volume(&out, &mesh.faces);
     report.seconds = start.elapsed().as_secs_f64();
-    let cols = report.solves.first().map_or(0, |i| i.iterations.len());
+    let cols = report.solves.first().map_or(0, |i| i.iterations().len());
     report.iterations = (0..cols)
-        .map(|c| report.solves.iter().map(|i| i.iterations[c]).sum())
+        .map(|c| report.solves.iter().map(|i| i.iterations()[c]).sum())
         .collect();
     if let Some(last) = report.solves.last() {
-        report.residuals = last.residuals.clone();
+        report.residuals = last.residuals().to_vec();
     }
-    report.solve_seconds = report.solves.iter().map(|i| i.seconds).sum();
+    report.solve_seconds = report.solves.iter().map(SolveInfo::seconds).sum();
     Ok((out, report))
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::mesh::{builtin, topology::Topology};
-    use crate::operator::{kirchhoff::kirchhoff, tutte::tutte};
+pub(crate) mod test_util {
+    use crate::mesh::{builtin, topology::Topology, TriMesh};
 
-    fn sphere() -> (TriMesh, Topology) {
+    /// A level-2 icosphere with every vertex pushed out by up to 5%: noise to remove.
+    pub fn bumpy_sphere() -> (TriMesh, Topology) {
         let mut m = builtin::icosphere(2).unwrap();
         for (i, p) in m.positions.iter_mut().enumerate() {
             let s = 1.0 + 0.05 * ((i * 7919) % 13) as f64 / 13.0;
@@ -233,90 +242,116 @@ mod tests {
         (m, t)
     }
 
+    /// The n×3 row-major positions.
+    pub fn positions(m: &TriMesh) -> Vec<f64> {
+        super::flat(&m.positions)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::test_util::bumpy_sphere;
+    use super::*;
+    use crate::mesh::{builtin, topology::Topology};
+    use crate::operator::{kirchhoff::kirchhoff, tutte::tutte};
+
+    fn implicit(lambda: f64, steps: usize, solver: SolverKind) -> Filter {
+        Filter::Implicit(ImplicitOptions {
+            lambda,
+            steps,
+            solver,
+            ..Default::default()
+        })
+    }
+
     #[test]
     fn report_sums_iterations_and_keeps_the_last_residuals() {
-        let (m, t) = sphere();
+        let (m, t) = bumpy_sphere();
         let f = kirchhoff(&t);
-        let (_, r) = apply(
-            &m,
-            &f,
-            &Filter::Implicit {
-                lambda: 2.0,
-                steps: 3,
-                solver: SolverKind::Cg,
-            },
-            &FilterOptions::default(),
-        )
-        .unwrap();
+        let (_, r) = apply(&m, &f, &implicit(2.0, 3, SolverKind::Cg), Preserve::None).unwrap();
         assert_eq!(r.solves.len(), 3);
         for c in 0..3 {
-            let sum: usize = r.solves.iter().map(|i| i.iterations[c]).sum();
+            let sum: usize = r.solves.iter().map(|i| i.iterations()[c]).sum();
             assert_eq!(r.iterations[c], sum);
             assert!(r.iterations[c] > 0);
         }
-        assert_eq!(r.residuals, r.solves[2].residuals);
+        assert_eq!(r.residuals, r.solves[2].residuals());
         assert!(r.volume_after.abs() < r.volume_before.abs());
     }
 
     #[test]
-    fn preserve_volume_restores_the_volume() {
-        let (m, t) = sphere();
-        let v0 = volume(&m.positions, &m.faces);
-        let o = FilterOptions {
-            preserve: Preserve::Volume,
-            ..Default::default()
-        };
-        let (out, r) = apply(
+    fn auto_picks_cg_for_a_symmetric_operator_and_bicg_otherwise() {
+        let (m, t) = bumpy_sphere();
+        let auto = implicit(5.0, 1, SolverKind::Auto);
+        let (_, r) = apply(&m, &kirchhoff(&t), &auto, Preserve::None).unwrap();
+        assert_eq!(r.solver, Some(SolverKind::Cg));
+        assert!(matches!(r.solves[0], SolveInfo::Iterative(_)));
+        let (x, r) = apply(&m, &tutte(&t).unwrap(), &auto, Preserve::None).unwrap();
+        assert_eq!(r.solver, Some(SolverKind::Bicg));
+        assert!(r.solves[0].plateau_at().is_some());
+        let (y, _) = apply(
             &m,
-            &kirchhoff(&t),
-            &Filter::Explicit {
-                lambda: 0.05,
-                steps: 10,
-            },
-            &o,
+            &tutte(&t).unwrap(),
+            &implicit(5.0, 1, SolverKind::Bicg),
+            Preserve::None,
         )
         .unwrap();
+        assert_eq!(x, y);
+        // Filters without a linear solve report no solver.
+        let explicit = Filter::Explicit(ExplicitOptions::default());
+        let (_, r) = apply(&m, &tutte(&t).unwrap(), &explicit, Preserve::None).unwrap();
+        assert_eq!((r.solver, r.solves.len()), (None, 0));
+    }
+
+    #[test]
+    fn preserve_volume_restores_the_volume() {
+        let (m, t) = bumpy_sphere();
+        let v0 = volume(&m.positions, &m.faces);
+        let filter = Filter::Explicit(ExplicitOptions {
+            lambda: 0.05,
+            steps: 10,
+        });
+        let (out, r) = apply(&m, &kirchhoff(&t), &filter, Preserve::Volume).unwrap();
         assert!((volume(&out, &m.faces) - v0).abs() < 1e-12 * v0.abs());
         assert!((r.volume_after - v0).abs() < 1e-12);
     }
 
     #[test]
     fn bad_parameters_are_errors() {
-        let (m, t) = sphere();
+        let (m, t) = bumpy_sphere();
         let f = tutte(&t).unwrap();
-        let o = FilterOptions::default();
         let bad = [
-            Filter::Explicit {
+            Filter::Explicit(ExplicitOptions {
                 lambda: -1.0,
                 steps: 1,
-            },
-            Filter::Taubin {
+            }),
+            Filter::Taubin(TaubinOptions {
                 lambda: 0.5,
                 k_pb: 3.0,
                 steps: 1,
-            },
-            Filter::Butterworth {
+            }),
+            Filter::Butterworth(ButterworthOptions {
                 order: 0,
                 passband: 0.1,
-            },
-            Filter::Implicit {
-                lambda: 1.0,
-                steps: 0,
-                solver: SolverKind::Lu,
-            },
+            }),
+            implicit(1.0, 0, SolverKind::Lu),
         ];
         for b in bad {
-            assert!(apply(&m, &f, &b, &o).is_err(), "{b:?}");
+            assert!(apply(&m, &f, &b, Preserve::None).is_err(), "{b:?}");
         }
-        let small = FilterOptions {
+        let small = Filter::Ideal(IdealOptions {
+            passband: 0.1,
             dense_limit: 10,
-            ..Default::default()
-        };
+        });
         assert!(matches!(
-            apply(&m, &f, &Filter::Ideal { passband: 0.1 }, &small),
+            apply(&m, &f, &small, Preserve::None),
             Err(FilterError::TooLarge { .. })
         ));
         let wrong = kirchhoff(&Topology::new(&builtin::icosahedron()).unwrap());
-        assert!(apply(&m, &wrong, &Filter::Ideal { passband: 0.1 }, &o).is_err());
+        let ideal = Filter::Ideal(IdealOptions::new(0.1));
+        assert!(matches!(
+            apply(&m, &wrong, &ideal, Preserve::None),
+            Err(FilterError::OperatorSize { .. })
+        ));
     }
 }

@@ -4,17 +4,22 @@
 //! (Taubin 1995, *A signal processing approach to fair surface design*).
 //!
 //! F is n×n with the sign `F = D − W` (positive semi-definite), so `−F·x` points
-//! towards the neighbours and `(I − λF)` averages; positions are the n×3 row-major
+//! towards the neighbors and `(I − λF)` averages; positions are the n×3 row-major
 //! block. Responses on an eigenvalue γ of F: `(1 − λγ)ᴺ` and `((1 − λγ)(1 − μγ))ᴺ`.
 //! Boundary vertices are treated like interior ones (whatever F does at the
 //! boundary). For the Tutte Laplacian (γ ∈ [0, 2]) the explicit filter is stable for
 //! 0 < λ ≤ 1.
 
-use super::FilterError;
-use crate::solve::CsrMatrix;
+use super::options::positive;
+use super::{ExplicitOptions, Filter, FilterError, TaubinOptions};
+use crate::solve::{CsrMatrix, LinOp};
 
-/// `x ← (I − t F) x` for each t of `seq` (n×3 row-major `x`).
-pub fn polynomial_steps(f: &CsrMatrix, x: &mut [f64], seq: &[f64]) {
+/// `x ← (I − t F) x` for each t of `seq`, with F n×n and `x` n×3 row-major.
+pub fn polynomial_steps(f: &CsrMatrix, x: &mut [f64], seq: &[f64]) -> Result<(), FilterError> {
+    let n = f.nrows();
+    if x.len() != 3 * n || f.ncols() != n {
+        return Err(FilterError::Positions { len: x.len(), n });
+    }
     let mut y = vec![0.0; x.len()];
     for &t in seq {
         f.apply(x, &mut y, 3);
@@ -22,21 +27,19 @@ pub fn polynomial_steps(f: &CsrMatrix, x: &mut [f64], seq: &[f64]) {
             *xi -= t * yi;
         }
     }
+    Ok(())
 }
 
 /// Taubin's μ for a given λ and pass-band: `1/μ = k_PB − 1/λ`. Requires λ > 0 and
 /// 0 < k_PB < 1/λ (so that μ < −λ).
 pub fn taubin_mu(lambda: f64, k_pb: f64) -> Result<f64, FilterError> {
-    if !(lambda > 0.0 && lambda.is_finite() && k_pb > 0.0 && k_pb.is_finite()) {
-        return Err(FilterError::InvalidParameter(format!(
-            "Taubin needs λ > 0 and k_PB > 0, got λ = {lambda}, k_PB = {k_pb}"
-        )));
-    }
+    positive(lambda, "λ")?;
+    positive(k_pb, "Taubin's pass-band k_PB")?;
     if k_pb >= 1.0 / lambda {
-        return Err(FilterError::InvalidParameter(format!(
-            "Taubin needs k_PB < 1/λ = {}, got {k_pb}",
-            1.0 / lambda
-        )));
+        return Err(FilterError::TaubinPassband {
+            k_pb,
+            limit: 1.0 / lambda,
+        });
     }
     Ok(1.0 / (k_pb - 1.0 / lambda))
 }
@@ -51,23 +54,19 @@ pub fn taubin_response(lambda: f64, mu: f64, steps: usize, gamma: f64) -> f64 {
     ((1.0 - lambda * gamma) * (1.0 - mu * gamma)).powi(steps as i32)
 }
 
-/// Explicit Laplacian smoothing `x ← (I − λF)ᴺ x`.
-pub fn explicit(f: &CsrMatrix, x: &mut [f64], lambda: f64, steps: usize) {
-    polynomial_steps(f, x, &vec![lambda; steps]);
+/// Explicit Laplacian smoothing `x ← (I − λF)ᴺ x` of the n×3 row-major `x`.
+pub fn explicit(f: &CsrMatrix, x: &mut [f64], opts: &ExplicitOptions) -> Result<(), FilterError> {
+    Filter::Explicit(*opts).validate()?;
+    polynomial_steps(f, x, &vec![opts.lambda; opts.steps])
 }
 
-/// Taubin λ|μ smoothing: `steps` pairs `x ← (I − μF)(I − λF) x`.
-pub fn taubin(
-    f: &CsrMatrix,
-    x: &mut [f64],
-    lambda: f64,
-    k_pb: f64,
-    steps: usize,
-) -> Result<(), FilterError> {
-    let mu = taubin_mu(lambda, k_pb)?;
-    let seq: Vec<f64> = (0..steps).flat_map(|_| [lambda, mu]).collect();
-    polynomial_steps(f, x, &seq);
-    Ok(())
+/// Taubin λ|μ smoothing of the n×3 row-major `x`: `steps` pairs
+/// `x ← (I − μF)(I − λF) x`.
+pub fn taubin(f: &CsrMatrix, x: &mut [f64], opts: &TaubinOptions) -> Result<(), FilterError> {
+    Filter::Taubin(*opts).validate()?;
+    let mu = taubin_mu(opts.lambda, opts.k_pb)?;
+    let seq: Vec<f64> = (0..opts.steps).flat_map(|_| [opts.lambda, mu]).collect();
+    polynomial_steps(f, x, &seq)
 }
 
 #[cfg(test)]
@@ -92,10 +91,15 @@ mod tests {
             let g = evd.S()[idx];
             let u: Vec<f64> = (0..n).flat_map(|i| [evd.U()[(i, idx)], 0.0, 0.0]).collect();
             let mut x = u.clone();
-            explicit(&a, &mut x, lambda, 4);
+            explicit(&a, &mut x, &ExplicitOptions { lambda, steps: 4 }).unwrap();
             let h = explicit_response(lambda, 4, g);
             let mut y = u.clone();
-            taubin(&a, &mut y, lambda, k_pb, 3).unwrap();
+            let pairs = TaubinOptions {
+                lambda,
+                k_pb,
+                steps: 3,
+            };
+            taubin(&a, &mut y, &pairs).unwrap();
             let ht = taubin_response(lambda, mu, 3, g);
             for j in 0..3 * n {
                 assert!((x[j] - h * u[j]).abs() < 1e-12);
@@ -140,8 +144,17 @@ mod tests {
         assert!((explicit_response(lambda_l, steps, g_half) - 0.5).abs() < 1e-9);
         let x0: Vec<f64> = m.positions.iter().flat_map(|p| *p).collect();
         let (mut xl, mut xt) = (x0.clone(), x0.clone());
-        explicit(&f, &mut xl, lambda_l, steps);
-        taubin(&f, &mut xt, lambda, k_pb, pairs).unwrap();
+        let laplacian = ExplicitOptions {
+            lambda: lambda_l,
+            steps,
+        };
+        explicit(&f, &mut xl, &laplacian).unwrap();
+        let opts = TaubinOptions {
+            lambda,
+            k_pb,
+            steps: pairs,
+        };
+        taubin(&f, &mut xt, &opts).unwrap();
         let vol = |x: &[f64]| {
             let p: Vec<[f64; 3]> = x.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
             volume(&p, &m.faces)
@@ -157,11 +170,31 @@ mod tests {
 
     #[test]
     fn taubin_parameters_are_checked() {
-        assert!(taubin_mu(0.5, 3.0).is_err());
+        assert!(matches!(
+            taubin_mu(0.5, 3.0),
+            Err(FilterError::TaubinPassband { .. })
+        ));
         assert!(taubin_mu(-0.5, 0.1).is_err());
         assert!(taubin_mu(0.5, f64::NAN).is_err());
         let mu = taubin_mu(0.5, 0.1).unwrap();
         assert!(mu < -0.5);
         assert!((1.0 / 0.5 + 1.0 / mu - 0.1).abs() < 1e-14);
+        let f = CsrMatrix::from_csc(&crate::operator::kirchhoff::kirchhoff(
+            &Topology::new(&builtin::icosahedron()).unwrap(),
+        ));
+        let mut short = vec![0.0; 35];
+        assert!(matches!(
+            explicit(&f, &mut short, &ExplicitOptions::default()),
+            Err(FilterError::Positions { .. })
+        ));
+        let mut x = vec![0.0; 36];
+        let zero = ExplicitOptions {
+            steps: 0,
+            ..Default::default()
+        };
+        assert!(matches!(
+            explicit(&f, &mut x, &zero),
+            Err(FilterError::NoSteps { .. })
+        ));
     }
 }

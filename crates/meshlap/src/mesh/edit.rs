@@ -14,10 +14,10 @@
 //!   manifold without duplicate faces). Vertices and face count are unchanged.
 //! - [`EditMesh::split_vertex`]: the "vertex split" of Hoppe's progressive meshes
 //!   (Hoppe 1996), the alternative Zhang (2004, §3.7) names for removing high degrees:
-//!   the fan of v is cut at two of its neighbours `a`, `b` into two consecutive parts;
+//!   the fan of v is cut at two of its neighbors `a`, `b` into two consecutive parts;
 //!   v keeps the first, a new vertex v' takes the second, and the faces (v, b, v'),
 //!   (v', a, v) close the gap (one face (v, b, v') for a boundary vertex, whose fan is
-//!   cut at one neighbour). The Euler characteristic, manifoldness and orientation are
+//!   cut at one neighbor). The Euler characteristic, manifoldness and orientation are
 //!   preserved; d_v + d_v' = d + 4 inside (d + 3 on the boundary), and `a`, `b` gain one.
 //!
 //! [`EditMesh::checkpoint`] / [`EditMesh::rollback`] undo every edit since the
@@ -34,6 +34,24 @@ pub const NONE: u32 = u32::MAX;
 
 fn key(a: u32, b: u32) -> (u32, u32) {
     (a.min(b), a.max(b))
+}
+
+/// The next half-edge in the same face.
+fn next(h: u32) -> u32 {
+    if h % 3 == 2 {
+        h - 2
+    } else {
+        h + 1
+    }
+}
+
+/// The previous half-edge in the same face.
+fn prev(h: u32) -> u32 {
+    if h % 3 == 0 {
+        h + 2
+    } else {
+        h - 1
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -64,9 +82,9 @@ pub struct EditMesh {
 /// The fan of a vertex in rotation order (see [`EditMesh::fan`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Fan {
-    /// Neighbours `u_0, u_1, …` in rotation order (counter-clockwise for a
+    /// Neighbors `u_0, u_1, …` in rotation order (counter-clockwise for a
     /// counter-clockwise oriented mesh). On the boundary `u_0` and the last one are the
-    /// boundary neighbours.
+    /// boundary neighbors.
     pub ring: Vec<u32>,
     /// Outgoing half-edge `v → u_a` of the face `(v, u_a, u_{a+1})`, one per face.
     pub out: Vec<u32>,
@@ -137,24 +155,29 @@ impl EditMesh {
     /// Source vertex of half-edge `h`.
     #[inline]
     pub fn from(&self, h: u32) -> u32 {
-        self.faces[h as usize / 3][h as usize % 3]
+        self.corner(h, 0)
     }
     /// Target vertex of half-edge `h`.
     #[inline]
     pub fn to(&self, h: u32) -> u32 {
-        self.faces[h as usize / 3][(h as usize + 1) % 3]
+        self.corner(h, 1)
     }
     /// The vertex of `h`'s face opposite to `h`.
     #[inline]
     pub fn opposite(&self, h: u32) -> u32 {
-        self.faces[h as usize / 3][(h as usize + 2) % 3]
+        self.corner(h, 2)
+    }
+    /// The corner `offset` places after the start of `h` in its face.
+    #[inline]
+    fn corner(&self, h: u32, offset: usize) -> u32 {
+        self.faces[h as usize / 3][(h as usize + offset) % 3]
     }
     /// Twin of `h`, or [`NONE`] on the boundary.
     #[inline]
     pub fn twin(&self, h: u32) -> u32 {
         self.twin[h as usize]
     }
-    /// Degree (number of neighbours) of `v`.
+    /// Degree (number of neighbors) of `v`.
     #[inline]
     pub fn degree(&self, v: u32) -> u32 {
         self.degree[v as usize]
@@ -329,8 +352,6 @@ impl EditMesh {
         let g = self.twin[h as usize];
         let (f1, f2) = (h / 3, g / 3);
         let (i, j, k, l) = (self.from(h), self.to(h), self.opposite(h), self.opposite(g));
-        let next = |x: u32| if x % 3 == 2 { x - 2 } else { x + 1 };
-        let prev = |x: u32| if x % 3 == 0 { x + 2 } else { x - 1 };
         // Outer twins: j→k, k→i (face 1), i→l, l→j (face 2).
         let t_jk = self.twin[next(h) as usize];
         let t_ki = self.twin[prev(h) as usize];
@@ -373,7 +394,6 @@ impl EditMesh {
             }
         }
         let start = start.or_else(|| faces.first().and_then(|&f| outgoing(f)))?;
-        let prev = |x: u32| if x % 3 == 0 { x + 2 } else { x - 1 };
         let mut fan = Fan {
             ring: Vec::with_capacity(faces.len() + 1),
             out: Vec::with_capacity(faces.len()),
@@ -428,12 +448,12 @@ impl EditMesh {
         let nf = fan.out.len();
         let (first, last) = if fan.closed {
             if first >= nf || last >= nf || first == last {
-                return Err(illegal("the cut needs two distinct neighbours"));
+                return Err(illegal("the cut needs two distinct neighbors"));
             }
             (first, last)
         } else {
             if first != 0 || last == 0 || last >= nf {
-                return Err(illegal("a boundary fan is cut at one inner neighbour"));
+                return Err(illegal("a boundary fan is cut at one inner neighbor"));
             }
             (0, last)
         };
@@ -443,7 +463,6 @@ impl EditMesh {
         let (a, b) = (fan.ring[first], fan.ring[last]);
         let w = self.push_vertex(pos_new);
         self.set_position(v, pos_v);
-        let prev = |x: u32| if x % 3 == 0 { x + 2 } else { x - 1 };
         // Re-label v → v' in the moving faces; v's edges to their inner ring
         // vertices become v'’s.
         for &s in &moving {

@@ -1,113 +1,107 @@
 //! Blocked conjugate gradients, optionally Jacobi-preconditioned (Hestenes & Stiefel
 //! 1952; Barrett et al. 1994, *Templates*, Fig. 2.5), for symmetric positive definite
-//! systems such as `(I + λS)x = b` with the SQL, KL or SSTL, and the symmetrised Tutte
+//! systems such as `(I + λS)x = b` with the SQL, KL or SSTL, and the symmetrized Tutte
 //! system `(D + λK)x = Db` (the paper's "CG (TL)").
 //!
 //! The k right-hand sides (n×k row-major) share every sparse product; each column has
 //! its own α, β and stops on its own. One iteration is one fused product-and-dot
 //! (`q = Bp`, `pᵀq`), one fused pass updating x and r and accumulating every norm the
-//! stopping test needs, and one pass updating p.
+//! stopping test needs, and one pass updating p: the fewest passes over memory, since
+//! an iteration is bound by memory bandwidth.
 
-use super::{
-    check_dims, col_dots, col_norms2, csr::CHUNK, relative_residuals, Info, LinearOperator, Params,
-    SolveError, Stopping,
-};
+use super::krylov::{self, col_dots, col_norms2, Criterion, Sums};
+use super::{csr::CHUNK, Fused, Info, InputError, Jacobi, LinOp, Params, Workspace, MAX_COLUMNS};
 use rayon::prelude::*;
 use std::time::Instant;
 
-/// Preconditioner of [`cg`].
-#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
-pub enum Preconditioner {
-    /// None (plain CG).
-    #[default]
-    None,
-    /// Jacobi: the inverse of the matrix diagonal.
-    Jacobi,
+/// Why [`cg()`] failed.
+#[derive(Debug, thiserror::Error)]
+pub enum CgError {
+    /// A search direction with non-positive curvature `pᵀBp ≤ 0`: B is not positive
+    /// definite. For `I + λS` with the SQL, negative weights (Zhang 2004 §3.7) cause
+    /// this; remove them (`analysis::repair`) or use a solver for indefinite or
+    /// non-symmetric systems (BiCG, LU).
+    #[error("the system matrix is not positive definite (curvature pᵀBp ≤ 0 at iteration {iteration}, column {column})")]
+    NotPositiveDefinite {
+        /// Iteration.
+        iteration: usize,
+        /// Column.
+        column: usize,
+    },
+    /// A diagonal entry ≤ 0 under Jacobi preconditioning: B is not positive definite.
+    #[error("the system matrix is not positive definite (diagonal entry {row} is {value})")]
+    NonPositiveDiagonal {
+        /// Row.
+        row: usize,
+        /// The entry.
+        value: f64,
+    },
+    /// The iteration cap was reached; raise [`Params::max_iterations`] or the
+    /// tolerance.
+    #[error("no convergence within {} iterations (relative residuals {:?})", .info.iterations.iter().max().unwrap_or(&0), .info.residuals)]
+    NoConvergence {
+        /// What was done.
+        info: Box<Info>,
+    },
+    /// The arguments are unusable.
+    #[error(transparent)]
+    Input(#[from] InputError),
 }
 
-#[derive(Default, Clone, Copy)]
-struct Sums {
-    rr: [f64; 8],
-    rz: [f64; 8],
-    pp: [f64; 8],
-    xx: [f64; 8],
-    moving_vertices: usize,
-}
+// Indices of the per-column sums of the update pass.
+const RR: usize = 0;
+const RZ: usize = 1;
+const PP: usize = 2;
+const XX: usize = 3;
 
-impl Sums {
-    fn add(mut self, o: Sums) -> Sums {
-        for c in 0..8 {
-            self.rr[c] += o.rr[c];
-            self.rz[c] += o.rz[c];
-            self.pp[c] += o.pp[c];
-            self.xx[c] += o.xx[c];
-        }
-        self.moving_vertices += o.moving_vertices;
-        self
-    }
-}
-
-/// Solves `B x = b` for the n×k block `b`, starting from and overwriting `x`.
+/// Solves `B x = b` for the n×k row-major block `b` (k ≤ [`MAX_COLUMNS`]), starting
+/// from and overwriting `x`, with B symmetric positive definite given as a [`LinOp`]
+/// (n×n). `precond`: none, or Jacobi. `ws` keeps the three n×k work blocks between
+/// calls.
 pub fn cg(
-    op: &dyn LinearOperator,
+    op: &dyn LinOp,
     b: &[f64],
     x: &mut [f64],
     k: usize,
     params: &Params,
-    precond: Preconditioner,
-) -> Result<Info, SolveError> {
-    check_dims(op, b, k)?;
-    if x.len() != b.len() {
-        return Err(SolveError::Dimension(
-            "initial guess and right-hand side differ in size".into(),
-        ));
-    }
-    if k > 8 {
-        return Err(SolveError::InvalidParameter(
-            "at most 8 right-hand sides at once".into(),
-        ));
-    }
+    precond: Option<&Jacobi>,
+    ws: &mut Workspace,
+) -> Result<Info, CgError> {
+    krylov::check(op, b, x, k, params)?;
     let start = Instant::now();
     let n = op.dim();
-    let dinv: Option<Vec<f64>> = match precond {
-        Preconditioner::None => None,
-        Preconditioner::Jacobi => {
-            let d = op.diagonal().ok_or(SolveError::Unsupported(
-                "Jacobi needs the operator's diagonal",
-            ))?;
-            if let Some(i) = d.iter().position(|&v| v <= 0.0 || v.is_nan()) {
-                return Err(SolveError::NotPositiveDefinite {
-                    iteration: 0,
-                    column: i % k.max(1),
+    let dinv = match precond {
+        None => None,
+        Some(j) => {
+            j.check(n)?;
+            if let Some(row) = j.diagonal().iter().position(|&v| v <= 0.0) {
+                return Err(CgError::NonPositiveDiagonal {
+                    row,
+                    value: j.diagonal()[row],
                 });
             }
-            Some(d.iter().map(|v| 1.0 / v).collect())
+            Some(j.inverse())
         }
     };
-    let eps = params.tolerance;
-    let mut r = vec![0.0; n * k];
-    op.apply(x, &mut r, k);
-    r.par_iter_mut()
-        .zip(b.par_iter())
-        .for_each(|(ri, bi)| *ri = bi - *ri);
-    let mut p: Vec<f64> = match &dinv {
-        Some(d) => r.iter().enumerate().map(|(j, v)| v * d[j / k]).collect(),
-        None => r.clone(),
-    };
-    let mut q = vec![0.0; n * k];
-    let mut rz = col_dots(&r, &p, k);
-    let bnorm: Vec<f64> = col_norms2(b, k)
-        .iter()
-        .map(|v| v.sqrt().max(f64::MIN_POSITIVE))
-        .collect();
-    let mut active = vec![true; k];
-    let mut info = Info {
-        iterations: vec![0; k],
-        history: vec![Vec::new(); k],
-        plateau_at: vec![None; k],
-        ..Default::default()
-    };
-    let rr0 = col_norms2(&r, k);
+    let [r, p, q] = ws.blocks::<3>(n * k);
+    krylov::residual(op, b, x, k, r);
+    match dinv {
+        Some(d) => p
+            .par_chunks_mut(k)
+            .zip(r.par_chunks(k))
+            .zip(d.par_iter())
+            .for_each(|((ps, rs), di)| {
+                for (pv, rv) in ps.iter_mut().zip(rs) {
+                    *pv = rv * di;
+                }
+            }),
+        None => krylov::copy(p, r),
+    }
+    let mut rz = col_dots(r, p, k);
+    let bnorm = krylov::rhs_norms(b, k);
+    let mut active = krylov::all_active(k);
+    let mut info = Info::new(k);
+    let rr0 = col_norms2(r, k);
     for c in 0..k {
         if rr0[c] == 0.0 {
             active[c] = false;
@@ -116,97 +110,78 @@ pub fn cg(
             info.history[c].push(rr0[c].sqrt() / bnorm[c]);
         }
     }
-    let mut pq = vec![0.0; k];
+    let crit = Criterion::new(params);
+    let (mut pq, mut qq) = ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]);
     let mut it = 0;
     while active.iter().any(|&a| a) {
         if it >= params.max_iterations {
-            info.residuals = relative_residuals(op, x, b, k);
-            info.seconds = start.elapsed().as_secs_f64();
-            return Err(SolveError::NoConvergence {
+            krylov::finish(&mut info, op, x, b, k, start);
+            return Err(CgError::NoConvergence {
                 info: Box::new(info),
             });
         }
         it += 1;
-        op.apply_dot(&p, &mut q, k, &p, &mut pq);
-        let mut alpha = [0.0f64; 8];
-        for c in 0..k {
-            if !active[c] {
-                continue;
-            }
+        op.apply_fused(p, q, k, Fused::new(p, &mut pq, &mut qq));
+        let mut alpha = [0.0f64; MAX_COLUMNS];
+        for c in krylov::live(active) {
             if pq[c] <= 0.0 || pq[c].is_nan() {
                 if rz[c] == 0.0 {
                     active[c] = false;
                     info.iterations[c] = it - 1;
                     continue;
                 }
-                return Err(SolveError::NotPositiveDefinite {
+                return Err(CgError::NotPositiveDefinite {
                     iteration: it,
                     column: c,
                 });
             }
             alpha[c] = rz[c] / pq[c];
         }
-        let eps2 = eps * eps;
-        let weak_vertex = params.stopping == Stopping::WeakVertex;
-        let dinv_ref = dinv.as_deref();
         let sums = x
             .par_chunks_mut(CHUNK * k)
             .zip(r.par_chunks_mut(CHUNK * k))
             .zip(p.par_chunks(CHUNK * k).zip(q.par_chunks(CHUNK * k)))
             .enumerate()
             .map(|(blk, ((xs, rs), (ps, qs)))| {
-                let mut s = Sums::default();
+                let mut s = Sums::<4>::default();
                 for row in 0..xs.len() / k {
-                    let mut dx2 = 0.0;
-                    let mut x2 = 0.0;
-                    let di = dinv_ref.map_or(1.0, |d| d[blk * CHUNK + row]);
+                    let (mut dx2, mut x2) = (0.0, 0.0);
+                    let di = dinv.map_or(1.0, |d| d[blk * CHUNK + row]);
                     for c in 0..k {
                         let j = row * k + c;
-                        let xo = xs[j];
-                        s.xx[c] += xo * xo;
-                        x2 += xo * xo;
                         let dx = alpha[c] * ps[j];
-                        dx2 += dx * dx;
-                        xs[j] = xo + dx;
+                        krylov::advance(&mut xs[j], dx, &mut s.v[XX][c], &mut x2, &mut dx2);
                         rs[j] -= alpha[c] * qs[j];
-                        s.rr[c] += rs[j] * rs[j];
-                        s.rz[c] += rs[j] * rs[j] * di;
-                        s.pp[c] += ps[j] * ps[j];
+                        s.v[RR][c] += rs[j] * rs[j];
+                        s.v[RZ][c] += rs[j] * rs[j] * di;
+                        s.v[PP][c] += ps[j] * ps[j];
                     }
-                    if weak_vertex && dx2 >= eps2 * x2 && dx2 > 0.0 {
-                        s.moving_vertices += 1;
-                    }
+                    s.moving += crit.moving(dx2, x2);
                 }
                 s
             })
             .reduce(Sums::default, Sums::add);
-        let mut beta = [0.0f64; 8];
-        for c in 0..k {
-            if !active[c] {
-                continue;
-            }
+        let mut beta = [0.0f64; MAX_COLUMNS];
+        for c in krylov::live(active) {
             info.iterations[c] = it;
+            let rr = sums.v[RR][c];
             if params.record_history {
-                info.history[c].push(sums.rr[c].sqrt() / bnorm[c]);
+                info.history[c].push(rr.sqrt() / bnorm[c]);
             }
-            let done = match params.stopping {
-                Stopping::Weak => alpha[c] * alpha[c] * sums.pp[c] < eps2 * sums.xx[c],
-                Stopping::WeakVertex => sums.moving_vertices == 0,
-                Stopping::Strong => sums.rr[c].sqrt() < eps * bnorm[c],
-            };
-            if done || sums.rr[c] == 0.0 {
+            let step2 = alpha[c] * alpha[c] * sums.v[PP][c];
+            if crit.done(step2, sums.v[XX][c], sums.moving, rr, bnorm[c]) || rr == 0.0 {
                 active[c] = false;
                 continue;
             }
-            beta[c] = sums.rz[c] / rz[c];
-            rz[c] = sums.rz[c];
+            beta[c] = sums.v[RZ][c] / rz[c];
+            rz[c] = sums.v[RZ][c];
         }
         p.par_chunks_mut(CHUNK * k)
             .zip(r.par_chunks(CHUNK * k))
             .enumerate()
             .for_each(|(blk, (ps, rs))| {
                 for row in 0..ps.len() / k {
-                    let di = dinv_ref.map_or(1.0, |d| d[blk * CHUNK + row]);
+                    let di = dinv.map_or(1.0, |d| d[blk * CHUNK + row]);
                     for c in 0..k {
                         if active[c] {
                             let j = row * k + c;
@@ -216,17 +191,16 @@ pub fn cg(
                 }
             });
     }
-    info.residuals = relative_residuals(op, x, b, k);
-    info.seconds = start.elapsed().as_secs_f64();
+    krylov::finish(&mut info, op, x, b, k, start);
     Ok(info)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::solve::{direct::CholeskySolver, shifted_system, test_util::*, SparseOperator};
+    use crate::solve::{direct::CholeskySolver, shifted_system, test_util::*, CsrMatrix, Stopping};
 
-    fn direct(a: &crate::solve::CsrMatrix, b: &[f64], k: usize) -> Vec<f64> {
+    fn direct(a: &CsrMatrix, b: &[f64], k: usize) -> Vec<f64> {
         let mut x = b.to_vec();
         CholeskySolver::new(&a.to_csc())
             .unwrap()
@@ -239,28 +213,24 @@ mod tests {
     fn agrees_with_cholesky_strong() {
         let (m, _, sql, ..) = irregular(3);
         let a = shifted_system(&sql, None, 30.0);
-        let op = SparseOperator::from_csr(a.clone(), None);
         let b = flat(&m);
         let want = direct(&a, &b, 3);
-        for pre in [Preconditioner::None, Preconditioner::Jacobi] {
+        let jacobi = Jacobi::new(&a).unwrap();
+        for pre in [None, Some(&jacobi)] {
             let mut x = b.clone();
             let params = Params {
                 stopping: Stopping::Strong,
                 tolerance: 1e-10,
                 ..Default::default()
             };
-            let info = cg(&op, &b, &mut x, 3, &params, pre).unwrap();
+            let info = cg(&a, &b, &mut x, 3, &params, pre, &mut Workspace::new()).unwrap();
             assert!(
                 info.residuals.iter().all(|&r| r < 1e-9),
                 "{:?}",
                 info.residuals
             );
-            let err = x
-                .iter()
-                .zip(&want)
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0, f64::max);
-            assert!(err < 1e-8, "{pre:?}: {err}");
+            let err = max_diff(&x, &want);
+            assert!(err < 1e-8, "{}: {err}", pre.is_some());
         }
     }
 
@@ -268,7 +238,6 @@ mod tests {
     fn blocked_equals_single_columns() {
         let (m, _, sql, ..) = irregular(2);
         let a = shifted_system(&sql, None, 10.0);
-        let op = SparseOperator::from_csr(a, None);
         let b = flat(&m);
         let params = Params {
             stopping: Stopping::Strong,
@@ -276,11 +245,11 @@ mod tests {
             ..Default::default()
         };
         let mut x = b.clone();
-        let info = cg(&op, &b, &mut x, 3, &params, Preconditioner::None).unwrap();
+        let info = cg(&a, &b, &mut x, 3, &params, None, &mut Workspace::new()).unwrap();
         for c in 0..3 {
             let bc: Vec<f64> = (0..m.n_vertices()).map(|i| b[3 * i + c]).collect();
             let mut xc = bc.clone();
-            let ic = cg(&op, &bc, &mut xc, 1, &params, Preconditioner::None).unwrap();
+            let ic = cg(&a, &bc, &mut xc, 1, &params, None, &mut Workspace::new()).unwrap();
             assert_eq!(ic.iterations[0], info.iterations[c]);
             for i in 0..m.n_vertices() {
                 assert!((xc[i] - x[3 * i + c]).abs() < 1e-12);
@@ -291,20 +260,20 @@ mod tests {
     #[test]
     fn weak_stops_earlier_than_strong() {
         let (m, _, sql, ..) = irregular(5);
-        let op = SparseOperator::from_csr(shifted_system(&sql, None, 30.0), None);
+        let a = shifted_system(&sql, None, 30.0);
         let b = flat(&m);
-        let run = |stopping| {
+        let solve = |stopping| {
             let mut x = b.clone();
             let p = Params {
                 stopping,
                 ..Default::default()
             };
-            cg(&op, &b, &mut x, 3, &p, Preconditioner::None).unwrap()
+            cg(&a, &b, &mut x, 3, &p, None, &mut Workspace::new()).unwrap()
         };
         let (w, wv, s) = (
-            run(Stopping::Weak),
-            run(Stopping::WeakVertex),
-            run(Stopping::Strong),
+            solve(Stopping::Weak),
+            solve(Stopping::WeakVertex),
+            solve(Stopping::Strong),
         );
         let max = |i: &Info| *i.iterations.iter().max().unwrap();
         assert!(max(&w) < max(&s), "{:?} {:?}", w.iterations, s.iterations);
@@ -315,22 +284,45 @@ mod tests {
     #[test]
     fn indefinite_matrix_is_reported() {
         // diag(1, -1, 1, ...) is symmetric indefinite.
-        let n = 50;
-        let trip: Vec<_> = (0..n)
-            .map(|i| faer::sparse::Triplet::new(i, i, if i == 7 { -1.0 } else { 1.0 + i as f64 }))
+        let d: Vec<f64> = (0..50)
+            .map(|i| if i == 7 { -1.0 } else { 1.0 + i as f64 })
             .collect();
-        let m = crate::SparseMatrix::try_new_from_triplets(n, n, &trip).unwrap();
-        let op = SparseOperator::new(&m, false);
-        let b = vec![1.0; n];
-        let mut x = vec![0.0; n];
-        let e = cg(&op, &b, &mut x, 1, &Params::default(), Preconditioner::None).unwrap_err();
-        assert!(matches!(e, SolveError::NotPositiveDefinite { .. }), "{e}");
+        let a = diagonal(&d);
+        let b = vec![1.0; 50];
+        let mut x = vec![0.0; 50];
+        let e = cg(
+            &a,
+            &b,
+            &mut x,
+            1,
+            &Params::default(),
+            None,
+            &mut Workspace::new(),
+        )
+        .unwrap_err();
+        assert!(matches!(e, CgError::NotPositiveDefinite { .. }), "{e}");
+        // Jacobi sees the negative diagonal before iterating.
+        let j = Jacobi::new(&a).unwrap();
+        let e = cg(
+            &a,
+            &b,
+            &mut x,
+            1,
+            &Params::default(),
+            Some(&j),
+            &mut Workspace::new(),
+        )
+        .unwrap_err();
+        assert!(
+            matches!(e, CgError::NonPositiveDiagonal { row: 7, .. }),
+            "{e}"
+        );
     }
 
     #[test]
     fn iteration_cap_is_no_convergence() {
         let (m, _, sql, ..) = irregular(3);
-        let op = SparseOperator::from_csr(shifted_system(&sql, None, 100.0), None);
+        let a = shifted_system(&sql, None, 100.0);
         let b = flat(&m);
         let mut x = vec![0.0; b.len()];
         let p = Params {
@@ -339,9 +331,59 @@ mod tests {
             tolerance: 1e-14,
             ..Default::default()
         };
-        match cg(&op, &b, &mut x, 3, &p, Preconditioner::None) {
-            Err(SolveError::NoConvergence { info }) => assert_eq!(info.iterations, vec![2, 2, 2]),
+        match cg(&a, &b, &mut x, 3, &p, None, &mut Workspace::new()) {
+            Err(CgError::NoConvergence { info }) => assert_eq!(info.iterations, vec![2, 2, 2]),
             other => panic!("{other:?}"),
         }
+    }
+
+    #[test]
+    fn bad_arguments_are_input_errors() {
+        let (m, _, sql, ..) = irregular(1);
+        let a = shifted_system(&sql, None, 1.0);
+        let b = flat(&m);
+        let fails = |b: &[f64], x: &mut [f64], p: &Params, pre: Option<&Jacobi>| match cg(
+            &a,
+            b,
+            x,
+            3,
+            p,
+            pre,
+            &mut Workspace::new(),
+        ) {
+            Err(CgError::Input(e)) => e,
+            other => panic!("{other:?}"),
+        };
+        let p = Params::default();
+        let mut x = b.clone();
+        let e = fails(&b, &mut x[1..], &p, None);
+        assert!(matches!(e, InputError::InitialGuess { .. }));
+        let e = fails(&b[1..], &mut x[1..], &p, None);
+        assert!(matches!(e, InputError::RightHandSide { .. }));
+        let zero_tol = Params {
+            tolerance: 0.0,
+            ..Default::default()
+        };
+        let e = fails(&b, &mut x, &zero_tol, None);
+        assert!(matches!(e, InputError::Tolerance(_)));
+        let wrong = Jacobi::from_diagonal(vec![1.0; 3]).unwrap();
+        let e = fails(&b, &mut x, &p, Some(&wrong));
+        assert!(matches!(e, InputError::Preconditioner { .. }));
+    }
+
+    #[test]
+    fn a_reused_workspace_gives_the_same_answer() {
+        let (m, _, sql, ..) = irregular(3);
+        let a = shifted_system(&sql, None, 30.0);
+        let b = flat(&m);
+        let p = Params::default();
+        let mut ws = Workspace::new();
+        let mut runs = Vec::new();
+        for _ in 0..2 {
+            let mut x = b.clone();
+            let info = cg(&a, &b, &mut x, 3, &p, None, &mut ws).unwrap();
+            runs.push((x, info.iterations, info.history));
+        }
+        assert_eq!(runs[0], runs[1]);
     }
 }

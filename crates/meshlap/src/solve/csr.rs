@@ -7,8 +7,10 @@
 //! this layout reads 12 bytes per nonzero instead of faer's column-by-column product
 //! over 16-byte `usize` indices three times.
 
+use super::{Fused, MAX_COLUMNS};
 use crate::SparseMatrix;
 use rayon::prelude::*;
+use std::ops::Range;
 
 /// Rows per parallel task.
 pub(crate) const CHUNK: usize = 4096;
@@ -26,35 +28,38 @@ pub struct CsrMatrix {
 impl CsrMatrix {
     /// Converts a CSC matrix to CSR (a transpose of the storage, O(nnz)).
     pub fn from_csc(m: &SparseMatrix) -> Self {
-        let (nr, nc) = (m.nrows(), m.ncols());
-        let mut row_ptr = vec![0usize; nr + 1];
-        for j in 0..nc {
-            for &i in m.row_idx_of_col_raw(j) {
-                row_ptr[i + 1] += 1;
-            }
-        }
-        for i in 0..nr {
-            row_ptr[i + 1] += row_ptr[i];
-        }
-        let nnz = row_ptr[nr];
-        let mut fill = row_ptr.clone();
-        let mut col = vec![0u32; nnz];
-        let mut val = vec![0.0; nnz];
-        for j in 0..nc {
-            for (&i, &v) in m.row_idx_of_col_raw(j).iter().zip(m.val_of_col(j)) {
-                let p = fill[i];
-                fill[i] += 1;
-                col[p] = j as u32;
-                val[p] = v;
-            }
-        }
-        CsrMatrix {
-            nrows: nr,
-            ncols: nc,
-            row_ptr,
-            col,
-            val,
-        }
+        let (ptr, col, val) = transpose_storage(
+            m.nrows(),
+            m.ncols(),
+            |j| m.symbolic().col_range(j),
+            |p| m.symbolic().row_idx()[p],
+            m.val(),
+            |j| j as u32,
+        );
+        Self::from_parts(m.nrows(), m.ncols(), ptr, col, val)
+    }
+
+    /// The transpose `Aᵀ` as CSR (a transpose of the storage, O(nnz); each row's
+    /// columns ascending).
+    pub fn transpose(&self) -> CsrMatrix {
+        let (ptr, col, val) = self.by_columns(|i| i as u32);
+        Self::from_parts(self.ncols, self.nrows, ptr, col, val)
+    }
+
+    /// The entries compressed by columns (rows ascending in each), row indices as
+    /// `index` makes them.
+    fn by_columns<T: Copy + Default>(
+        &self,
+        index: impl Fn(usize) -> T,
+    ) -> (Vec<usize>, Vec<T>, Vec<f64>) {
+        transpose_storage(
+            self.ncols,
+            self.nrows,
+            |i| self.row_range(i),
+            |p| self.col[p] as usize,
+            &self.val,
+            index,
+        )
     }
 
     /// The CSR of the transpose of a CSC matrix: the CSC arrays read as rows.
@@ -67,13 +72,27 @@ impl CsrMatrix {
             col.extend(m.row_idx_of_col_raw(j).iter().map(|&i| i as u32));
             val.extend_from_slice(m.val_of_col(j));
         }
+        Self::from_parts(nc, nr, row_ptr, col, val)
+    }
+
+    fn from_parts(
+        nrows: usize,
+        ncols: usize,
+        row_ptr: Vec<usize>,
+        col: Vec<u32>,
+        val: Vec<f64>,
+    ) -> Self {
         CsrMatrix {
-            nrows: nc,
-            ncols: nr,
+            nrows,
+            ncols,
             row_ptr,
             col,
             val,
         }
+    }
+
+    fn row_range(&self, i: usize) -> Range<usize> {
+        self.row_ptr[i]..self.row_ptr[i + 1]
     }
 
     /// Rows.
@@ -97,41 +116,17 @@ impl CsrMatrix {
     pub fn diagonal(&self) -> Vec<f64> {
         (0..self.nrows)
             .map(|i| {
-                (self.row_ptr[i]..self.row_ptr[i + 1])
+                self.row_range(i)
                     .find(|&p| self.col[p] as usize == i)
                     .map_or(0.0, |p| self.val[p])
             })
             .collect()
     }
 
-    /// `y = A x` for an n×k row-major block, in parallel over row chunks.
-    pub fn apply(&self, x: &[f64], y: &mut [f64], k: usize) {
-        self.apply_dot(x, y, k, None);
-    }
-
-    /// `y = A x`, and if `dot` is given, also `dot[c] = Σ_i w[i,c]·y[i,c]` for the
-    /// block `w` passed with it (the fused `pᵀAp` of CG).
-    pub fn apply_dot(&self, x: &[f64], y: &mut [f64], k: usize, dot: Option<(&[f64], &mut [f64])>) {
-        match dot {
-            None => self.apply_dot_norm(x, y, k, None),
-            Some((w, out)) => {
-                let mut norm = [0.0; 8];
-                self.apply_dot_norm(x, y, k, Some((w, out, &mut norm[..k])))
-            }
-        }
-    }
-
-    /// `y = A x`, and if `dots` is given, also `dot[c] = Σ_i w[i,c]·y[i,c]` and
-    /// `norm2[c] = Σ_i y[i,c]²` in the same pass (BiCG's `p̃ᵀAp` and `‖Ap‖²`).
-    /// At most 8 columns when `dots` is given.
-    pub fn apply_dot_norm(
-        &self,
-        x: &[f64],
-        y: &mut [f64],
-        k: usize,
-        dots: Option<(&[f64], &mut [f64], &mut [f64])>,
-    ) {
-        type Acc = ([f64; 8], [f64; 8]);
+    /// `y = A x` for an n×k row-major block, in parallel over row chunks, with the
+    /// reductions of `fused` in the same pass (at most [`MAX_COLUMNS`] columns then).
+    pub(crate) fn product(&self, x: &[f64], y: &mut [f64], k: usize, fused: Option<Fused<'_>>) {
+        type Acc = ([f64; MAX_COLUMNS], [f64; MAX_COLUMNS]);
         let rows = |start: usize, ys: &mut [f64], w: Option<&[f64]>, acc: &mut Acc| {
             let nr = ys.len() / k;
             for r in 0..nr {
@@ -167,23 +162,22 @@ impl CsrMatrix {
                 }
             }
         };
-        match dots {
+        match fused {
             None => y.par_chunks_mut(CHUNK * k).enumerate().for_each(|(b, ys)| {
-                let mut acc = ([0.0; 8], [0.0; 8]);
+                let mut acc = ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]);
                 rows(b * CHUNK, ys, None, &mut acc)
             }),
-            Some((w, dot, norm2)) => {
-                assert!(k <= 8, "fused dot supports at most 8 columns");
+            Some(Fused { w, dot, norm2 }) => {
                 let total = y
                     .par_chunks_mut(CHUNK * k)
                     .enumerate()
                     .map(|(b, ys)| {
-                        let mut acc = ([0.0; 8], [0.0; 8]);
+                        let mut acc = ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]);
                         rows(b * CHUNK, ys, Some(w), &mut acc);
                         acc
                     })
                     .reduce(
-                        || ([0.0; 8], [0.0; 8]),
+                        || ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]),
                         |a, b| {
                             (
                                 std::array::from_fn(|c| a.0[c] + b.0[c]),
@@ -207,7 +201,7 @@ impl CsrMatrix {
         let mut touched = Vec::new();
         for i in 0..self.nrows {
             touched.clear();
-            for p in self.row_ptr[i]..self.row_ptr[i + 1] {
+            for p in self.row_range(i) {
                 let (k, a) = (self.col[p] as usize, self.val[p]);
                 for q in b.row_ptr[k]..b.row_ptr[k + 1] {
                     let j = b.col[q] as usize;
@@ -226,13 +220,7 @@ impl CsrMatrix {
             }
             row_ptr[i + 1] = col.len();
         }
-        CsrMatrix {
-            nrows: self.nrows,
-            ncols: b.ncols,
-            row_ptr,
-            col,
-            val,
-        }
+        Self::from_parts(self.nrows, b.ncols, row_ptr, col, val)
     }
 
     /// `α·I + β·A` (square A; the diagonal is added to the pattern where missing).
@@ -242,7 +230,7 @@ impl CsrMatrix {
         let mut val = Vec::with_capacity(self.nnz() + self.nrows);
         for i in 0..self.nrows {
             let mut placed = false;
-            for p in self.row_ptr[i]..self.row_ptr[i + 1] {
+            for p in self.row_range(i) {
                 let j = self.col[p] as usize;
                 if !placed && j > i {
                     col.push(i as u32);
@@ -264,20 +252,14 @@ impl CsrMatrix {
             }
             row_ptr[i + 1] = col.len();
         }
-        CsrMatrix {
-            nrows: self.nrows,
-            ncols: self.ncols,
-            row_ptr,
-            col,
-            val,
-        }
+        Self::from_parts(self.nrows, self.ncols, row_ptr, col, val)
     }
 
     /// `diag(s)·A` (row i scaled by `s[i]`).
     pub fn scale_rows(&self, s: &[f64]) -> CsrMatrix {
         let mut out = self.clone();
         for i in 0..self.nrows {
-            for p in self.row_ptr[i]..self.row_ptr[i + 1] {
+            for p in self.row_range(i) {
                 out.val[p] *= s[i];
             }
         }
@@ -311,57 +293,75 @@ impl CsrMatrix {
             }
             row_ptr[i + 1] = col.len();
         }
-        CsrMatrix {
-            nrows: self.nrows,
-            ncols: self.ncols,
-            row_ptr,
-            col,
-            val,
-        }
+        Self::from_parts(self.nrows, self.ncols, row_ptr, col, val)
     }
 
     /// Converts back to faer's CSC (for the direct solvers).
     pub fn to_csc(&self) -> SparseMatrix {
-        let t = self;
-        // CSC(A) = CSR(Aᵀ): transpose the storage.
-        let mut col_ptr = vec![0usize; t.ncols + 1];
-        for &j in &t.col {
-            col_ptr[j as usize + 1] += 1;
-        }
-        for j in 0..t.ncols {
-            col_ptr[j + 1] += col_ptr[j];
-        }
-        let mut fill = col_ptr.clone();
-        let mut row_idx = vec![0usize; t.nnz()];
-        let mut vals = vec![0.0; t.nnz()];
-        for i in 0..t.nrows {
-            for p in t.row_ptr[i]..t.row_ptr[i + 1] {
-                let j = t.col[p] as usize;
-                row_idx[fill[j]] = i;
-                vals[fill[j]] = t.val[p];
-                fill[j] += 1;
-            }
-        }
+        let (col_ptr, row_idx, vals) = self.by_columns(|i| i);
         faer::sparse::SparseColMat::new(
             faer::sparse::SymbolicSparseColMat::new_checked(
-                t.nrows, t.ncols, col_ptr, None, row_idx,
+                self.nrows, self.ncols, col_ptr, None, row_idx,
             ),
             vals,
         )
     }
 }
 
+/// Counting-sort transposition of compressed storage: `n_outer` lists (entries
+/// `range(o)`, inner index `inner(p)` and value `val[p]` of entry p) over `n_inner`
+/// inner positions become `n_inner` lists over the outer positions, each ascending.
+/// Returns the pointers, the indices (as `index` makes them) and the values.
+fn transpose_storage<T: Copy + Default>(
+    n_inner: usize,
+    n_outer: usize,
+    range: impl Fn(usize) -> Range<usize>,
+    inner: impl Fn(usize) -> usize,
+    val: &[f64],
+    index: impl Fn(usize) -> T,
+) -> (Vec<usize>, Vec<T>, Vec<f64>) {
+    let mut ptr = vec![0usize; n_inner + 1];
+    for o in 0..n_outer {
+        for p in range(o) {
+            ptr[inner(p) + 1] += 1;
+        }
+    }
+    for i in 0..n_inner {
+        ptr[i + 1] += ptr[i];
+    }
+    let nnz = ptr[n_inner];
+    let mut fill = ptr.clone();
+    let mut idx = vec![T::default(); nnz];
+    let mut out = vec![0.0; nnz];
+    for o in 0..n_outer {
+        for p in range(o) {
+            let i = inner(p);
+            let q = fill[i];
+            fill[i] += 1;
+            idx[q] = index(o);
+            out[q] = val[p];
+        }
+    }
+    (ptr, idx, out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::mesh::{builtin, topology::Topology};
+    use crate::solve::LinOp;
+
+    /// The Tutte Laplacian of a cube (non-symmetric), as faer's CSC and as CSR.
+    fn tutte() -> (SparseMatrix, CsrMatrix) {
+        let m = builtin::cube(3).unwrap();
+        let f = crate::operator::tutte::tutte(&Topology::new(&m).unwrap()).unwrap();
+        let a = CsrMatrix::from_csc(&f);
+        (f, a)
+    }
 
     #[test]
     fn blocked_product_matches_faer() {
-        let m = builtin::cube(3).unwrap();
-        let t = Topology::new(&m).unwrap();
-        let f = crate::operator::tutte::tutte(&t).unwrap();
-        let a = CsrMatrix::from_csc(&f);
+        let (f, a) = tutte();
         let n = f.nrows();
         for k in [1usize, 2, 3] {
             let x: Vec<f64> = (0..n * k).map(|i| (i as f64 * 0.37).sin()).collect();
@@ -384,5 +384,18 @@ mod tests {
         assert!((&sq - &f.to_dense() * &f.to_dense()).norm_max() < 1e-14);
         let sum = a.add(2.0, &at, -1.0).to_csc().to_dense();
         assert!((&sum - (f.to_dense() * 2.0 - &ft)).norm_max() < 1e-14);
+    }
+
+    #[test]
+    fn transpose_equals_the_transpose_of_the_csc() {
+        let (f, a) = tutte();
+        // Same entries in the same order as reading faer's CSC as rows.
+        assert_eq!(a.transpose(), CsrMatrix::transpose_of_csc(&f));
+        assert_eq!(a.transpose().transpose(), a);
+        let shifted = a.shifted(&vec![2.0; a.nrows()], 0.5);
+        assert_eq!(
+            shifted.transpose(),
+            CsrMatrix::transpose_of_csc(&shifted.to_csc())
+        );
     }
 }

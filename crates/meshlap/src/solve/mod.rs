@@ -1,170 +1,58 @@
 //! Linear solvers for implicit fairing (Zhang 2004 §4.10; Desbrun et al. 1999).
 //!
 //! The systems are `B x = b` with `B = M + λF` (`M = I`, or the degree matrix for the
-//! paper's symmetrised Tutte system `(D + λK) x = D b`) and the right-hand side an n×3
-//! block: the three coordinate columns are solved together, one blocked sparse product
-//! per iteration, with per-column scalars and per-column convergence.
+//! paper's symmetrized Tutte system `(D + λK) x = D b`), F an operator of
+//! [`crate::operator`] with the sign `F = D − W` (positive semi-definite), and the
+//! right-hand side an n×k row-major block (k ≤ [`MAX_COLUMNS`]; the three coordinate
+//! columns of a mesh are solved together: one blocked sparse product per iteration,
+//! per-column scalars and per-column convergence).
 //!
-//! - [`cg`]: conjugate gradients and Jacobi-preconditioned CG (symmetric positive
-//!   definite `B`; a non-positive curvature `pᵀBp ≤ 0` is reported as
-//!   [`SolveError::NotPositiveDefinite`] — the SQL with negative weights can lose
+//! Every iterative solver has faer's shape: it takes the operator through a trait
+//! ([`LinOp`]; BiCG a [`BiLinOp`], which adds the transpose), [`Params`] (with
+//! `Default`) and a [`Workspace`] of buffers, and returns an [`Info`] (iterations,
+//! final residuals and residual history per column; BiCG's [`BicgInfo`] adds its
+//! plateau) or its own typed error:
+//!
+//! - [`cg()`]: conjugate gradients, plain or with the [`Jacobi`] preconditioner, for
+//!   symmetric positive definite `B` ([`CgError::NotPositiveDefinite`] on a
+//!   non-positive curvature `pᵀBp ≤ 0`: the SQL with negative weights can lose
 //!   definiteness);
-//! - [`bicg`]: bi-conjugate gradients for the non-symmetric Tutte system, with
+//! - [`bicg()`]: bi-conjugate gradients for the non-symmetric Tutte system, with
 //!   breakdown and plateau detection;
-//! - [`bicgstab`]: faer's BiCGSTAB, as a further reference;
-//! - [`direct`]: sparse Cholesky (symbolic analysis kept and reused) and sparse LU.
+//! - [`bicgstab()`]: BiCGSTAB (one more reference for non-symmetric systems);
+//! - [`direct`]: sparse Cholesky and LU, symbolic analysis then numeric factorization,
+//!   each reporting a [`DirectInfo`] (times and fill).
 //!
-//! Iterative solvers follow faer's shape: [`Params`] with `Default`, an [`Info`] with
-//! iterations and residual history per column, and [`SolveError`]. They solve against
-//! the [`LinearOperator`] trait. Sign convention of the operators: `F = D − W`
-//! (positive semi-definite).
+//! The stateful solver that keeps a system, its factorization, preconditioner and
+//! buffers across solves is [`crate::filter::ImplicitSolver`]; [`SolveInfo`] is what
+//! it reports whichever solver runs, and [`SolveError`] the error of this module,
+//! wrapping each solver's.
 
 pub mod bicg;
 pub mod bicgstab;
 pub mod cg;
 pub mod csr;
 pub mod direct;
+mod krylov;
+mod op;
 
+pub(crate) use krylov::check_sizes;
+
+pub use bicg::{bicg, BicgError, BicgInfo, BicgParams};
+pub use bicgstab::{bicgstab, BicgstabError};
+pub use cg::{cg, CgError};
 pub use csr::CsrMatrix;
+pub use direct::{CholeskySolver, DirectError, DirectInfo, LuSolver, SymbolicCholesky, SymbolicLu};
+pub use krylov::Workspace;
+pub use op::{BiLinOp, CsrWithTranspose, Diagonal, FnOperator, Fused, Jacobi, LinOp};
 
 use serde::Serialize;
 
-/// A square linear operator applied to n×k blocks stored row-major (entry (i, c) at
-/// index `i·k + c`).
-pub trait LinearOperator: Sync {
-    /// n.
-    fn dim(&self) -> usize;
-    /// `y = A x`.
-    fn apply(&self, x: &[f64], y: &mut [f64], k: usize);
-    /// `y = A x` and `dot[c] = Σ_i w[i,c]·y[i,c]`; the default does it in two passes.
-    fn apply_dot(&self, x: &[f64], y: &mut [f64], k: usize, w: &[f64], dot: &mut [f64]) {
-        self.apply(x, y, k);
-        for c in 0..k {
-            dot[c] = (0..self.dim()).map(|i| w[i * k + c] * y[i * k + c]).sum();
-        }
-    }
-    /// `y = A x`, `dot[c] = Σ_i w[i,c]·y[i,c]` and `norm2[c] = Σ_i y[i,c]²`; the
-    /// default does it in separate passes.
-    fn apply_dot_norm(
-        &self,
-        x: &[f64],
-        y: &mut [f64],
-        k: usize,
-        w: &[f64],
-        dot: &mut [f64],
-        norm2: &mut [f64],
-    ) {
-        self.apply_dot(x, y, k, w, dot);
-        norm2[..k].copy_from_slice(&col_norms2(y, k));
-    }
-    /// `y = Aᵀ x`, if the operator can (BiCG needs it).
-    fn apply_transpose(&self, _x: &[f64], _y: &mut [f64], _k: usize) -> Result<(), SolveError> {
-        Err(SolveError::Unsupported(
-            "this operator cannot apply its transpose",
-        ))
-    }
-    /// The diagonal, if known (for Jacobi preconditioning).
-    fn diagonal(&self) -> Option<Vec<f64>> {
-        None
-    }
-}
-
-/// A sparse matrix with its transpose, as a [`LinearOperator`].
-#[derive(Clone, Debug)]
-pub struct SparseOperator {
-    a: CsrMatrix,
-    at: Option<CsrMatrix>,
-}
-
-impl SparseOperator {
-    /// Wraps a faer CSC matrix; the transpose is stored too when `with_transpose`
-    /// (needed by BiCG on non-symmetric matrices; for symmetric ones pass `false` and
-    /// the matrix itself is used).
-    pub fn new(m: &crate::SparseMatrix, with_transpose: bool) -> Self {
-        Self::from_csr(
-            CsrMatrix::from_csc(m),
-            with_transpose.then(|| CsrMatrix::transpose_of_csc(m)),
-        )
-    }
-    /// From CSR parts.
-    pub fn from_csr(a: CsrMatrix, at: Option<CsrMatrix>) -> Self {
-        SparseOperator { a, at }
-    }
-    /// The matrix.
-    pub fn matrix(&self) -> &CsrMatrix {
-        &self.a
-    }
-}
-
-impl LinearOperator for SparseOperator {
-    fn dim(&self) -> usize {
-        self.a.nrows()
-    }
-    fn apply(&self, x: &[f64], y: &mut [f64], k: usize) {
-        self.a.apply(x, y, k)
-    }
-    fn apply_dot(&self, x: &[f64], y: &mut [f64], k: usize, w: &[f64], dot: &mut [f64]) {
-        self.a.apply_dot(x, y, k, Some((w, dot)))
-    }
-    fn apply_dot_norm(
-        &self,
-        x: &[f64],
-        y: &mut [f64],
-        k: usize,
-        w: &[f64],
-        dot: &mut [f64],
-        norm2: &mut [f64],
-    ) {
-        self.a.apply_dot_norm(x, y, k, Some((w, dot, norm2)))
-    }
-    fn apply_transpose(&self, x: &[f64], y: &mut [f64], k: usize) -> Result<(), SolveError> {
-        match &self.at {
-            Some(at) => at.apply(x, y, k),
-            None => self.a.apply(x, y, k),
-        }
-        Ok(())
-    }
-    fn diagonal(&self) -> Option<Vec<f64>> {
-        Some(self.a.diagonal())
-    }
-}
-
-/// A matrix-free operator from a closure `(x, y, k)`.
-pub struct FnOperator<F: Fn(&[f64], &mut [f64], usize) + Sync> {
-    /// n.
-    pub dim: usize,
-    /// `y = A x`.
-    pub apply: F,
-}
-
-impl<F: Fn(&[f64], &mut [f64], usize) + Sync> LinearOperator for FnOperator<F> {
-    fn dim(&self) -> usize {
-        self.dim
-    }
-    fn apply(&self, x: &[f64], y: &mut [f64], k: usize) {
-        (self.apply)(x, y, k)
-    }
-}
-
-/// `M + λF` as a CSR matrix, `M = diag(mass)` (`None`: the identity). With F from
-/// [`crate::operator`] (sign `F = D − W`) and λ > 0 this is the implicit-fairing matrix
-/// of Desbrun et al. (1999): SPD for symmetric positive semi-definite F.
-pub fn shifted_system(f: &crate::SparseMatrix, mass: Option<&[f64]>, lambda: f64) -> CsrMatrix {
-    let n = f.nrows();
-    let ones;
-    let m = match mass {
-        Some(m) => m,
-        None => {
-            ones = vec![1.0; n];
-            &ones
-        }
-    };
-    CsrMatrix::from_csc(f).shifted(m, lambda)
-}
+/// The most right-hand sides an iterative solve takes at once.
+pub const MAX_COLUMNS: usize = 8;
 
 /// When to stop an iterative solve.
-#[derive(Copy, Clone, Debug, PartialEq, Eq, Serialize, Default)]
-#[serde(rename_all = "kebab-case")]
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash, Default)]
 pub enum Stopping {
     /// The paper's weak criterion, per coordinate column c:
     /// `‖x_c⁽ⁿ⁾ − x_c⁽ⁿ⁻¹⁾‖ < ε‖x_c⁽ⁿ⁻¹⁾‖`. Zhang writes it for `x_i` with the strong
@@ -180,34 +68,23 @@ pub enum Stopping {
     Strong,
 }
 
-impl std::str::FromStr for Stopping {
-    type Err = SolveError;
-    fn from_str(s: &str) -> Result<Self, SolveError> {
-        match s {
-            "weak" => Ok(Stopping::Weak),
-            "weak-vertex" => Ok(Stopping::WeakVertex),
-            "strong" => Ok(Stopping::Strong),
-            _ => Err(SolveError::InvalidParameter(format!(
-                "unknown stopping criterion `{s}` (weak, weak-vertex, strong)"
-            ))),
-        }
-    }
-}
+crate::names::option_names!(Stopping, InputError, |s| InputError::UnknownStopping(s.to_string()), {
+    Weak => "weak",
+    WeakVertex => "weak-vertex",
+    Strong => "strong",
+});
 
 /// Parameters of the iterative solvers.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Params {
-    /// ε of the stopping criterion (default 1e-5, as in the paper).
+    /// ε of the stopping criterion (default 1e-5, as in the paper); positive and finite.
     pub tolerance: f64,
     /// Which criterion (default: the paper's weak one).
     pub stopping: Stopping,
-    /// Iteration cap (default 10,000).
+    /// Iteration cap, at least 1 (default 10,000).
     pub max_iterations: usize,
     /// Keep the relative residual of every iteration (default true).
     pub record_history: bool,
-    /// BiCG plateau window: a plateau is an iteration whose relative residual is
-    /// above 99% of the one `plateau_window` iterations earlier (default 10).
-    pub plateau_window: usize,
 }
 
 impl Default for Params {
@@ -217,125 +94,234 @@ impl Default for Params {
             stopping: Stopping::Weak,
             max_iterations: 10_000,
             record_history: true,
-            plateau_window: 10,
         }
     }
 }
 
+impl Params {
+    /// Checks the tolerance (positive, finite) and the iteration cap (≥ 1).
+    pub fn validate(&self) -> Result<(), InputError> {
+        if !(self.tolerance > 0.0 && self.tolerance.is_finite()) {
+            return Err(InputError::Tolerance(self.tolerance));
+        }
+        if self.max_iterations == 0 {
+            return Err(InputError::MaxIterations);
+        }
+        Ok(())
+    }
+}
+
 /// What an iterative solve did, per column.
-#[derive(Clone, Debug, Default, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct Info {
     /// Iterations each column took.
     pub iterations: Vec<usize>,
     /// Final relative residual `‖B x_c − b_c‖ / ‖b_c‖` of each column (recomputed).
     pub residuals: Vec<f64>,
-    /// Relative residual per iteration, per column (the solver's recurrence).
+    /// Relative residual per iteration (the initial one first), per column, from the
+    /// solver's recurrence; empty when [`Params::record_history`] is off.
     pub history: Vec<Vec<f64>>,
-    /// BiCG: the first iteration at which a plateau was seen, per column.
-    pub plateau_at: Vec<Option<usize>>,
     /// Wall-clock seconds.
     pub seconds: f64,
 }
 
-/// Errors of the linear solvers.
+impl Info {
+    /// An empty record for k columns.
+    pub(crate) fn new(k: usize) -> Self {
+        Info {
+            iterations: vec![0; k],
+            residuals: Vec::new(),
+            history: vec![Vec::new(); k],
+            seconds: 0.0,
+        }
+    }
+}
+
+/// What one solve did, whichever solver ran: the filters' per-solve record
+/// (serialized without a tag; the BiCG and direct variants add their own fields).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum SolveInfo {
+    /// CG, PCG, CG on the symmetrized system, BiCGSTAB.
+    Iterative(Info),
+    /// BiCG, with its plateau.
+    Bicg(BicgInfo),
+    /// A direct solve: no iterations, the residuals it left and the factorization.
+    Direct {
+        /// Iterations (all 0), residuals, empty history, solve seconds.
+        #[serde(flatten)]
+        info: Info,
+        /// The factorization the solve used.
+        factorization: DirectInfo,
+    },
+}
+
+impl SolveInfo {
+    /// The facts every solver reports.
+    pub fn info(&self) -> &Info {
+        match self {
+            SolveInfo::Iterative(info) | SolveInfo::Direct { info, .. } => info,
+            SolveInfo::Bicg(b) => &b.info,
+        }
+    }
+    /// Iterations per column (0 for a direct solve).
+    pub fn iterations(&self) -> &[usize] {
+        &self.info().iterations
+    }
+    /// Final relative residuals per column.
+    pub fn residuals(&self) -> &[f64] {
+        &self.info().residuals
+    }
+    /// Relative residual per iteration, per column.
+    pub fn history(&self) -> &[Vec<f64>] {
+        &self.info().history
+    }
+    /// Seconds of the solve (for a direct solve, without the factorization).
+    pub fn seconds(&self) -> f64 {
+        self.info().seconds
+    }
+    /// BiCG's first plateau iteration per column; `None` for the other solvers.
+    pub fn plateau_at(&self) -> Option<&[Option<usize>]> {
+        match self {
+            SolveInfo::Bicg(b) => Some(&b.plateau_at),
+            _ => None,
+        }
+    }
+    /// The factorization of a direct solve.
+    pub fn factorization(&self) -> Option<&DirectInfo> {
+        match self {
+            SolveInfo::Direct { factorization, .. } => Some(factorization),
+            _ => None,
+        }
+    }
+}
+
+/// Arguments a solver cannot work with. Fix the call: sizes, parameters or the
+/// preconditioner.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum InputError {
+    /// The number of right-hand sides is 0 or above [`MAX_COLUMNS`].
+    #[error("{k} right-hand sides at once; a solve takes 1 to {MAX_COLUMNS}")]
+    Columns {
+        /// Columns asked for.
+        k: usize,
+    },
+    /// The right-hand side does not have n·k values.
+    #[error("the operator is {n}×{n} but the right-hand side has {len} values for {k} columns")]
+    RightHandSide {
+        /// n.
+        n: usize,
+        /// k.
+        k: usize,
+        /// Values given.
+        len: usize,
+    },
+    /// The initial guess differs in size from the right-hand side.
+    #[error("the initial guess has {len} values, the right-hand side {want}")]
+    InitialGuess {
+        /// Values given.
+        len: usize,
+        /// Values of the right-hand side.
+        want: usize,
+    },
+    /// The tolerance is not positive and finite.
+    #[error("the tolerance must be positive and finite, got {0}")]
+    Tolerance(f64),
+    /// The iteration cap is 0.
+    #[error("the iteration cap must be at least 1")]
+    MaxIterations,
+    /// The preconditioner was built for another size.
+    #[error("the preconditioner has {got} rows, the operator {n}")]
+    Preconditioner {
+        /// n of the operator.
+        n: usize,
+        /// Rows of the preconditioner.
+        got: usize,
+    },
+    /// A zero or non-finite diagonal entry: Jacobi preconditioning would divide by it.
+    #[error("diagonal entry {row} is {value}; Jacobi preconditioning needs a nonzero diagonal")]
+    SingularDiagonal {
+        /// Row.
+        row: usize,
+        /// The entry.
+        value: f64,
+    },
+    /// Not the name of a stopping criterion.
+    #[error("unknown stopping criterion `{0}` (weak, weak-vertex, strong)")]
+    UnknownStopping(String),
+}
+
+/// Errors of this module: each solver's own error, or bad arguments.
 #[derive(Debug, thiserror::Error)]
 pub enum SolveError {
-    /// The iteration cap was reached.
-    #[error("no convergence within {} iterations (relative residuals {:?})", .info.iterations.iter().max().unwrap_or(&0), .info.residuals)]
-    NoConvergence {
-        /// What was done.
-        info: Box<Info>,
-    },
-    /// A Krylov recurrence broke down (division by a vanishing quantity).
-    #[error("breakdown at iteration {iteration} in column {column}: {what}")]
-    Breakdown {
-        /// Iteration.
-        iteration: usize,
-        /// Column.
-        column: usize,
-        /// Which quantity vanished.
-        what: &'static str,
-    },
-    /// The matrix is not positive definite (CG curvature `pᵀBp ≤ 0`, or a Cholesky
-    /// pivot ≤ 0).
-    #[error("the system matrix is not positive definite (detected at iteration {iteration}, column {column}); an SQL with negative weights can cause this — run `meshlap repair-sql` or use --solver lu/bicg")]
-    NotPositiveDefinite {
-        /// Iteration (0 for a factorisation).
-        iteration: usize,
-        /// Column (or pivot index for a factorisation).
-        column: usize,
-    },
-    /// Sizes do not match.
-    #[error("dimension mismatch: {0}")]
-    Dimension(String),
-    /// A direct factorisation failed.
-    #[error("factorisation failed: {0}")]
-    Factorization(String),
-    /// The operator cannot do what the solver needs.
-    #[error("{0}")]
-    Unsupported(&'static str),
-    /// A parameter is out of range.
-    #[error("{0}")]
-    InvalidParameter(String),
+    /// Conjugate gradients failed.
+    #[error(transparent)]
+    Cg(#[from] CgError),
+    /// Bi-conjugate gradients failed.
+    #[error(transparent)]
+    Bicg(#[from] BicgError),
+    /// BiCGSTAB failed.
+    #[error(transparent)]
+    Bicgstab(#[from] BicgstabError),
+    /// A sparse factorization or direct solve failed.
+    #[error(transparent)]
+    Direct(#[from] DirectError),
+    /// The arguments are unusable.
+    #[error(transparent)]
+    Input(#[from] InputError),
 }
 
-pub(crate) fn check_dims(op: &dyn LinearOperator, b: &[f64], k: usize) -> Result<(), SolveError> {
-    if k == 0 || b.len() != op.dim() * k {
-        return Err(SolveError::Dimension(format!(
-            "operator is {n}×{n} but the right-hand side has {} values for {k} columns",
-            b.len(),
-            n = op.dim()
-        )));
+impl SolveError {
+    /// What the solver did before it stopped at the iteration cap, if that is why it
+    /// failed.
+    pub fn unconverged(&self) -> Option<SolveInfo> {
+        match self {
+            SolveError::Cg(CgError::NoConvergence { info })
+            | SolveError::Bicgstab(BicgstabError::NoConvergence { info }) => {
+                Some(SolveInfo::Iterative((**info).clone()))
+            }
+            SolveError::Bicg(BicgError::NoConvergence { info }) => {
+                Some(SolveInfo::Bicg((**info).clone()))
+            }
+            _ => None,
+        }
     }
-    Ok(())
+
+    /// True when the system matrix was found not to be positive definite (a CG
+    /// curvature `pᵀBp ≤ 0`, a non-positive diagonal under Jacobi, or a Cholesky
+    /// pivot ≤ 0). For `I + λS` with the SQL, negative weights are the usual cause.
+    pub fn is_not_positive_definite(&self) -> bool {
+        matches!(
+            self,
+            SolveError::Cg(CgError::NotPositiveDefinite { .. })
+                | SolveError::Cg(CgError::NonPositiveDiagonal { .. })
+                | SolveError::Direct(DirectError::NotPositiveDefinite { .. })
+        )
+    }
 }
 
-/// Per-column squared norms of an n×k block.
-pub(crate) fn col_norms2(x: &[f64], k: usize) -> Vec<f64> {
-    use rayon::prelude::*;
-    let parts = x
-        .par_chunks(csr::CHUNK * k)
-        .map(|ch| {
-            let mut acc = [0.0; 8];
-            for row in ch.chunks_exact(k) {
-                for c in 0..k {
-                    acc[c] += row[c] * row[c];
-                }
-            }
-            acc
-        })
-        .reduce(|| [0.0; 8], |a, b| std::array::from_fn(|c| a[c] + b[c]));
-    parts[..k].to_vec()
+/// `M + λF` as a CSR matrix, `M = diag(mass)` (`None`: the identity). With F from
+/// [`crate::operator`] (n×n, sign `F = D − W`) and λ > 0 this is the implicit-fairing
+/// matrix of Desbrun et al. (1999): SPD for symmetric positive semi-definite F.
+pub fn shifted_system(f: &crate::SparseMatrix, mass: Option<&[f64]>, lambda: f64) -> CsrMatrix {
+    let ones;
+    let m = match mass {
+        Some(m) => m,
+        None => {
+            ones = vec![1.0; f.nrows()];
+            &ones
+        }
+    };
+    CsrMatrix::from_csc(f).shifted(m, lambda)
 }
 
-/// Per-column dot products of two n×k blocks.
-pub(crate) fn col_dots(x: &[f64], y: &[f64], k: usize) -> Vec<f64> {
-    use rayon::prelude::*;
-    let parts = x
-        .par_chunks(csr::CHUNK * k)
-        .zip(y.par_chunks(csr::CHUNK * k))
-        .map(|(a, b)| {
-            let mut acc = [0.0; 8];
-            for (ra, rb) in a.chunks_exact(k).zip(b.chunks_exact(k)) {
-                for c in 0..k {
-                    acc[c] += ra[c] * rb[c];
-                }
-            }
-            acc
-        })
-        .reduce(|| [0.0; 8], |a, b| std::array::from_fn(|c| a[c] + b[c]));
-    parts[..k].to_vec()
-}
-
-/// Relative residuals `‖B x_c − b_c‖/‖b_c‖`, recomputed from scratch.
-pub fn relative_residuals(op: &dyn LinearOperator, x: &[f64], b: &[f64], k: usize) -> Vec<f64> {
+/// Relative residuals `‖B x_c − b_c‖/‖b_c‖` of the n×k blocks `x`, `b`, recomputed
+/// from scratch (absolute residuals for zero columns of `b`).
+pub fn relative_residuals(op: &(impl LinOp + ?Sized), x: &[f64], b: &[f64], k: usize) -> Vec<f64> {
     let mut r = vec![0.0; b.len()];
-    op.apply(x, &mut r, k);
-    for (ri, bi) in r.iter_mut().zip(b) {
-        *ri = bi - *ri;
-    }
-    let rn = col_norms2(&r, k);
-    let bn = col_norms2(b, k);
+    krylov::residual(op, b, x, k, &mut r);
+    let rn = krylov::col_norms2(&r, k);
+    let bn = krylov::col_norms2(b, k);
     rn.iter()
         .zip(&bn)
         .map(|(r, b)| if *b > 0.0 { (r / b).sqrt() } else { r.sqrt() })
@@ -364,5 +350,48 @@ pub(crate) mod test_util {
 
     pub fn flat(m: &TriMesh) -> Vec<f64> {
         m.positions.iter().flat_map(|p| p.iter().copied()).collect()
+    }
+
+    /// Largest entry-wise difference of two blocks.
+    pub fn max_diff(a: &[f64], b: &[f64]) -> f64 {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max)
+    }
+
+    /// The diagonal matrix of `values`.
+    pub fn diagonal(values: &[f64]) -> crate::solve::CsrMatrix {
+        let trip: Vec<_> = values
+            .iter()
+            .enumerate()
+            .map(|(i, &v)| faer::sparse::Triplet::new(i, i, v))
+            .collect();
+        let n = values.len();
+        crate::solve::CsrMatrix::from_csc(
+            &crate::SparseMatrix::try_new_from_triplets(n, n, &trip).unwrap(),
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn params_are_validated() {
+        assert!(Params::default().validate().is_ok());
+        for tolerance in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            let p = Params {
+                tolerance,
+                ..Default::default()
+            };
+            assert!(matches!(p.validate(), Err(InputError::Tolerance(_))));
+        }
+        let p = Params {
+            max_iterations: 0,
+            ..Default::default()
+        };
+        assert_eq!(p.validate(), Err(InputError::MaxIterations));
     }
 }

@@ -80,7 +80,10 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
     if !(args.tol > 0.0 && args.tol.is_finite()) {
         return Err(bad(format!("--tol must be positive, got {}", args.tol)));
     }
-    let stopping: Stopping = args.stop.parse()?;
+    let stopping: Stopping = args
+        .stop
+        .parse()
+        .map_err(meshlap::solve::SolveError::from)?;
     let opts = FairingOptions {
         lambdas: args.lambda.clone(),
         params: Params {
