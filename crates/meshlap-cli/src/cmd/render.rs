@@ -1,7 +1,7 @@
 //! `meshlap render`.
 
 use crate::common::MeshArgs;
-use meshlap::render::{render, Colouring, RenderOptions};
+use meshlap::render::{render, Coloring, Colormap, RenderOptions, Scalars};
 use std::path::PathBuf;
 
 /// What to colour the surface by.
@@ -55,15 +55,15 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
     let input = args.mesh.open()?;
     let mesh = &input.mesh;
     let colouring = match args.colour {
-        ColourBy::Clay => Colouring::Clay,
-        ColourBy::Degree => Colouring::Scalar {
-            values: input.topology.degrees().iter().map(|&d| d as f64).collect(),
-            range: None,
-        },
-        ColourBy::Height => Colouring::Scalar {
-            values: mesh.positions.iter().map(|p| p[1]).collect(),
-            range: None,
-        },
+        ColourBy::Clay => Coloring::Clay,
+        ColourBy::Degree => Coloring::Scalar(Scalars::new(
+            input.topology.degrees().iter().map(|&d| d as f64).collect(),
+            Colormap::Viridis,
+        )),
+        ColourBy::Height => Coloring::Scalar(Scalars::new(
+            mesh.positions.iter().map(|p| p[1]).collect(),
+            Colormap::Viridis,
+        )),
     };
     let opts = RenderOptions {
         width: args.width,
@@ -72,7 +72,7 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         elevation: args.elevation,
         smooth: args.smooth,
         wireframe: args.wireframe,
-        colouring,
+        coloring: colouring,
         ..Default::default()
     };
     render(mesh, &opts)?.write_png(&args.output)?;

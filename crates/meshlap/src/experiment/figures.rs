@@ -18,7 +18,7 @@ use super::{sig, ExperimentError, Outputs, Table};
 use crate::input::Input;
 use crate::mesh::TriMesh;
 use crate::operator::{Operator, OperatorKind, OperatorOptions};
-use crate::render::{bounding_sphere, render, Panel, RenderOptions};
+use crate::render::{render, Framing, Panel, RenderOptions, Window};
 use crate::spectral::basis::{BasisOptions, EigenBasis};
 use crate::spectral::transform::{mat_to_positions, positions_to_mat, truncated};
 use serde::Serialize;
@@ -109,7 +109,8 @@ pub fn figure(
             height: size,
             azimuth: m.view.0,
             elevation: m.view.1,
-            frame: Some(bounding_sphere(&m.input.mesh)),
+            framing: Window::fit(&m.input.mesh, m.view.0, m.view.1)
+                .map_or(Framing::Fit, Framing::Window),
             ..Default::default()
         };
         let n = m.input.mesh.n_vertices();

@@ -248,7 +248,7 @@ impl Outputs {
     pub fn image(
         &mut self,
         name: &str,
-        image: &crate::render::Image,
+        image: &crate::raster::Image,
     ) -> Result<PathBuf, ExperimentError> {
         let p = self.path(name);
         image.write_png(&p)?;

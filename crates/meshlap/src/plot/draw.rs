@@ -1,125 +1,14 @@
-//! PNG line charts for the experiments (eigen-decomposition cost, energy compaction,
-//! solver convergence, rate–distortion curves).
-//!
-//! Rendering uses `plotters` into an in-memory RGB buffer with an embedded font
-//! (Ubuntu Light from `epaint_default_fonts`, so no system font library is needed), then
-//! the buffer is PNG-encoded and written through [`crate::io::write_atomic`]: a chart file
-//! is either complete or absent.
-//!
-//! ```no_run
-//! use meshlap::plot::{Chart, Scale, Series};
-//! let chart = Chart {
-//!     title: "CG residual".into(),
-//!     x_label: "iteration".into(),
-//!     y_label: "‖r‖/‖b‖".into(),
-//!     y_scale: Scale::Log,
-//!     series: vec![Series::new("SQL", vec![(0.0, 1.0), (1.0, 0.1), (2.0, 0.01)])],
-//!     ..Chart::default()
-//! };
-//! chart.write_png(std::path::Path::new("out/residual.png")).unwrap();
-//! ```
+//! Drawing a [`Chart`] with plotters: axes with ticks, grid, one polyline (and
+//! markers) per series in a fixed color cycle, and a legend.
 
+use super::axis::{fmt_tick, keep, range};
+use super::{Chart, PlotError, Scale};
+use crate::raster::Image;
 use plotters::prelude::*;
 use std::path::Path;
 use std::sync::Once;
 
-/// Errors of chart rendering.
-#[derive(Debug, thiserror::Error)]
-pub enum PlotError {
-    /// The chart has nothing drawable (no series, or no finite point; on a log axis,
-    /// no positive value).
-    #[error("chart `{0}` has no drawable points")]
-    Empty(String),
-    /// Invalid chart parameters.
-    #[error("invalid chart: {0}")]
-    Invalid(String),
-    /// The drawing backend failed.
-    #[error("cannot draw chart `{title}`: {message}")]
-    Draw {
-        /// Chart title.
-        title: String,
-        /// Backend message.
-        message: String,
-    },
-    /// Writing the PNG failed.
-    #[error(transparent)]
-    Io(#[from] crate::io::IoError),
-}
-
-/// Axis scale.
-#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
-pub enum Scale {
-    /// Linear.
-    #[default]
-    Linear,
-    /// Base-10 logarithmic; non-positive values are dropped from the chart.
-    Log,
-}
-
-/// One named polyline.
-#[derive(Clone, Debug, Default)]
-pub struct Series {
-    /// Legend entry.
-    pub name: String,
-    /// `(x, y)` points in drawing order. Non-finite points are skipped.
-    pub points: Vec<(f64, f64)>,
-    /// Draw a marker at every point as well as the line.
-    pub markers: bool,
-}
-
-impl Series {
-    /// A line series without markers.
-    pub fn new(name: impl Into<String>, points: Vec<(f64, f64)>) -> Self {
-        Series {
-            name: name.into(),
-            points,
-            markers: false,
-        }
-    }
-    /// The same series with markers at the points.
-    pub fn with_markers(mut self) -> Self {
-        self.markers = true;
-        self
-    }
-}
-
-/// A line chart.
-#[derive(Clone, Debug)]
-pub struct Chart {
-    /// Title above the plot.
-    pub title: String,
-    /// Label of the horizontal axis.
-    pub x_label: String,
-    /// Label of the vertical axis.
-    pub y_label: String,
-    /// Horizontal scale.
-    pub x_scale: Scale,
-    /// Vertical scale.
-    pub y_scale: Scale,
-    /// The series, drawn in order with a fixed colour cycle.
-    pub series: Vec<Series>,
-    /// Image width in pixels.
-    pub width: u32,
-    /// Image height in pixels.
-    pub height: u32,
-}
-
-impl Default for Chart {
-    fn default() -> Self {
-        Chart {
-            title: String::new(),
-            x_label: String::new(),
-            y_label: String::new(),
-            x_scale: Scale::Linear,
-            y_scale: Scale::Linear,
-            series: Vec::new(),
-            width: 960,
-            height: 640,
-        }
-    }
-}
-
-/// Colour cycle (Tableau 10), distinguishable in print and for most colour-blind readers.
+/// Color cycle (Tableau 10), distinguishable in print and for most color-blind readers.
 const PALETTE: [(u8, u8, u8); 10] = [
     (31, 119, 180),
     (255, 127, 14),
@@ -133,63 +22,41 @@ const PALETTE: [(u8, u8, u8); 10] = [
     (23, 190, 207),
 ];
 
-/// Registers the embedded font under the family name `sans-serif` (idempotent).
-pub(crate) fn register_fonts() {
+/// Registers the embedded font with plotters under the family name `sans-serif`
+/// (idempotent).
+fn register_fonts() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
-        let bytes: &'static [u8] = epaint_default_fonts::UBUNTU_LIGHT;
-        // The embedded font is known to parse; a failure would only lose text, and is
-        // reported by the first draw call.
-        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, bytes);
+        // The embedded font is known to parse (tested in `raster::text`); a failure
+        // would only lose text, and is reported by the first draw call.
+        let _ = plotters::style::register_font(
+            "sans-serif",
+            FontStyle::Normal,
+            crate::raster::text::FONT_BYTES,
+        );
     });
 }
 
-fn keep(scale: Scale, v: f64) -> bool {
-    v.is_finite() && (scale == Scale::Linear || v > 0.0)
-}
-
-/// Range of the kept values, padded so that a constant series still has an extent.
-fn range(values: impl Iterator<Item = f64>, scale: Scale) -> Option<(f64, f64)> {
-    let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-        (lo.min(v), hi.max(v))
-    });
-    if !lo.is_finite() || !hi.is_finite() {
-        return None;
-    }
-    Some(match scale {
-        Scale::Linear => {
-            let pad = if hi > lo {
-                0.04 * (hi - lo)
-            } else {
-                lo.abs().max(1.0) * 0.5
-            };
-            (lo - pad, hi + pad)
-        }
-        Scale::Log => {
-            if hi > lo {
-                (lo / 1.25, hi * 1.25)
-            } else {
-                (lo / 2.0, hi * 2.0)
-            }
-        }
-    })
-}
-
-fn draw_err(title: &str, e: impl std::fmt::Display) -> PlotError {
+fn draw_err(title: &str, e: impl std::error::Error + Send + Sync + 'static) -> PlotError {
     PlotError::Draw {
         title: title.to_string(),
-        message: e.to_string(),
+        source: Box::new(e),
     }
 }
 
 impl Chart {
     /// Renders the chart into an RGB8 buffer of `width × height × 3` bytes.
     pub fn render_rgb(&self) -> Result<Vec<u8>, PlotError> {
+        Ok(self.render()?.rgb)
+    }
+
+    /// Renders the chart into an image.
+    pub fn render(&self) -> Result<Image, PlotError> {
         if self.width < 200 || self.height < 150 || self.width > 8192 || self.height > 8192 {
-            return Err(PlotError::Invalid(format!(
-                "size {}×{} outside 200×150 … 8192×8192",
-                self.width, self.height
-            )));
+            return Err(PlotError::Size {
+                width: self.width,
+                height: self.height,
+            });
         }
         register_fonts();
         let pts: Vec<Vec<(f64, f64)>> = self
@@ -208,10 +75,10 @@ impl Chart {
         let xr = range(all().map(|p| p.0), self.x_scale).ok_or_else(empty)?;
         let yr = range(all().map(|p| p.1), self.y_scale).ok_or_else(empty)?;
 
-        let mut buf = vec![0u8; self.width as usize * self.height as usize * 3];
+        let mut image = Image::filled(self.width, self.height, [255, 255, 255]);
         {
-            let root =
-                BitMapBackend::with_buffer(&mut buf, (self.width, self.height)).into_drawing_area();
+            let root = BitMapBackend::with_buffer(&mut image.rgb, (self.width, self.height))
+                .into_drawing_area();
             root.fill(&WHITE).map_err(|e| draw_err(&self.title, e))?;
             // One code path per axis-scale combination: plotters encodes the scale in
             // the coordinate type.
@@ -236,18 +103,18 @@ impl Chart {
                         .map_err(|e| draw_err(&self.title, e))?;
                     for (i, (s, p)) in self.series.iter().zip(&pts).enumerate() {
                         let (r, g, b) = PALETTE[i % PALETTE.len()];
-                        let colour = RGBColor(r, g, b);
-                        let style = colour.stroke_width(2);
+                        let color = RGBColor(r, g, b);
+                        let style = color.stroke_width(2);
                         chart
                             .draw_series(LineSeries::new(p.iter().copied(), style))
                             .map_err(|e| draw_err(&self.title, e))?
                             .label(s.name.as_str())
                             .legend(move |(x, y)| {
-                                PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
+                                PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
                             });
                         if s.markers {
                             chart
-                                .draw_series(p.iter().map(|&q| Circle::new(q, 3, colour.filled())))
+                                .draw_series(p.iter().map(|&q| Circle::new(q, 3, color.filled())))
                                 .map_err(|e| draw_err(&self.title, e))?;
                         }
                     }
@@ -273,34 +140,21 @@ impl Chart {
             }
             root.present().map_err(|e| draw_err(&self.title, e))?;
         }
-        Ok(buf)
+        Ok(image)
     }
 
     /// Renders the chart and writes it as a PNG file, atomically.
     pub fn write_png(&self, path: &Path) -> Result<(), PlotError> {
         let rgb = self.render_rgb()?;
-        crate::render::write_rgb_png(path, self.width, self.height, &rgb)?;
+        crate::raster::png::write(path, self.width, self.height, &rgb)?;
         Ok(())
-    }
-}
-
-/// Compact tick labels: plain for moderate magnitudes, scientific otherwise.
-fn fmt_tick(v: f64) -> String {
-    let a = v.abs();
-    if v == 0.0 {
-        "0".into()
-    } else if (1e-3..1e5).contains(&a) {
-        let s = format!("{v:.4}");
-        let s = s.trim_end_matches('0').trim_end_matches('.');
-        s.to_string()
-    } else {
-        format!("{v:.1e}")
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::plot::Series;
 
     fn chart(y_scale: Scale) -> Chart {
         Chart {
@@ -322,7 +176,7 @@ mod tests {
     }
 
     #[test]
-    fn renders_coloured_lines_on_white() {
+    fn renders_colored_lines_on_white() {
         for scale in [Scale::Linear, Scale::Log] {
             let rgb = chart(scale).render_rgb().unwrap();
             assert_eq!(rgb.len(), 400 * 300 * 3);
@@ -370,6 +224,6 @@ mod tests {
         c.series[0].points.push((2.0, 1.0));
         assert!(c.render_rgb().is_ok());
         c.width = 10;
-        assert!(matches!(c.render_rgb(), Err(PlotError::Invalid(_))));
+        assert!(matches!(c.render_rgb(), Err(PlotError::Size { .. })));
     }
 }
