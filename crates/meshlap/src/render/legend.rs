@@ -5,7 +5,7 @@
 //! The legend takes a strip of the picture's right side; the mesh is framed in the
 //! rest (see [`render`](super::render)).
 
-use super::options::Scalars;
+use super::scalars::Scalars;
 use crate::raster::number::compact;
 use crate::raster::text::{self, HAlign, Rotation, TextStyle, VAlign};
 use crate::raster::Image;

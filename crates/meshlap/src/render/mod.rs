@@ -15,6 +15,8 @@
 //!   depth test at `supersample²` samples per pixel, shaded two-sided (back faces are
 //!   lit like front faces, so open and inconsistently oriented meshes still read
 //!   well), and box-filtered down;
+//! - [`Scalars`]: per-vertex values and their color map — degrees, height, a `.npy`
+//!   file, or an operator's eigenvector;
 //! - `legend`: a color bar with the range's ends for [`Coloring::Scalar`];
 //! - [`Panel`] composes several pictures side by side with captions.
 //!
@@ -27,13 +29,15 @@ mod draw;
 mod legend;
 mod options;
 mod panel;
+mod scalars;
 mod zbuffer;
 
 pub use crate::raster::{Colormap, Image};
 pub use camera::{bounding_sphere, Framing, Window};
 pub use draw::render;
-pub use options::{Coloring, RenderOptions, Scalars, LEGEND_MIN_SIZE};
+pub use options::{Coloring, RenderOptions, LEGEND_MIN_SIZE};
 pub use panel::Panel;
+pub use scalars::Scalars;
 
 /// Errors of rendering.
 #[derive(Debug, thiserror::Error)]
@@ -72,6 +76,30 @@ pub enum RenderError {
         /// Vertices of the mesh.
         expected: usize,
     },
+    /// A scalar file holds a 2-D array that is not one row or one column.
+    #[error(
+        "the scalars are a {rows}×{cols} array; give one value per vertex (shape (n,) or (n, 1))"
+    )]
+    ScalarShape {
+        /// Rows of the array.
+        rows: usize,
+        /// Columns of the array.
+        cols: usize,
+    },
+    /// The eigenvector index is not below the number of vertices.
+    #[error("eigenvector {k} asked of an operator with {n} eigenvectors (0 … {})", n.saturating_sub(1))]
+    EigenIndex {
+        /// The index asked for.
+        k: usize,
+        /// Vertices (eigenvectors).
+        n: usize,
+    },
+    /// The dense eigendecomposition failed (see [`crate::spectral::SpectralError`]).
+    #[error(transparent)]
+    Spectral(#[from] crate::spectral::SpectralError),
+    /// The partial eigensolver failed (above the dense limit).
+    #[error(transparent)]
+    PartialSpectrum(#[from] crate::spectral::partial::PartialError),
     /// A panel needs at least one picture.
     #[error("a panel needs at least one picture")]
     EmptyPanel,

@@ -1,55 +1,7 @@
 //! What a render shows and how: [`RenderOptions`] and the surface [`Coloring`].
 
 use super::camera::Framing;
-use crate::raster::Colormap;
-
-/// Per-vertex scalars shown through a color map, with a legend.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Scalars {
-    /// One value per vertex (non-finite values get the map's low end).
-    pub values: Vec<f64>,
-    /// The color map.
-    pub colormap: Colormap,
-    /// The values mapped to the two ends of the map; `None`: the map's
-    /// [`default_range`](Colormap::default_range) of `values` (min to max, or
-    /// symmetric about zero for a diverging map).
-    pub range: Option<(f64, f64)>,
-    /// Caption of the legend (may be empty).
-    pub label: String,
-}
-
-impl Scalars {
-    /// `values` through `colormap` over their default range, without a caption.
-    pub fn new(values: Vec<f64>, colormap: Colormap) -> Self {
-        Scalars {
-            values,
-            colormap,
-            range: None,
-            label: String::new(),
-        }
-    }
-
-    /// The same scalars with a legend caption.
-    pub fn with_label(mut self, label: impl Into<String>) -> Self {
-        self.label = label.into();
-        self
-    }
-
-    /// The range mapped to the ends of the color map: [`Scalars::range`] or the
-    /// default; `(0, 1)` when no value is finite. A range of zero width is widened to
-    /// `lo ± ½` so that a constant gets the middle color.
-    pub fn effective_range(&self) -> (f64, f64) {
-        let (lo, hi) = self
-            .range
-            .or_else(|| self.colormap.default_range(&self.values))
-            .unwrap_or((0.0, 1.0));
-        if hi > lo {
-            (lo, hi)
-        } else {
-            (lo - 0.5, lo + 0.5)
-        }
-    }
-}
+use super::scalars::Scalars;
 
 /// How faces are colored.
 #[derive(Clone, Debug, Default, PartialEq)]
