@@ -18,6 +18,7 @@
 //! Only built with the `pictures` feature.
 
 mod axis;
+mod canvas;
 mod chart;
 mod draw;
 
