@@ -19,43 +19,31 @@ fn decode(path: &Path) -> (u32, u32, Vec<[u8; 3]>) {
     (info.width, info.height, px)
 }
 
+/// Renders builtin:grid:4 (25 vertices) colored by `count` values 0, 1, … saved to
+/// `npy`, into `png`, with the `extra` arguments.
+fn render_npy(npy: &Path, count: usize, png: &Path, extra: &[&str]) -> std::process::Output {
+    let values = faer::Mat::from_fn(count, 1, |i, _| i as f64);
+    meshlap::io::write_npy(npy, values.as_ref()).unwrap();
+    let (npy, png) = (npy.to_str().unwrap(), png.to_str().unwrap());
+    let mut args = vec!["render", "builtin:grid:4", "--scalars", npy, "-o", png];
+    args.extend_from_slice(extra);
+    meshlap(&args)
+}
+
 #[test]
 fn render_scalars_from_npy_and_a_wrong_length_is_one_error_line() {
     let dir = tempfile::tempdir().unwrap();
     let npy = dir.path().join("s.npy");
-    // builtin:grid:4 has 25 vertices
-    let values = faer::Mat::from_fn(25, 1, |i, _| i as f64);
-    meshlap::io::write_npy(&npy, values.as_ref()).unwrap();
     let png = dir.path().join("s.png");
-    let out = meshlap(&[
-        "render",
-        "builtin:grid:4",
-        "--scalars",
-        npy.to_str().unwrap(),
-        "-o",
-        png.to_str().unwrap(),
-        "--width",
-        "300",
-        "--height",
-        "200",
-    ]);
+    let out = render_npy(&npy, 25, &png, &["--width", "300", "--height", "200"]);
     assert!(out.status.success(), "{out:?}");
     let (w, h, px) = decode(&png);
     assert_eq!((w, h), (300, 200));
     // viridis' yellow end (the legend's top) is there
     assert!(px.contains(&[253, 231, 37]));
 
-    let short = faer::Mat::from_fn(24, 1, |i, _| i as f64);
-    meshlap::io::write_npy(&npy, short.as_ref()).unwrap();
     let bad = dir.path().join("bad.png");
-    let out = meshlap(&[
-        "render",
-        "builtin:grid:4",
-        "--scalars",
-        npy.to_str().unwrap(),
-        "-o",
-        bad.to_str().unwrap(),
-    ]);
+    let out = render_npy(&npy, 24, &bad, &[]);
     assert_one_line_error(&out, "24 scalars for 25 vertices");
     assert!(!bad.exists());
 }

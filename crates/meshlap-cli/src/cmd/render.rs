@@ -22,7 +22,7 @@ pub enum ColorBy {
 pub enum ColormapArg {
     /// Sequential dark purple → yellow.
     Viridis,
-    /// Diverging blue → grey → red, zero in the middle (signed data).
+    /// Diverging blue → gray → red, zero in the middle (signed data).
     Coolwarm,
 }
 

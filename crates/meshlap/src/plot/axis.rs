@@ -146,16 +146,15 @@ impl Ranged for Axis {
     }
 }
 
+/// Labeled ticks (drawing coordinate, label) and light grid lines.
 type Ticks = (Vec<(f64, String)>, Vec<f64>);
+
+/// Whether a tick sequence is spaced widely enough for its labels.
+type Fits<'a> = &'a dyn Fn(&[(f64, String)]) -> bool;
 
 /// Linear steps over `[lo, hi]` (values); `to_coord` maps a value to its drawing
 /// coordinate. The first step whose ticks `fit` wins; if none does, the two ends.
-fn linear(
-    lo: f64,
-    hi: f64,
-    fit: &dyn Fn(&[(f64, String)]) -> bool,
-    to_coord: &dyn Fn(f64) -> f64,
-) -> Ticks {
+fn linear(lo: f64, hi: f64, fit: Fits, to_coord: &dyn Fn(f64) -> f64) -> Ticks {
     let span = hi - lo;
     let magnitude = lo.abs().max(hi.abs());
     let mut e = (span / 100.0).log10().floor() as i32;
@@ -193,7 +192,7 @@ fn linear(
 }
 
 /// Logarithmic ticks over the values `[lo, hi]`, `per_decade` pixels per decade.
-fn log(lo: f64, hi: f64, per_decade: f64, fit: &dyn Fn(&[(f64, String)]) -> bool) -> Ticks {
+fn log(lo: f64, hi: f64, per_decade: f64, fit: Fits) -> Ticks {
     let (e0, e1) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
     let candidates = |mantissas: &[f64], stride: i32| -> Vec<(f64, String)> {
         (e0..=e1)

@@ -294,11 +294,11 @@ mod tests {
             assert!(white > px.len() / 2, "{scale:?}: background");
             assert!(blue > 100 && orange > 50, "{scale:?}: {blue} {orange}");
             // text was drawn (dark anti-aliased pixels besides the black axes)
-            let grey = px
+            let gray = px
                 .iter()
                 .filter(|p| p[0] == p[1] && p[1] == p[2] && p[0] > 30 && p[0] < 200)
                 .count();
-            assert!(grey > 50, "{scale:?}: text pixels {grey}");
+            assert!(gray > 50, "{scale:?}: text pixels {gray}");
         }
     }
 

@@ -3,10 +3,10 @@
 //!
 //! - [`Colormap::Viridis`] (van der Walt & Smith, matplotlib's default; CC0): dark
 //!   purple to yellow, perceptually uniform and monotone in lightness, readable in
-//!   grey print and by most color-blind readers — for data of one sign;
+//!   gray print and by most color-blind readers — for data of one sign;
 //! - [`Colormap::Coolwarm`] (Moreland 2009, *Diverging color maps for scientific
-//!   visualization*): blue through light grey to red, for signed data such as
-//!   eigenvectors, with zero mapped to the middle grey when the range is symmetric
+//!   visualization*): blue through light gray to red, for signed data such as
+//!   eigenvectors, with zero mapped to the middle gray when the range is symmetric
 //!   about zero (see [`Colormap::default_range`]).
 
 use std::fmt;
@@ -18,7 +18,7 @@ pub enum Colormap {
     /// Sequential dark purple → yellow (matplotlib's `viridis`).
     #[default]
     Viridis,
-    /// Diverging blue → grey → red (Moreland's cool–warm, matplotlib's `coolwarm`).
+    /// Diverging blue → gray → red (Moreland's cool–warm, matplotlib's `coolwarm`).
     Coolwarm,
 }
 

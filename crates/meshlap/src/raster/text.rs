@@ -123,20 +123,36 @@ impl TextStyle {
     }
 }
 
-/// Calls `glyph_pixel(x, y, coverage)` for every pixel the glyphs of `text` touch, in
-/// text-box coordinates (origin at the top-left of the box, before any rotation).
-fn rasterize(text: &str, size: f64, mut glyph_pixel: impl FnMut(i64, i64, f32)) {
-    let Some(font) = font() else { return };
-    let scale = PxScale::from(size.max(0.0) as f32);
-    let scaled = font.as_scaled(scale);
-    let ascent = scaled.ascent();
+/// The glyphs of `text` at `size` pixels, each with its pen position (advance widths
+/// plus pair kerning), and the advance width of the whole line.
+fn layout(
+    font: &'static FontRef<'static>,
+    text: &str,
+    size: f64,
+) -> (Vec<(ab_glyph::GlyphId, f32)>, f32) {
+    let scaled = font.as_scaled(PxScale::from(size.max(0.0) as f32));
     let mut pen = 0.0f32;
     let mut previous = None;
+    let mut glyphs = Vec::with_capacity(text.len());
     for c in text.chars() {
         let id = scaled.glyph_id(c);
         if let Some(p) = previous {
             pen += scaled.kern(p, id);
         }
+        glyphs.push((id, pen));
+        pen += scaled.h_advance(id);
+        previous = Some(id);
+    }
+    (glyphs, pen)
+}
+
+/// Calls `glyph_pixel(x, y, coverage)` for every pixel the glyphs of `text` touch, in
+/// text-box coordinates (origin at the top-left of the box, before any rotation).
+fn rasterize(text: &str, size: f64, mut glyph_pixel: impl FnMut(i64, i64, f32)) {
+    let Some(font) = font() else { return };
+    let scale = PxScale::from(size.max(0.0) as f32);
+    let ascent = font.as_scaled(scale).ascent();
+    for (id, pen) in layout(font, text, size).0 {
         let glyph = id.with_scale_and_position(scale, point(pen, ascent));
         if let Some(outline) = font.outline_glyph(glyph) {
             let min = outline.px_bounds().min;
@@ -147,8 +163,6 @@ fn rasterize(text: &str, size: f64, mut glyph_pixel: impl FnMut(i64, i64, f32)) 
                 glyph_pixel(min.x as i64 + x as i64, min.y as i64 + y as i64, alpha)
             });
         }
-        pen += scaled.h_advance(id);
-        previous = Some(id);
     }
 }
 
@@ -157,16 +171,7 @@ fn rasterize(text: &str, size: f64, mut glyph_pixel: impl FnMut(i64, i64, f32)) 
 pub fn size(text: &str, size: f64) -> (u32, u32) {
     let Some(font) = font() else { return (0, 0) };
     let scaled = font.as_scaled(PxScale::from(size.max(0.0) as f32));
-    let mut width = 0.0f32;
-    let mut previous = None;
-    for c in text.chars() {
-        let id = scaled.glyph_id(c);
-        if let Some(p) = previous {
-            width += scaled.kern(p, id);
-        }
-        width += scaled.h_advance(id);
-        previous = Some(id);
-    }
+    let width = layout(font, text, size).1;
     let height = scaled.ascent() - scaled.descent();
     (width.ceil().max(0.0) as u32, height.ceil().max(0.0) as u32)
 }

@@ -53,7 +53,7 @@ fn check(mesh: &TriMesh, opts: &RenderOptions) -> Result<(), RenderError> {
 /// and then the elevation about +x ([`super::camera`]); the framing fits the mesh (by
 /// default its projected bounding rectangle) into the picture less a 5 % margin, and
 /// less the legend's strip at the right when scalars are shown. Faces are shaded with
-/// two-sided Lambert lighting, flat or smooth ([`super::zbuffer`]), on white.
+/// two-sided Lambert lighting, flat or smooth (the `zbuffer` module), on white.
 ///
 /// Errors: a mesh without faces or with bad indices or coordinates; a size, supersampling,
 /// view angle or framing out of range; scalars not one per vertex.

@@ -9,7 +9,7 @@
 //! ([`EigenBasis::compute`]) up to [`DENSE_LIMIT`] vertices and by the shift-invert
 //! partial eigensolver ([`operator_partial_spectrum`]) above it, with the canonical
 //! signs of both, and shown through the diverging [`Colormap::Coolwarm`] over a range
-//! symmetric about zero, so that the nodal sets (sign changes) are the grey lines.
+//! symmetric about zero, so that the nodal sets (sign changes) are the gray lines.
 
 use super::RenderError;
 use crate::mesh::{topology::Topology, TriMesh};
@@ -171,7 +171,7 @@ mod tests {
             .sum::<f64>()
             .sqrt();
         assert!(r < 1e-10, "{r}");
-        // symmetric range: zero is the middle grey
+        // symmetric range: zero is the middle gray
         let (lo, hi) = s.effective_range();
         assert_eq!(lo, -hi);
         let n = input.mesh.n_vertices();

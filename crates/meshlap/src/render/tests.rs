@@ -51,7 +51,7 @@ fn a_sphere_covers_a_disc_of_the_expected_area() {
     // radius 0.95·100 px → π·95² / 200² ≈ 0.709 (the polyhedron is slightly smaller)
     let c = coverage(&img);
     assert!((c - 0.709).abs() < 0.02, "coverage {c}");
-    // centre is lit clay, corner is background
+    // center is lit clay, corner is background
     assert_ne!(img.pixel(100, 100), WHITE);
     assert_eq!(img.pixel(2, 2), WHITE);
 }
