@@ -17,7 +17,13 @@ fn line<'a>(toml: &'a str, key: &str) -> &'a str {
 fn picture_dependencies_are_optional_and_behind_the_pictures_feature() {
     let toml = manifest("Cargo.toml");
     let pictures = line(&toml, "pictures");
-    for dep in ["plotters", "plotters-backend", "ab_glyph", "epaint_default_fonts", "png"] {
+    for dep in [
+        "plotters",
+        "plotters-backend",
+        "ab_glyph",
+        "epaint_default_fonts",
+        "png",
+    ] {
         assert!(line(&toml, dep).contains("optional = true"), "{dep}");
         assert!(pictures.contains(&format!("\"dep:{dep}\"")), "{pictures}");
     }
@@ -37,6 +43,9 @@ fn default_build_has_the_picture_layer() {
         height: 32,
         ..Default::default()
     };
-    assert_eq!(meshlap::render::render(&mesh, &opts).unwrap().rgb.len(), 32 * 32 * 3);
+    assert_eq!(
+        meshlap::render::render(&mesh, &opts).unwrap().rgb.len(),
+        32 * 32 * 3
+    );
     assert!(meshlap::experiment::claims::ClaimsOptions::quick().steps > 0);
 }

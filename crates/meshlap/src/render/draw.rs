@@ -69,6 +69,11 @@ pub fn render(mesh: &TriMesh, opts: &RenderOptions) -> Result<Image, RenderError
                     expected: n,
                 });
             }
+            if let Some((lo, hi)) = s.range {
+                if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+                    return Err(RenderError::ScalarRange { lo, hi });
+                }
+            }
             let (lo, hi) = s.effective_range();
             let colors = Colors::Mapped {
                 t: s.values.iter().map(|v| (v - lo) / (hi - lo)).collect(),

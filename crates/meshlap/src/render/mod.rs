@@ -76,6 +76,14 @@ pub enum RenderError {
         /// Vertices of the mesh.
         expected: usize,
     },
+    /// An explicit scalar range that is not finite with `lo < hi`.
+    #[error("scalar range [{lo}, {hi}] must be finite with lo < hi")]
+    ScalarRange {
+        /// Value of the low end.
+        lo: f64,
+        /// Value of the high end.
+        hi: f64,
+    },
     /// A scalar file holds a 2-D array that is not one row or one column.
     #[error(
         "the scalars are a {rows}×{cols} array; give one value per vertex (shape (n,) or (n, 1))"

@@ -22,13 +22,13 @@ use std::path::Path;
 /// Per-vertex scalars shown through a color map, with a legend.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Scalars {
-    /// One value per vertex (non-finite values get the map's low end).
+    /// One value per vertex (NaN gets the map's low end, ±∞ its ends).
     pub values: Vec<f64>,
     /// The color map.
     pub colormap: Colormap,
-    /// The values mapped to the two ends of the map; `None`: the map's
-    /// [`default_range`](Colormap::default_range) of `values` (min to max, or
-    /// symmetric about zero for a diverging map).
+    /// The values mapped to the two ends of the map (finite, `lo < hi`; values outside
+    /// get the ends); `None`: the map's [`default_range`](Colormap::default_range) of
+    /// `values` (min to max, or symmetric about zero for a diverging map).
     pub range: Option<(f64, f64)>,
     /// Caption of the legend (may be empty).
     pub label: String,
