@@ -41,12 +41,15 @@ pub enum Error {
     #[error(transparent)]
     PartialSpectrum(#[from] crate::spectral::partial::PartialError),
     /// Rendering a chart failed.
+    #[cfg(feature = "pictures")]
     #[error(transparent)]
     Plot(#[from] crate::plot::PlotError),
     /// Rendering a mesh picture failed.
+    #[cfg(feature = "pictures")]
     #[error(transparent)]
     Render(#[from] crate::render::RenderError),
     /// An experiment failed.
+    #[cfg(feature = "experiments")]
     #[error(transparent)]
     Experiment(#[from] crate::experiment::ExperimentError),
     /// A user-supplied argument is invalid.

@@ -20,13 +20,24 @@
 //! - [`solve`]: CG, PCG, BiCG, BiCGSTAB and direct solvers for implicit fairing.
 //! - [`codec`]: mesh compression (connectivity coding, spectral geometry coding, `.mlz`).
 //! - [`metric`]: distortion metrics (vertex, Metro surface distance, Zhang, Karni–Gotsman).
-//! - [`experiment`]: the paper's experiments as functions returning tables and charts.
-//! - [`plot`]: PNG line charts for the experiments.
-//! - [`render`]: software rendering of meshes to PNG (the paper's figures).
+//! - [`experiment`]: the paper's experiments as functions returning tables and charts
+//!   (feature `experiments`).
+//! - [`raster`]: RGB images, PNG, text and color maps (feature `pictures`).
+//! - [`plot`]: PNG line charts for the experiments (feature `pictures`).
+//! - [`render`]: software rendering of meshes to pictures, with per-vertex scalars
+//!   through a color map (the paper's figures, eigenvectors; feature `pictures`).
 //! - [`partition`]: METIS graph partitioning of a mesh into connected patches (used by
 //!   the patch-wise transforms, the codec and watermarking).
 //! - [`spectral`]: eigenvalue-decomposition (ED) transforms, partial spectra, patch-wise
 //!   reconstruction.
+//!
+//! ## Features
+//! - `pictures`: [`raster`], [`plot`] and [`render`] (dependencies plotters, png,
+//!   ab_glyph and an embedded font).
+//! - `experiments` (implies `pictures`): [`experiment`].
+//!
+//! Both are on by default; a user of the core library alone sets
+//! `default-features = false` and compiles none of the picture dependencies.
 
 // Index loops over vertices read like the formulas they implement.
 #![allow(clippy::needless_range_loop)]
@@ -34,6 +45,7 @@
 pub mod analysis;
 pub mod codec;
 pub mod error;
+#[cfg(feature = "experiments")]
 pub mod experiment;
 pub mod filter;
 pub mod input;
@@ -43,7 +55,11 @@ pub mod metric;
 mod names;
 pub mod operator;
 pub mod partition;
+#[cfg(feature = "pictures")]
 pub mod plot;
+#[cfg(feature = "pictures")]
+pub mod raster;
+#[cfg(feature = "pictures")]
 pub mod render;
 pub mod rng;
 pub mod solve;

@@ -1,13 +1,14 @@
 //! `meshlap render`.
 
-use crate::common::MeshArgs;
-use meshlap::render::{render, Colouring, RenderOptions};
+use crate::common::{spinner, MeshArgs};
+use meshlap::operator::{Operator, OperatorKind, OperatorOptions};
+use meshlap::render::{render, Coloring, Colormap, RenderOptions, Scalars};
 use std::path::PathBuf;
 
-/// What to colour the surface by.
+/// What to color the surface by, when no scalars are given.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum ColourBy {
-    /// A uniform clay colour.
+pub enum ColorBy {
+    /// A uniform clay color.
     #[default]
     Clay,
     /// Vertex degree (valence): shows irregular connectivity.
@@ -16,11 +17,32 @@ pub enum ColourBy {
     Height,
 }
 
+/// A color map (see `meshlap::raster::Colormap`).
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ColormapArg {
+    /// Sequential dark purple → yellow.
+    Viridis,
+    /// Diverging blue → gray → red, zero in the middle (signed data).
+    Coolwarm,
+}
+
+impl From<ColormapArg> for Colormap {
+    fn from(c: ColormapArg) -> Self {
+        match c {
+            ColormapArg::Viridis => Colormap::Viridis,
+            ColormapArg::Coolwarm => Colormap::Coolwarm,
+        }
+    }
+}
+
 /// Render a picture of a mesh to PNG (software z-buffer, no GPU or display needed).
 ///
-/// Orthographic view fitted to the mesh's bounding sphere; `--azimuth` turns the mesh
-/// about the vertical axis, `--elevation` tilts it towards the viewer. Two-sided Lambert
-/// shading, flat by default (facets visible, as in the paper's figures) or `--smooth`.
+/// Orthographic view framed so that the mesh fills the picture; `--azimuth` turns the
+/// mesh about the vertical axis, `--elevation` tilts it towards the viewer. Two-sided
+/// Lambert shading, flat by default (facets visible, as in the paper's figures) or
+/// `--smooth`. Per-vertex scalars — `--color degree|height`, a NumPy file
+/// (`--scalars`), or an operator's eigenvector (`--eigenvector K --kind KIND`) — are
+/// shown through a color map with a color bar at the right.
 #[derive(clap::Args, Debug)]
 pub struct Args {
     #[command(flatten)]
@@ -46,24 +68,55 @@ pub struct Args {
     /// Darken triangle edges.
     #[arg(long)]
     pub wireframe: bool,
-    /// Surface colour.
-    #[arg(long, value_enum, default_value_t = ColourBy::Clay)]
-    pub colour: ColourBy,
+    /// Surface color: clay, or vertex degree or height through viridis.
+    #[arg(long, value_enum, default_value_t = ColorBy::Clay, alias = "colour")]
+    pub color: ColorBy,
+    /// Color by the values of a float64 .npy file, one per vertex (shape (n,) or (n, 1),
+    /// in the order of the cleaned mesh).
+    #[arg(long, value_name = "FILE.npy", conflicts_with_all = ["color", "eigenvector"])]
+    pub scalars: Option<PathBuf>,
+    /// Color by eigenvector K (0 = smallest eigenvalue) of the --kind operator.
+    #[arg(long, value_name = "K", requires = "kind", conflicts_with = "color")]
+    pub eigenvector: Option<usize>,
+    /// Operator of --eigenvector: kirchhoff (kl), tutte (tl), graph (gl), sql, sstl,
+    /// cotan, … (see `meshlap operator --help`).
+    #[arg(long, short, requires = "eigenvector")]
+    pub kind: Option<OperatorKind>,
+    /// Color map (default: viridis; coolwarm for --eigenvector).
+    #[arg(long, value_enum)]
+    pub colormap: Option<ColormapArg>,
+    /// No color bar.
+    #[arg(long)]
+    pub no_legend: bool,
 }
 
 pub fn run(args: &Args) -> meshlap::Result<()> {
     let input = args.mesh.open()?;
     let mesh = &input.mesh;
-    let colouring = match args.colour {
-        ColourBy::Clay => Colouring::Clay,
-        ColourBy::Degree => Colouring::Scalar {
-            values: input.topology.degrees().iter().map(|&d| d as f64).collect(),
-            range: None,
-        },
-        ColourBy::Height => Colouring::Scalar {
-            values: mesh.positions.iter().map(|p| p[1]).collect(),
-            range: None,
-        },
+    let scalars = if let Some(path) = &args.scalars {
+        let colormap = args.colormap.map_or(Colormap::Viridis, Colormap::from);
+        Some(Scalars::from_npy(path, mesh.n_vertices(), colormap)?)
+    } else if let (Some(k), Some(kind)) = (args.eigenvector, args.kind) {
+        let bar = spinner(format!("eigenvector {k} of the {kind} operator"));
+        let op = Operator::assemble(kind, mesh, &input.topology, &OperatorOptions::default())?;
+        let s = Scalars::eigenvector(&op, k);
+        bar.finish_and_clear();
+        Some(s?)
+    } else {
+        match args.color {
+            ColorBy::Clay => None,
+            ColorBy::Degree => Some(Scalars::degree(&input.topology)),
+            ColorBy::Height => Some(Scalars::height(mesh)),
+        }
+    };
+    let coloring = match scalars {
+        None => Coloring::Clay,
+        Some(mut s) => {
+            if let Some(c) = args.colormap {
+                s.colormap = c.into();
+            }
+            Coloring::Scalar(s)
+        }
     };
     let opts = RenderOptions {
         width: args.width,
@@ -72,7 +125,8 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         elevation: args.elevation,
         smooth: args.smooth,
         wireframe: args.wireframe,
-        colouring,
+        coloring,
+        legend: !args.no_legend,
         ..Default::default()
     };
     render(mesh, &opts)?.write_png(&args.output)?;

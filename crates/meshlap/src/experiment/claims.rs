@@ -13,9 +13,12 @@
 //!   valence-weighted centroid `Σ d_i x_i / Σ d_i`, a doubly stochastic H (KL; SQL
 //!   without negative weights) to the centroid, and never increases the variance.
 //!
-//! Sign convention of every operator: `F = D − W`, positive semi-definite.
+//! [`run`] does all four with [`ClaimsOptions`] and writes their tables, the chart
+//! and `claims.json`. Sign convention of every operator: `F = D − W`, positive
+//! semi-definite.
 
-use super::{sig, yes_no, ExperimentError, Table};
+use super::meshes::{open, open_all, shared, short_name, DEFAULT_MESH_DIR};
+use super::{sig, yes_no, ExperimentError, Outputs, Progress, ProgressFn, Table};
 use crate::analysis::properties::{analyze, PropertyOptions, PropertyReport};
 use crate::analysis::repair::{repair_sql, RepairOptions, RepairReport};
 use crate::analysis::smoothing::{iterate, IterateOptions, SmoothingStep};
@@ -23,20 +26,137 @@ use crate::input::Input;
 use crate::operator::{sql::BoundaryDiagonal, Operator, OperatorKind, OperatorOptions};
 use crate::plot::{Chart, Scale, Series};
 use serde::Serialize;
+use std::path::Path;
 
-fn input_err(input: &Input, e: impl std::fmt::Display) -> ExperimentError {
-    ExperimentError::Input {
-        source_name: input.source.clone(),
-        message: e.to_string(),
+fn input_err(input: &Input, e: impl Into<crate::Error>) -> ExperimentError {
+    ExperimentError::input(&input.source, e)
+}
+
+/// Options of [`run`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct ClaimsOptions {
+    /// Meshes of the property table (files or `builtin:` specs).
+    pub meshes: Vec<String>,
+    /// Meshes with boundary for the SQL erratum table.
+    pub boundary_meshes: Vec<String>,
+    /// Meshes for the SQL repair table.
+    pub repair_meshes: Vec<String>,
+    /// Mesh of the smoothing-limit run (irregular valences make the two centroids
+    /// differ).
+    pub limit_mesh: String,
+    /// Smoothing steps of the limit run.
+    pub steps: usize,
+}
+
+impl Default for ClaimsOptions {
+    /// The settings of `meshlap experiment claims`: the shared models in
+    /// [`DEFAULT_MESH_DIR`] and two generated meshes.
+    fn default() -> Self {
+        let dir = Path::new(DEFAULT_MESH_DIR);
+        let mut o = Self::paper(dir);
+        o.boundary_meshes.push("builtin:grid:12".into());
+        o
     }
 }
 
-/// Short name of a mesh source for tables (file name without directories).
-pub fn short_name(source: &str) -> String {
-    std::path::Path::new(source)
-        .file_name()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| source.to_string())
+impl ClaimsOptions {
+    /// The settings of `experiment all`, with the shared models read from `dir`.
+    pub fn paper(dir: &Path) -> Self {
+        let m = |name: &str| shared(dir, name);
+        ClaimsOptions {
+            meshes: vec![
+                m("cow.obj"),
+                m("woody.obj"),
+                "builtin:grid:12".into(),
+                "builtin:icosahedron".into(),
+            ],
+            boundary_meshes: vec![m("teapot.obj"), m("stanford-bunny.obj")],
+            repair_meshes: vec![m("cow.obj"), m("teapot.obj"), m("horse.ply")],
+            limit_mesh: m("woody.obj"),
+            steps: 20_000,
+        }
+    }
+
+    /// Fewer and smaller meshes ([`DEFAULT_MESH_DIR`]).
+    pub fn quick() -> Self {
+        Self::quick_in(Path::new(DEFAULT_MESH_DIR))
+    }
+
+    /// Fewer and smaller meshes, the shared ones read from `dir`.
+    pub fn quick_in(dir: &Path) -> Self {
+        let m = |name: &str| shared(dir, name);
+        ClaimsOptions {
+            meshes: vec![m("woody.obj"), "builtin:grid:12".into()],
+            boundary_meshes: vec![m("teapot.obj")],
+            repair_meshes: vec![m("cow.obj")],
+            limit_mesh: m("woody.obj"),
+            steps: 20_000,
+        }
+    }
+}
+
+/// Everything [`run`] measured (serialized as `claims.json`).
+#[derive(Clone, Debug, Serialize)]
+pub struct ClaimsResults {
+    /// [`properties`] rows.
+    pub properties: Vec<PropertyRow>,
+    /// [`erratum`] rows.
+    pub erratum: Vec<ErratumRow>,
+    /// [`repair`] rows.
+    pub repair: Vec<RepairRow>,
+    /// [`limits`] rows.
+    pub limits: Vec<LimitRow>,
+    /// The four tables, in that order.
+    #[serde(skip)]
+    pub tables: Vec<Table>,
+}
+
+/// The four measurements of the module documentation with `opts`: writes
+/// `properties`, `erratum`, `repair` and `limits` (`.md` and `.csv`), `limits.png` and
+/// `claims.json` to `out`.
+pub fn run(
+    opts: &ClaimsOptions,
+    out: &mut Outputs,
+    progress: &mut ProgressFn,
+) -> Result<ClaimsResults, ExperimentError> {
+    let meshes = open_all(&opts.meshes, progress)?;
+    let (prop_rows, prop_table) = properties(
+        &meshes,
+        &OperatorKind::ALL,
+        &PropertyOptions::default(),
+        progress,
+    );
+    out.table("properties", &prop_table)?;
+
+    progress(Progress::start("SQL erratum", 0));
+    let (err_rows, err_table) = erratum(&open_all(&opts.boundary_meshes, progress)?)?;
+    out.table("erratum", &err_table)?;
+
+    progress(Progress::start("SQL repair", 0));
+    let repair_inputs = open_all(&opts.repair_meshes, progress)?;
+    let (rep_rows, rep_table) = repair(&repair_inputs, &RepairOptions::default())?;
+    out.table("repair", &rep_table)?;
+
+    progress(Progress::start("smoothing limits", 0));
+    let limit_input = open(&opts.limit_mesh)?;
+    let kinds = [
+        OperatorKind::Tutte,
+        OperatorKind::Kirchhoff,
+        OperatorKind::Sql,
+    ];
+    let (lim_rows, lim_table, chart) =
+        limits(&limit_input, &kinds, opts.steps, (opts.steps / 200).max(1))?;
+    out.table("limits", &lim_table)?;
+    out.chart("limits.png", &chart)?;
+    let results = ClaimsResults {
+        properties: prop_rows,
+        erratum: err_rows,
+        repair: rep_rows,
+        limits: lim_rows,
+        tables: vec![prop_table, err_table, rep_table, lim_table],
+    };
+    out.json("claims.json", &results)?;
+    Ok(results)
 }
 
 /// One (mesh, operator) result of [`properties`].
@@ -52,18 +172,24 @@ pub struct PropertyRow {
     pub report: Result<PropertyReport, String>,
 }
 
-/// Measures every operator of `kinds` on every mesh.
+/// Measures every operator of `kinds` on every mesh; one [`Progress::Step`] per mesh
+/// and operator.
 pub fn properties(
     inputs: &[Input],
     kinds: &[OperatorKind],
     opts: &PropertyOptions,
-    mut progress: impl FnMut(&str),
+    progress: &mut ProgressFn,
 ) -> (Vec<PropertyRow>, Table) {
+    progress(Progress::start("properties", inputs.len() * kinds.len()));
     let mut rows = Vec::new();
     for input in inputs {
         let components = input.topology.components().1;
         for &kind in kinds {
-            progress(&format!("{} {}", short_name(&input.source), kind.name()));
+            progress(Progress::step(format!(
+                "properties: {} {}",
+                short_name(&input.source),
+                kind.name()
+            )));
             let report = Operator::assemble(
                 kind,
                 &input.mesh,
@@ -367,14 +493,13 @@ pub fn limits(
             pts(|s| s.distance_to_weighted_centroid),
         ));
     }
-    let chart = Chart {
-        title: format!("Limits of H^p x on {}", short_name(&input.source)),
-        x_label: "step p".into(),
-        y_label: "max distance / bbox diagonal".into(),
-        y_scale: Scale::Log,
-        series,
-        ..Chart::default()
-    };
+    let chart = Chart::new(
+        format!("Limits of H^p x on {}", short_name(&input.source)),
+        "step p",
+        "max distance / bbox diagonal",
+    )
+    .with_scales(Scale::Linear, Scale::Log)
+    .with_series(series);
     Ok((rows, t, chart))
 }
 
@@ -396,7 +521,11 @@ mod tests {
             OperatorKind::Tutte,
             OperatorKind::Sstl,
         ];
-        let (rows, t) = properties(&inputs, &kinds, &PropertyOptions::default(), |_| {});
+        let mut steps = 0;
+        let (rows, t) = properties(&inputs, &kinds, &PropertyOptions::default(), &mut |p| {
+            steps += matches!(p, Progress::Step { .. }) as usize
+        });
+        assert_eq!(steps, 4);
         assert_eq!(t.rows.len(), 4);
         let gsml: Vec<bool> = rows
             .iter()

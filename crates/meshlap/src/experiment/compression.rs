@@ -2,7 +2,7 @@
 //! combinatorial operator, against Google Draco.
 //!
 //! For every mesh and operator (SSTL, SQL, TL, KL and GL, all F = D − W), the full
-//! codec ([`crate::codec::compress`]) runs at a fixed quantisation and a sweep of
+//! codec ([`crate::codec::compress`]) runs at a fixed quantization and a sweep of
 //! keep ratios (the fraction of low-frequency coefficients kept per patch), so that
 //! truncation — the basis' energy compaction — drives the distortion, as in the
 //! paper's comparison. Each point records the whole file's bits per vertex and the
@@ -12,8 +12,10 @@
 //!
 //! Non-manifold input is made manifold first (vertex splitting, as
 //! `meshlap clean --split-nonmanifold`), since the connectivity coder needs it.
+//! [`run`] sweeps every mesh of [`CompressionOptions`] and writes the results.
 
-use super::{sig, ExperimentError, Outputs, Table};
+use super::meshes::{open_all, shared, short_name, DEFAULT_MESH_DIR};
+use super::{sig, ExperimentError, Outputs, Progress, ProgressFn, Table};
 use crate::codec::spectral::{Keep, SpectralParams};
 use crate::codec::{compress, CompressOptions, Quantization};
 use crate::input::Input;
@@ -21,6 +23,7 @@ use crate::mesh::topology::Topology;
 use crate::operator::OperatorKind;
 use crate::plot::{Chart, Scale, Series};
 use serde::Serialize;
+use std::path::{Path, PathBuf};
 
 /// One rate–distortion point.
 #[derive(Clone, Debug, Serialize)]
@@ -29,7 +32,7 @@ pub struct RdPoint {
     pub mesh: String,
     /// Coder: an operator name, or `draco`.
     pub coder: String,
-    /// Setting (keep ratio, or Draco's quantisation bits).
+    /// Setting (keep ratio, or Draco's quantization bits).
     pub setting: String,
     /// Whole file, bits per vertex.
     pub bits_per_vertex: f64,
@@ -47,24 +50,44 @@ pub struct RdPoint {
     pub karni_gotsman: Option<f64>,
 }
 
-/// Parameters of [`rate_distortion`].
-#[derive(Clone, Debug)]
-pub struct RdOptions {
+/// Options of [`run`] and [`rate_distortion`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct CompressionOptions {
+    /// Meshes of [`run`] (files or `builtin:` specs).
+    pub meshes: Vec<String>,
     /// Operators compared.
     pub operators: Vec<OperatorKind>,
     /// Keep ratios swept.
     pub keep_ratios: Vec<f64>,
-    /// Quantisation bits (fixed).
+    /// Quantization bits (fixed).
     pub bits: f64,
     /// Patch size.
     pub patch_size: usize,
     /// Surface samples per mesh for the Metro distance.
     pub samples: usize,
+    /// Draco's points: the JSON written by `bench/compression.py --json-out`.
+    pub draco: Option<PathBuf>,
 }
 
-impl Default for RdOptions {
+impl Default for CompressionOptions {
+    /// The settings of `experiment all` ([`CompressionOptions::paper`] with
+    /// [`DEFAULT_MESH_DIR`]).
     fn default() -> Self {
-        RdOptions {
+        Self::paper(Path::new(DEFAULT_MESH_DIR))
+    }
+}
+
+impl CompressionOptions {
+    /// Five operators, seven keep ratios at 12 bits, on a smooth sphere, a cube and a
+    /// step (sharp), and the cow from `dir`.
+    pub fn paper(dir: &Path) -> Self {
+        CompressionOptions {
+            meshes: vec![
+                "builtin:icosphere:4".into(),
+                "builtin:cube:8".into(),
+                "builtin:step:20".into(),
+                shared(dir, "cow.obj"),
+            ],
             operators: vec![
                 OperatorKind::Sstl,
                 OperatorKind::Sql,
@@ -76,32 +99,75 @@ impl Default for RdOptions {
             bits: 12.0,
             patch_size: 300,
             samples: 50_000,
+            draco: None,
+        }
+    }
+
+    /// A smooth and a sharp generated mesh only.
+    pub fn quick() -> Self {
+        CompressionOptions {
+            meshes: vec!["builtin:icosphere:3".into(), "builtin:step:12".into()],
+            ..Self::default()
         }
     }
 }
 
-fn input_err(source: &str, e: impl std::fmt::Display) -> ExperimentError {
-    ExperimentError::Input {
-        source_name: source.to_string(),
-        message: e.to_string(),
-    }
+/// What [`run`] measured.
+#[derive(Clone, Debug)]
+pub struct CompressionResults {
+    /// The points of every mesh, coder and setting (Draco's last).
+    pub points: Vec<RdPoint>,
+    /// [`table`] of the points.
+    pub table: Table,
+    /// [`operator_order`] of the points.
+    pub order: Vec<(String, Vec<(String, f64)>)>,
 }
 
-/// Runs the sweep on every input.
+/// The sweep with `opts` on every mesh, Draco's points of those meshes added: writes
+/// `compression.md/.csv/.json` and the charts (see [`write()`]) to `out`.
+pub fn run(
+    opts: &CompressionOptions,
+    out: &mut Outputs,
+    progress: &mut ProgressFn,
+) -> Result<CompressionResults, ExperimentError> {
+    let inputs = open_all(&opts.meshes, progress)?;
+    let mut points = rate_distortion(&inputs, opts, progress)?;
+    if let Some(path) = &opts.draco {
+        let text = std::fs::read_to_string(path).map_err(|source| crate::io::IoError::Open {
+            path: path.clone(),
+            source,
+        })?;
+        let names: Vec<String> = points.iter().map(|p| p.mesh.clone()).collect();
+        let draco = draco_points(&text)?;
+        points.extend(draco.into_iter().filter(|d| names.contains(&d.mesh)));
+    }
+    write(out, &points)?;
+    Ok(CompressionResults {
+        table: table(&points),
+        order: operator_order(&points),
+        points,
+    })
+}
+
+/// Runs the sweep of `opts` (not its meshes) on every input: one [`Progress::Step`]
+/// per mesh, operator and keep ratio.
 pub fn rate_distortion(
     inputs: &[Input],
-    opts: &RdOptions,
-    mut progress: impl FnMut(&str),
+    opts: &CompressionOptions,
+    progress: &mut ProgressFn,
 ) -> Result<Vec<RdPoint>, ExperimentError> {
+    let total = inputs.len() * opts.operators.len() * opts.keep_ratios.len();
+    progress(Progress::start("rate–distortion", total));
     let mut out = Vec::new();
     for input in inputs {
-        let name = super::claims::short_name(&input.source);
-        let (mesh, _) = crate::mesh::clean::split_non_manifold(&input.mesh)
-            .map_err(|e| input_err(&input.source, e))?;
-        let topo = Topology::new(&mesh).map_err(|e| input_err(&input.source, e))?;
+        let name = short_name(&input.source);
+        let err = |e: crate::Error| ExperimentError::input(&input.source, e);
+        let (mesh, _) =
+            crate::mesh::clean::split_non_manifold(&input.mesh).map_err(|e| err(e.into()))?;
+        let topo = Topology::new(&mesh).map_err(|e| err(e.into()))?;
         for &op in &opts.operators {
             for &r in &opts.keep_ratios {
-                progress(&format!("{name} {} keep {r}", op.name()));
+                progress(Progress::step(format!("{name} {} keep {r}", op.name())));
                 let c = compress(
                     &mesh,
                     &topo,
@@ -119,9 +185,9 @@ pub fn rate_distortion(
                         ..Default::default()
                     },
                 )
-                .map_err(|e| input_err(&input.source, e))?;
+                .map_err(|e| err(e.into()))?;
                 let d = crate::metric::compare(&mesh, &c.decoded, Some(&c.order), opts.samples)
-                    .map_err(|e| input_err(&input.source, e))?;
+                    .map_err(|e| err(e.into()))?;
                 out.push(RdPoint {
                     mesh: name.clone(),
                     coder: op.name().to_string(),
@@ -144,10 +210,14 @@ pub fn rate_distortion(
 /// `{mesh: [{coder, param, bpv, connectivity_bpv_upper, distortion: {…}}]}`.
 pub fn draco_points(json: &str) -> Result<Vec<RdPoint>, ExperimentError> {
     let v: serde_json::Value =
-        serde_json::from_str(json).map_err(|e| ExperimentError::Json(e.to_string()))?;
-    let obj = v
-        .as_object()
-        .ok_or_else(|| ExperimentError::Json("expected an object of meshes".into()))?;
+        serde_json::from_str(json).map_err(|source| ExperimentError::Draco {
+            reason: "not JSON",
+            source: Some(source),
+        })?;
+    let obj = v.as_object().ok_or(ExperimentError::Draco {
+        reason: "expected an object of meshes",
+        source: None,
+    })?;
     let mut out = Vec::new();
     for (mesh, pts) in obj {
         for p in pts.as_array().into_iter().flatten() {
@@ -157,7 +227,7 @@ pub fn draco_points(json: &str) -> Result<Vec<RdPoint>, ExperimentError> {
             let d = &p["distortion"];
             let f = |x: &serde_json::Value| x.as_f64();
             out.push(RdPoint {
-                mesh: super::claims::short_name(mesh),
+                mesh: short_name(mesh),
                 coder: "draco".into(),
                 setting: p["param"].as_str().unwrap_or("").to_string(),
                 bits_per_vertex: f(&p["bpv"]).unwrap_or(f64::NAN),
@@ -298,14 +368,13 @@ pub fn write(out: &mut Outputs, points: &[RdPoint]) -> Result<(), ExperimentErro
                     series.push(Series::new(c, pts).with_markers());
                 }
             }
-            let chart = Chart {
-                title: format!("{m}: rate–distortion"),
-                x_label: "bits per vertex (whole file)".into(),
-                y_label: label.into(),
-                y_scale: Scale::Log,
-                series,
-                ..Chart::default()
-            };
+            let chart = Chart::new(
+                format!("{m}: rate–distortion"),
+                "bits per vertex (whole file)",
+                label,
+            )
+            .with_scales(Scale::Linear, Scale::Log)
+            .with_series(series);
             let stem = m.replace(['.', ':'], "_");
             out.chart(&format!("compression_{stem}_{metric}.png"), &chart)?;
         }
@@ -320,14 +389,15 @@ mod tests {
     #[test]
     fn sweep_is_monotone_and_reads_draco_json() {
         let input = crate::input::open("builtin:icosphere:3", &Default::default()).unwrap();
-        let opts = RdOptions {
+        let opts = CompressionOptions {
             operators: vec![OperatorKind::Sstl, OperatorKind::Kirchhoff],
             keep_ratios: vec![0.1, 0.5, 1.0],
             bits: 12.0,
             patch_size: 200,
             samples: 2000,
+            ..CompressionOptions::quick()
         };
-        let pts = rate_distortion(&[input], &opts, |_| {}).unwrap();
+        let pts = rate_distortion(&[input], &opts, &mut |_| {}).unwrap();
         assert_eq!(pts.len(), 6);
         for w in pts.chunks(3) {
             // More coefficients: more bits, less error.

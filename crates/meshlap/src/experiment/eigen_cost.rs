@@ -5,17 +5,18 @@
 //!   the general non-symmetric eigensolver plus the dense LU of `E` that the paper's
 //!   Matlab `eig` + `E\x` needs, on patches of growing size n; and the time for the
 //!   spectral coefficients of the positions (projection versus LU solve).
-//! - [`compaction`]: the transform efficiency of SSTL, SQL, TL and KL on centred
+//! - [`compaction`]: the transform efficiency of SSTL, SQL, TL and KL on centered
 //!   geometry, on smooth models and on models with sharp transitions. The paper's
 //!   order on smooth models is SSTL > SQL > TL > KL, "often reversed" on a tessellated
 //!   step or cube; the differences are slight.
 //!
 //! Patches are grown by breadth-first search ([`bfs_patch`]); the real multilevel
-//! partitioner lives in `partition`. Sign convention: `F = D − W`, PSD.
+//! partitioner lives in `partition`. [`run`] does both with [`EigenCostOptions`].
+//! Sign convention: `F = D − W`, PSD.
 
-use super::claims::short_name;
-use super::{sig, ExperimentError, Table};
-use crate::input::{self, Input, OpenOptions};
+use super::meshes::{open, open_all, shared, short_name};
+use super::{sig, ExperimentError, Outputs, Progress, ProgressFn, Table};
+use crate::input::{self, Input};
 use crate::mesh::{TriMesh, VertexId};
 use crate::operator::{Operator, OperatorKind, OperatorOptions};
 use crate::plot::{Chart, Scale, Series};
@@ -23,23 +24,142 @@ use crate::spectral::compaction::{centre, energy_compaction};
 use crate::spectral::{forward, positions_to_mat, BasisOptions, EigenBasis, EigenPath};
 use serde::Serialize;
 use std::collections::VecDeque;
+use std::path::Path;
 use std::time::Instant;
 
-fn input_err(source: &str, e: impl std::fmt::Display) -> ExperimentError {
-    ExperimentError::Input {
-        source_name: source.to_string(),
-        message: e.to_string(),
+fn input_err(source: &str, e: impl Into<crate::Error>) -> ExperimentError {
+    ExperimentError::input(source, e)
+}
+
+/// Options of [`run`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct EigenCostOptions {
+    /// Meshes to cut patches from (files or `builtin:` specs).
+    pub meshes: Vec<String>,
+    /// Patch sizes n (vertices), each in 4 ..= [`crate::spectral::DENSE_LIMIT`].
+    pub sizes: Vec<usize>,
+    /// Timing repetitions per measurement (median reported).
+    pub repeat: usize,
+    /// Vertices of the smooth-model patch of the compaction comparison, in
+    /// 4 ..= [`crate::spectral::DENSE_LIMIT`].
+    pub compaction_size: usize,
+}
+
+impl Default for EigenCostOptions {
+    /// The settings of `meshlap experiment eigen-cost`: patches of
+    /// `builtin:icosphere:5` of 100 to 1,600 vertices.
+    fn default() -> Self {
+        EigenCostOptions {
+            meshes: vec!["builtin:icosphere:5".into()],
+            sizes: vec![100, 200, 400, 800, 1200, 1600],
+            repeat: 1,
+            compaction_size: 1000,
+        }
     }
 }
 
-/// The patch of `input` grown by breadth-first search from `seed` (neighbours in
+impl EigenCostOptions {
+    /// The settings of `experiment all`: patches of the bunny and the horse from `dir`.
+    pub fn paper(dir: &Path) -> Self {
+        EigenCostOptions {
+            meshes: vec![shared(dir, "stanford-bunny.obj"), shared(dir, "horse.ply")],
+            ..Self::default()
+        }
+    }
+
+    /// Small patches of `builtin:icosphere:4`.
+    pub fn quick() -> Self {
+        EigenCostOptions {
+            meshes: vec!["builtin:icosphere:4".into()],
+            sizes: vec![100, 200, 400],
+            repeat: 1,
+            compaction_size: 400,
+        }
+    }
+
+    fn validate(&self) -> Result<(), ExperimentError> {
+        let limit = crate::spectral::DENSE_LIMIT;
+        if self.sizes.is_empty() || self.sizes.iter().any(|&n| !(4..=limit).contains(&n)) {
+            return Err(ExperimentError::invalid(
+                "sizes",
+                format!("must be between 4 and {limit}"),
+            ));
+        }
+        if !(4..=limit).contains(&self.compaction_size) {
+            return Err(ExperimentError::invalid(
+                "compaction_size",
+                format!("must be between 4 and {limit}"),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// What [`run`] measured (serialized as `eigen_cost.json`).
+#[derive(Clone, Debug, Serialize)]
+pub struct EigenCostResults {
+    /// [`cost`] rows.
+    pub cost: Vec<CostRow>,
+    /// [`compaction`] rows.
+    pub compaction: Vec<CompactionRow>,
+    /// Per model, operators from best to worst compaction.
+    pub compaction_order: CompactionOrder,
+    /// The cost and compaction tables.
+    #[serde(skip)]
+    pub tables: Vec<Table>,
+}
+
+/// File-name-safe version of a mesh or model name.
+fn slug(s: &str) -> String {
+    s.chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect::<String>()
+        .trim_matches('_')
+        .to_string()
+}
+
+/// Fig. 3 and the compaction comparison with `opts`: writes `eigen_cost.md/.csv`,
+/// `eigen_cost_<mesh>.png`, `compaction.md/.csv`, `compaction_<model>.png` and
+/// `eigen_cost.json` to `out`.
+pub fn run(
+    opts: &EigenCostOptions,
+    out: &mut Outputs,
+    progress: &mut ProgressFn,
+) -> Result<EigenCostResults, ExperimentError> {
+    opts.validate()?;
+    let meshes = open_all(&opts.meshes, progress)?;
+    let (cost_rows, cost_table, cost_charts) = cost(&meshes, &opts.sizes, opts.repeat, progress)?;
+    out.table("eigen_cost", &cost_table)?;
+    for (mesh, chart) in &cost_charts {
+        out.chart(&format!("eigen_cost_{}.png", slug(mesh)), chart)?;
+    }
+    let models = compaction_models(meshes.first(), opts.compaction_size)?;
+    let (comp_rows, order, comp_table, comp_charts) = compaction(&models, progress)?;
+    out.table("compaction", &comp_table)?;
+    for (model, chart) in &comp_charts {
+        out.chart(&format!("compaction_{}.png", slug(model)), chart)?;
+    }
+    let results = EigenCostResults {
+        cost: cost_rows,
+        compaction: comp_rows,
+        compaction_order: order,
+        tables: vec![cost_table, comp_table],
+    };
+    out.json("eigen_cost.json", &results)?;
+    Ok(results)
+}
+
+/// The patch of `input` grown by breadth-first search from `seed` (neighbors in
 /// index order) until it has `n` vertices, with the faces whose three corners are
 /// inside; cleaned, so vertices left without a face are dropped and the patch can
 /// have slightly fewer than n vertices.
 pub fn bfs_patch(input: &Input, seed: usize, n: usize) -> Result<Input, ExperimentError> {
     let nv = input.mesh.n_vertices();
     if nv == 0 || seed >= nv {
-        return Err(input_err(&input.source, "seed vertex out of range"));
+        return Err(ExperimentError::invalid(
+            "seed",
+            format!("is vertex {seed} of a mesh with {nv} vertices"),
+        ));
     }
     let mut inside = vec![false; nv];
     let mut order = Vec::with_capacity(n.min(nv));
@@ -113,21 +233,27 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 /// Fig. 3: times every operator of [`COST_OPERATORS`] on BFS patches of each mesh
-/// (seed vertex 0) of every size; medians of `repeat` runs. Returns the rows, a table
-/// and one log–log chart per mesh (time against n, one series per operator).
+/// (seed vertex 0) of every size; medians of `repeat` runs; one [`Progress::Step`]
+/// per mesh, size and operator. Returns the rows, a table and one log–log chart per
+/// mesh (time against n, one series per operator).
 pub fn cost(
     inputs: &[Input],
     sizes: &[usize],
     repeat: usize,
-    mut progress: impl FnMut(&str),
+    progress: &mut ProgressFn,
 ) -> Result<(Vec<CostRow>, Table, NamedCharts), ExperimentError> {
+    let total = inputs.len() * sizes.len() * COST_OPERATORS.len();
+    progress(Progress::start("eigendecomposition cost", total));
     let mut rows = Vec::new();
     for input in inputs {
         for &size in sizes {
             let patch = bfs_patch(input, 0, size)?;
             let x = positions_to_mat(&patch.mesh.positions);
             for (label, kind, path) in COST_OPERATORS {
-                progress(&format!("{} n={size} {label}", short_name(&input.source)));
+                progress(Progress::step(format!(
+                    "{} n={size} {label}",
+                    short_name(&input.source)
+                )));
                 let op = Operator::assemble(
                     kind,
                     &patch.mesh,
@@ -210,20 +336,29 @@ pub fn cost(
                 Series::new(label.to_uppercase(), pts).with_markers()
             })
             .collect();
-        charts.push((
-            m.clone(),
-            Chart {
-                title: format!("Eigendecomposition cost, patches of {m}"),
-                x_label: "vertices n".into(),
-                y_label: "seconds".into(),
-                x_scale: Scale::Log,
-                y_scale: Scale::Log,
-                series,
-                ..Chart::default()
-            },
-        ));
+        let title = format!("Eigendecomposition cost, patches of {m}");
+        let chart = Chart::new(title, "vertices n", "seconds")
+            .with_scales(Scale::Log, Scale::Log)
+            .with_series(series);
+        charts.push((m, chart));
     }
     Ok((rows, t, charts))
+}
+
+/// The spectral coefficients of `x` in the dense eigenbasis of `kind` on `input`.
+fn coefficients(
+    input: &Input,
+    kind: OperatorKind,
+    x: faer::MatRef<'_, f64>,
+) -> Result<faer::Mat<f64>, crate::Error> {
+    let op = Operator::assemble(
+        kind,
+        &input.mesh,
+        &input.topology,
+        &OperatorOptions::default(),
+    )?;
+    let b = EigenBasis::compute(&op, &BasisOptions::default())?;
+    Ok(forward(&b, x)?)
 }
 
 /// A model of the compaction comparison.
@@ -260,7 +395,7 @@ pub fn compaction_models(
         models.push(CompactionModel {
             name: spec.trim_start_matches("builtin:").to_string(),
             smooth,
-            input: input::open(spec, &OpenOptions::default()).map_err(|e| input_err(spec, e))?,
+            input: open(spec)?,
         });
     }
     Ok(models)
@@ -303,29 +438,26 @@ pub type CompactionOrder = Vec<(String, Vec<String>)>;
 /// Charts keyed by the mesh or model they show.
 pub type NamedCharts = Vec<(String, Chart)>;
 
-/// §4.9 energy compaction of the centred positions for every model and operator.
-/// Returns the rows, the order per model, a table and one chart per model (residual
-/// energy 1 − η(m), log scale, against m up to n/4).
+/// §4.9 energy compaction of the centered positions for every model and operator; one
+/// [`Progress::Step`] per model and operator. Returns the rows, the order per model, a
+/// table and one chart per model (residual energy 1 − η(m), log scale, against m up to
+/// n/4).
 pub fn compaction(
     models: &[CompactionModel],
-    mut progress: impl FnMut(&str),
+    progress: &mut ProgressFn,
 ) -> Result<(Vec<CompactionRow>, CompactionOrder, Table, NamedCharts), ExperimentError> {
+    progress(Progress::start(
+        "energy compaction",
+        models.len() * COMPACTION_OPERATORS.len(),
+    ));
     let mut rows = Vec::new();
     for model in models {
         let x = centre(positions_to_mat(&model.input.mesh.positions).as_ref());
         let n = model.input.mesh.n_vertices();
         for (label, kind) in COMPACTION_OPERATORS {
-            progress(&format!("{} {label}", model.name));
-            let err = |e: &dyn std::fmt::Display| input_err(&model.name, e);
-            let op = Operator::assemble(
-                kind,
-                &model.input.mesh,
-                &model.input.topology,
-                &OperatorOptions::default(),
-            )
-            .map_err(|e| err(&e))?;
-            let b = EigenBasis::compute(&op, &BasisOptions::default()).map_err(|e| err(&e))?;
-            let coeffs = forward(&b, x.as_ref()).map_err(|e| err(&e))?;
+            progress(Progress::step(format!("{} {label}", model.name)));
+            let coeffs = coefficients(&model.input, kind, x.as_ref())
+                .map_err(|e| input_err(&model.name, e))?;
             let comp = energy_compaction(coeffs.as_ref());
             let at = |p: f64| {
                 let m = ((p * n as f64).round() as usize).clamp(1, n);
@@ -411,17 +543,11 @@ pub fn compaction(
                     )
                 })
                 .collect();
-            (
-                m.name.clone(),
-                Chart {
-                    title: format!("Energy compaction, {}", m.name),
-                    x_label: "coefficients kept m".into(),
-                    y_label: "residual energy 1 − η(m)".into(),
-                    y_scale: Scale::Log,
-                    series,
-                    ..Chart::default()
-                },
-            )
+            let title = format!("Energy compaction, {}", m.name);
+            let chart = Chart::new(title, "coefficients kept m", "residual energy 1 − η(m)")
+                .with_scales(Scale::Linear, Scale::Log)
+                .with_series(series);
+            (m.name.clone(), chart)
         })
         .collect();
     Ok((rows, order, t, charts))
@@ -433,7 +559,7 @@ mod tests {
 
     #[test]
     fn bfs_patch_is_a_connected_ball() {
-        let input = input::open("builtin:icosphere:3", &OpenOptions::default()).unwrap();
+        let input = open("builtin:icosphere:3").unwrap();
         let p = bfs_patch(&input, 0, 100).unwrap();
         assert!(p.mesh.n_vertices() <= 100 && p.mesh.n_vertices() >= 90);
         assert_eq!(p.topology.components().1, 1);
@@ -446,10 +572,12 @@ mod tests {
 
     #[test]
     fn cost_and_compaction_tables() {
-        let input = input::open("builtin:icosphere:2", &OpenOptions::default()).unwrap();
+        let input = open("builtin:icosphere:2").unwrap();
         let mut calls = 0;
-        let (rows, t, charts) =
-            cost(std::slice::from_ref(&input), &[30, 60], 1, |_| calls += 1).unwrap();
+        let (rows, t, charts) = cost(std::slice::from_ref(&input), &[30, 60], 1, &mut |p| {
+            calls += matches!(p, Progress::Step { .. }) as usize
+        })
+        .unwrap();
         assert_eq!(rows.len(), 12);
         assert_eq!(calls, 12);
         assert_eq!(t.rows.len(), 12);
@@ -461,9 +589,9 @@ mod tests {
         let models = vec![CompactionModel {
             name: "step".into(),
             smooth: false,
-            input: input::open("builtin:step:6", &OpenOptions::default()).unwrap(),
+            input: open("builtin:step:6").unwrap(),
         }];
-        let (rows, order, t, charts) = compaction(&models, |_| {}).unwrap();
+        let (rows, order, t, charts) = compaction(&models, &mut |_| {}).unwrap();
         assert_eq!(rows.len(), 4);
         assert_eq!(order[0].1.len(), 4);
         assert_eq!(t.notes.len(), 1);

@@ -3,7 +3,7 @@
 //! stopping criterion ε = 1e-5:
 //!
 //! - **CG (SQL)**: CG on `(I + λS)x = b`, S the symmetric quasi-Laplacian;
-//! - **CG (TL)**: CG on the symmetrised Tutte system `(D + λK)x = Db`;
+//! - **CG (TL)**: CG on the symmetrized Tutte system `(D + λK)x = Db`;
 //! - **BiCG (TL)**: BiCG on `(I + λT)x = b`.
 //!
 //! Every result is compared with the direct solution of the same system (sparse
@@ -21,40 +21,169 @@
 //!
 //! Times are wall-clock seconds of the solve alone (systems assembled beforehand),
 //! the median of [`FairingOptions::repeat`] runs, each from the initial guess x⁰ = b.
-//! Operators use the sign `F = D − W`.
+//! [`run`] makes the tables of every mesh of [`FairingOptions::meshes`] and writes
+//! them. Operators use the sign `F = D − W`.
 
-use super::{sig, ExperimentError, Outputs, Table};
+use super::meshes::{open, shared, DEFAULT_MESH_DIR};
+use super::{sig, ExperimentError, Outputs, Progress, ProgressFn, Table};
 use crate::analysis::repair::{repair_sql, RepairOptions};
 use crate::filter::implicit::{symmetrizer, ImplicitSolver, SolverKind};
 use crate::filter::FilterError;
 use crate::mesh::{topology::Topology, TriMesh};
 use crate::operator::{sql::sql, tutte::tutte};
 use crate::plot::{Chart, Scale, Series};
-use crate::solve::{direct::CholeskySolver, Params, SolveError, SolveInfo};
+use crate::solve::{direct::CholeskySolver, Params, SolveError, SolveInfo, Stopping};
 use serde::Serialize;
+use std::path::Path;
 
-/// Options of [`fairing_table`].
+/// Options of [`run`] and [`fairing_table`].
 #[derive(Clone, Debug)]
 pub struct FairingOptions {
-    /// The λ values (paper: 30 and 100).
+    /// Meshes of [`run`] (files or `builtin:` specs); the paper used cow, horse, bunny
+    /// and Igea.
+    pub meshes: Vec<String>,
+    /// The λ values (paper: 30 and 100), positive.
     pub lambdas: Vec<f64>,
     /// Iterative-solver parameters (paper: weak criterion, ε = 1e-5).
     pub params: Params,
-    /// Timed runs per solve; the median is reported.
+    /// Timed runs per solve; the median is reported (0 counts as 1).
     pub repeat: usize,
     /// Remove the SQL's negative weights by edge swaps first.
     pub repair_sql: bool,
 }
 
 impl Default for FairingOptions {
+    /// The paper's settings and models ([`DEFAULT_MESH_DIR`]), three timed runs.
     fn default() -> Self {
+        Self::paper(Path::new(DEFAULT_MESH_DIR))
+    }
+}
+
+impl FairingOptions {
+    /// The paper's settings with its models (cow, horse, bunny, Igea) read from `dir`.
+    pub fn paper(dir: &Path) -> Self {
         FairingOptions {
+            meshes: ["cow.obj", "horse.ply", "stanford-bunny.obj", "igea.ply"]
+                .iter()
+                .map(|m| shared(dir, m))
+                .collect(),
             lambdas: vec![30.0, 100.0],
             params: Params::default(),
             repeat: 3,
             repair_sql: false,
         }
     }
+
+    /// The cow only ([`DEFAULT_MESH_DIR`]), one timed run.
+    pub fn quick() -> Self {
+        Self::quick_in(Path::new(DEFAULT_MESH_DIR))
+    }
+
+    /// The cow only, read from `dir`, one timed run.
+    pub fn quick_in(dir: &Path) -> Self {
+        FairingOptions {
+            meshes: vec![shared(dir, "cow.obj")],
+            repeat: 1,
+            ..Self::paper(dir)
+        }
+    }
+
+    fn validate(&self) -> Result<(), ExperimentError> {
+        if self.lambdas.is_empty() || self.lambdas.iter().any(|l| !(*l > 0.0 && l.is_finite())) {
+            return Err(ExperimentError::invalid(
+                "lambdas",
+                format!("needs positive values, got {:?}", self.lambdas),
+            ));
+        }
+        let tol = self.params.tolerance;
+        if !(tol > 0.0 && tol.is_finite()) {
+            return Err(ExperimentError::invalid(
+                "tolerance",
+                format!("must be positive, got {tol}"),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The settings a run used (the head of `table1.json`).
+#[derive(Clone, Debug, Serialize)]
+pub struct FairingSettings {
+    /// λ values.
+    pub lambdas: Vec<f64>,
+    /// Stopping criterion.
+    pub stop: Stopping,
+    /// Its ε.
+    pub tolerance: f64,
+    /// Worker threads.
+    pub threads: usize,
+    /// Timed runs per solve.
+    pub repeat: usize,
+}
+
+/// What [`run`] measured (serialized as `table1.json`).
+#[derive(Clone, Debug, Serialize)]
+pub struct FairingResults {
+    /// The settings.
+    #[serde(flatten)]
+    pub settings: FairingSettings,
+    /// One table per mesh.
+    pub tables: Vec<FairingTable>,
+    /// One Markdown table per λ.
+    #[serde(skip)]
+    pub markdown: Vec<Table>,
+}
+
+/// Table name of a mesh: the file stem, or the builtin spec with `-` for `:`.
+pub fn mesh_name(spec: &str) -> String {
+    if crate::input::is_builtin(spec) {
+        spec.trim_start_matches("builtin:").replace(':', "-")
+    } else {
+        Path::new(spec)
+            .file_stem()
+            .map_or(spec.to_string(), |s| s.to_string_lossy().into_owned())
+    }
+}
+
+/// Table 1 for every mesh of `opts`: writes `table1-lambdaL.md/.csv` per λ,
+/// `convergence-MESH-lambdaL.png` per mesh and λ, and `table1.json` to `out`. Four
+/// [`Progress::Step`]s per mesh and λ (the direct solutions, then each method).
+pub fn run(
+    opts: &FairingOptions,
+    out: &mut Outputs,
+    progress: &mut ProgressFn,
+) -> Result<FairingResults, ExperimentError> {
+    opts.validate()?;
+    progress(Progress::start(
+        "implicit fairing",
+        opts.meshes.len() * opts.lambdas.len() * 4,
+    ));
+    let mut tables = Vec::new();
+    for spec in &opts.meshes {
+        let name = mesh_name(spec);
+        progress(Progress::note(format!("{name}: loading")));
+        let input = open(spec)?;
+        tables.push(fairing_table(
+            &name,
+            &input.mesh,
+            &input.topology,
+            opts,
+            progress,
+        )?);
+    }
+    let settings = FairingSettings {
+        lambdas: opts.lambdas.clone(),
+        stop: opts.params.stopping,
+        tolerance: opts.params.tolerance,
+        threads: rayon::current_num_threads(),
+        repeat: opts.repeat.max(1),
+    };
+    let markdown = write_outputs(out, &tables, &opts.lambdas, &settings)?;
+    Ok(FairingResults {
+        settings,
+        tables,
+        markdown,
+    })
 }
 
 /// The solver/system pairs of Table 1.
@@ -143,71 +272,56 @@ pub struct PaperRow {
     pub bicg_100: usize,
 }
 
-/// The paper's Table 1 (seconds on its 2003 machine, [iterations]).
+/// A [`PaperRow`] from its cells, in the paper's column order.
+const fn row(
+    model: &'static str,
+    vertices: &'static str,
+    cg_30: (f64, usize),
+    cg_tl_30: (f64, usize),
+    bicg_30: (f64, usize),
+    (cg_100, bicg_100): (usize, usize),
+) -> PaperRow {
+    PaperRow {
+        model,
+        vertices,
+        cg_30,
+        cg_tl_30,
+        bicg_30,
+        cg_100,
+        bicg_100,
+    }
+}
+
+/// The paper's Table 1 (seconds on its 2003 machine, \[iterations\]).
 pub const PAPER_TABLE1: [PaperRow; 7] = [
-    PaperRow {
-        model: "cow",
-        vertices: "3K",
-        cg_30: (0.56, 15),
-        cg_tl_30: (1.38, 37),
-        bicg_30: (0.99, 15),
-        cg_100: 24,
-        bicg_100: 30,
-    },
-    PaperRow {
-        model: "horse",
-        vertices: "20K",
-        cg_30: (0.97, 15),
-        cg_tl_30: (2.21, 34),
-        bicg_30: (1.81, 15),
-        cg_100: 28,
-        bicg_100: 30,
-    },
-    PaperRow {
-        model: "cube",
-        vertices: "25K",
-        cg_30: (1.04, 12),
-        cg_tl_30: (1.78, 21),
-        bicg_30: (1.33, 9),
-        cg_100: 17,
-        bicg_100: 17,
-    },
-    PaperRow {
-        model: "bunny",
-        vertices: "36K",
-        cg_30: (1.67, 14),
-        cg_tl_30: (3.66, 31),
-        bicg_30: (3.75, 18),
-        cg_100: 24,
-        bicg_100: 28,
-    },
-    PaperRow {
-        model: "teeth",
-        vertices: "116K",
-        cg_30: (4.60, 12),
-        cg_tl_30: (12.65, 31),
-        bicg_30: (9.94, 14),
-        cg_100: 21,
-        bicg_100: 24,
-    },
-    PaperRow {
-        model: "igea",
-        vertices: "134K",
-        cg_30: (4.91, 11),
-        cg_tl_30: (13.07, 29),
-        bicg_30: (9.18, 12),
-        cg_100: 16,
-        bicg_100: 14,
-    },
-    PaperRow {
-        model: "isis",
-        vertices: "187K",
-        cg_30: (9.03, 15),
-        cg_tl_30: (23.56, 33),
-        bicg_30: (11.27, 10),
-        cg_100: 22,
-        bicg_100: 18,
-    },
+    row("cow", "3K", (0.56, 15), (1.38, 37), (0.99, 15), (24, 30)),
+    row("horse", "20K", (0.97, 15), (2.21, 34), (1.81, 15), (28, 30)),
+    row("cube", "25K", (1.04, 12), (1.78, 21), (1.33, 9), (17, 17)),
+    row("bunny", "36K", (1.67, 14), (3.66, 31), (3.75, 18), (24, 28)),
+    row(
+        "teeth",
+        "116K",
+        (4.60, 12),
+        (12.65, 31),
+        (9.94, 14),
+        (21, 24),
+    ),
+    row(
+        "igea",
+        "134K",
+        (4.91, 11),
+        (13.07, 29),
+        (9.18, 12),
+        (16, 14),
+    ),
+    row(
+        "isis",
+        "187K",
+        (9.03, 15),
+        (23.56, 33),
+        (11.27, 10),
+        (22, 18),
+    ),
 ];
 
 /// The paper's row for a mesh name (matched on the name containing the model's).
@@ -294,14 +408,25 @@ fn failed(method: Method, lambda: f64, e: impl std::fmt::Display) -> Run {
     }
 }
 
-/// Runs Table 1 on one mesh (cleaned, with its connectivity). `progress` is called
-/// with a short description before each solve.
+/// Runs Table 1 on one mesh (cleaned, with its connectivity): a [`Progress::Step`]
+/// before the direct solutions and before each method at each λ, a
+/// [`Progress::Note`] before the SQL repair. `opts.meshes` is not read.
 pub fn fairing_table(
     name: &str,
     mesh: &TriMesh,
     topo: &Topology,
     opts: &FairingOptions,
-    progress: &dyn Fn(&str),
+    progress: &mut ProgressFn,
+) -> Result<FairingTable, ExperimentError> {
+    table_of(name, mesh, topo, opts, progress).map_err(|e| ExperimentError::input(name, e))
+}
+
+fn table_of(
+    name: &str,
+    mesh: &TriMesh,
+    topo: &Topology,
+    opts: &FairingOptions,
+    progress: &mut ProgressFn,
 ) -> crate::Result<FairingTable> {
     let n = mesh.n_vertices();
     let b = flat(&mesh.positions);
@@ -329,7 +454,9 @@ pub fn fairing_table(
         paper: paper_row(name),
     };
     let s = if opts.repair_sql && table.sql_negative_weights > 0 {
-        progress("repairing SQL negative weights");
+        progress(Progress::note(format!(
+            "{name}: repairing SQL negative weights"
+        )));
         let (fixed, report) = repair_sql(mesh, &RepairOptions::default())?;
         table.sql_repair_flips = Some(report.flips);
         table.sql_negative_after_repair = Some(report.negative_after);
@@ -342,7 +469,9 @@ pub fn fairing_table(
     })?;
     for &lambda in &opts.lambdas {
         // Direct references.
-        progress(&format!("λ = {lambda}: direct solutions"));
+        progress(Progress::step(format!(
+            "{name}: λ = {lambda}: direct solutions"
+        )));
         let mut cg_sql = ImplicitSolver::new(&s, lambda, SolverKind::Cg);
         let want_sql = cg_sql.as_ref().ok().and_then(|solver| {
             let chol = CholeskySolver::new(&solver.system_matrix().to_csc()).ok()?;
@@ -360,7 +489,10 @@ pub fn fairing_table(
         };
         let mut bicg = ImplicitSolver::new(&tl, lambda, SolverKind::Bicg)?;
         for method in Method::ALL {
-            progress(&format!("λ = {lambda}: {}", method.label()));
+            progress(Progress::step(format!(
+                "{name}: λ = {lambda}: {}",
+                method.label()
+            )));
             let (solver, want) = match method {
                 Method::CgSql => match &mut cg_sql {
                     Ok(s) => (s, want_sql.as_deref()),
@@ -548,17 +680,16 @@ pub fn convergence_chart(t: &FairingTable, lambda: f64) -> Chart {
             Series::new(r.method.label(), pts)
         })
         .collect();
-    Chart {
-        title: format!(
+    Chart::new(
+        format!(
             "{} (n = {}), λ = {lambda}: implicit fairing convergence",
             t.name, t.n
         ),
-        x_label: "iteration".into(),
-        y_label: "relative residual ||Bx - b|| / ||b|| (max over x, y, z)".into(),
-        y_scale: Scale::Log,
-        series,
-        ..Chart::default()
-    }
+        "iteration",
+        "relative residual ||Bx - b|| / ||b|| (max over x, y, z)",
+    )
+    .with_scales(Scale::Linear, Scale::Log)
+    .with_series(series)
 }
 
 #[cfg(test)]
@@ -575,7 +706,7 @@ mod tests {
             repeat: 1,
             ..Default::default()
         };
-        let tab = fairing_table("icosphere", &m, &t, &opts, &|_| {}).unwrap();
+        let tab = fairing_table("icosphere", &m, &t, &opts, &mut |_| {}).unwrap();
         assert_eq!(tab.runs.len(), 3);
         assert!(tab.paper.is_none());
         for r in &tab.runs {
@@ -616,7 +747,7 @@ mod tests {
             repair_sql: true,
             ..Default::default()
         };
-        let tab = fairing_table("cow", &input.mesh, &input.topology, &opts, &|_| {}).unwrap();
+        let tab = fairing_table("cow", &input.mesh, &input.topology, &opts, &mut |_| {}).unwrap();
         assert_eq!(tab.sql_negative_weights, 7);
         assert!(tab.sql_repair_flips.unwrap() > 0);
         assert!(tab.sql_negative_after_repair.unwrap() < 7);

@@ -11,17 +11,142 @@
 //!   ([`crate::mesh::builtin::sphere48`]).
 //!
 //! Every panel is computed with the dense ED basis ([`crate::spectral::basis`]); the
-//! reconstruction error `‖x − x⁽ᵐ⁾‖ / ‖x‖` of each is returned and printed under it.
-//! Sign convention of the operators: `F = D − W`.
+//! reconstruction error `‖x − x⁽ᵐ⁾‖ / ‖x − x̄‖` of each is returned and printed under
+//! it. All pictures of one model share the original's framing. [`run`] makes both
+//! figures with [`FiguresOptions`]. Sign convention of the operators: `F = D − W`.
 
-use super::{sig, ExperimentError, Outputs, Table};
+use super::meshes::{open, shared, short_name, DEFAULT_MESH_DIR};
+use super::{sig, ExperimentError, Outputs, Progress, ProgressFn, Table};
 use crate::input::Input;
 use crate::mesh::TriMesh;
 use crate::operator::{Operator, OperatorKind, OperatorOptions};
-use crate::render::{bounding_sphere, render, Panel, RenderOptions};
+use crate::render::{render, Framing, Panel, RenderOptions, Window};
 use crate::spectral::basis::{BasisOptions, EigenBasis};
 use crate::spectral::transform::{mat_to_positions, positions_to_mat, truncated};
 use serde::Serialize;
+use std::path::Path;
+
+/// Options of [`run`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct FiguresOptions {
+    /// The model of Fig. 1 beside `builtin:icosphere:3` (dense ED: at most 5,000
+    /// vertices).
+    pub mesh: String,
+    /// Fraction of the coefficients kept in Fig. 1, in (0, 1].
+    pub keep_fraction: f64,
+    /// Coefficients kept in Fig. 4.
+    pub fig4_keep: usize,
+    /// Picture size of each cell, pixels.
+    pub size: u32,
+}
+
+impl Default for FiguresOptions {
+    /// The paper's settings: the cow from [`DEFAULT_MESH_DIR`], 5 % of the
+    /// coefficients in Fig. 1, 24 in Fig. 4, 420-pixel cells.
+    fn default() -> Self {
+        Self::paper(Path::new(DEFAULT_MESH_DIR))
+    }
+}
+
+impl FiguresOptions {
+    /// The paper's settings with the cow read from `dir`.
+    pub fn paper(dir: &Path) -> Self {
+        FiguresOptions {
+            mesh: shared(dir, "cow.obj"),
+            keep_fraction: 0.05,
+            fig4_keep: 24,
+            size: 420,
+        }
+    }
+
+    /// A small generated model instead of the cow.
+    pub fn quick() -> Self {
+        FiguresOptions {
+            mesh: "builtin:icosphere:2".into(),
+            ..Self::default()
+        }
+    }
+
+    fn validate(&self) -> Result<(), ExperimentError> {
+        if !(self.keep_fraction > 0.0 && self.keep_fraction <= 1.0) {
+            return Err(ExperimentError::invalid(
+                "keep_fraction",
+                format!("must be in (0, 1], got {}", self.keep_fraction),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The reconstructions of both figures (serialized as `figures.json`).
+#[derive(Clone, Debug, Serialize)]
+pub struct FiguresResults {
+    /// Fig. 1: each model, its GL, SQL and TL reconstructions.
+    pub fig1: Vec<Reconstruction>,
+    /// Fig. 4: the 4-8 sphere and its KL, SQL and SSTL reconstructions.
+    pub fig4: Vec<Reconstruction>,
+    /// Their errors.
+    #[serde(skip)]
+    pub table: Table,
+}
+
+/// Figs. 1 and 4 with `opts`: writes `fig1_<model>.png`, `fig4_4_8_sphere.png`,
+/// `figures.md/.csv` and `figures.json` to `out`.
+pub fn run(
+    opts: &FiguresOptions,
+    out: &mut Outputs,
+    progress: &mut ProgressFn,
+) -> Result<FiguresResults, ExperimentError> {
+    opts.validate()?;
+    progress(Progress::start("Fig. 1", 0));
+    let mut models = Vec::new();
+    for (spec, name, view) in [
+        (opts.mesh.as_str(), None, (-60.0, 15.0)),
+        ("builtin:icosphere:3", Some("Sphere"), (20.0, 20.0)),
+    ] {
+        let input = open(spec)?;
+        let n = input.mesh.n_vertices();
+        models.push(FigureModel {
+            name: name.map_or_else(|| short_name(spec), str::to_string),
+            input,
+            keep: ((n as f64 * opts.keep_fraction).round() as usize).max(1),
+            view,
+        });
+    }
+    let fig1 = figure(
+        out,
+        "fig1",
+        "Fig. 1 — GL versus GSML truncated reconstructions",
+        &models,
+        &[OperatorKind::Graph, OperatorKind::Sql, OperatorKind::Tutte],
+        opts.size,
+    )?;
+    progress(Progress::start("Fig. 4", 0));
+    let sphere = FigureModel {
+        name: "4-8 sphere".into(),
+        input: open("builtin:sphere48:12")?,
+        keep: opts.fig4_keep,
+        view: (35.0, 30.0),
+    };
+    let fig4 = figure(
+        out,
+        "fig4",
+        "Fig. 4 — KL artifacts at low-degree vertices",
+        &[sphere],
+        &[
+            OperatorKind::Kirchhoff,
+            OperatorKind::Sql,
+            OperatorKind::Sstl,
+        ],
+        opts.size,
+    )?;
+    let rows: Vec<Reconstruction> = fig1.iter().chain(&fig4).cloned().collect();
+    let table = error_table("Truncated ED reconstructions (Figs. 1 and 4)", &rows);
+    out.table("figures", &table)?;
+    let results = FiguresResults { fig1, fig4, table };
+    out.json("figures.json", &results)?;
+    Ok(results)
+}
 
 /// One reconstruction shown in a figure.
 #[derive(Clone, Debug, Serialize)]
@@ -45,21 +170,18 @@ pub fn reconstruct(
     kind: OperatorKind,
     keep: usize,
 ) -> Result<(TriMesh, f64), ExperimentError> {
-    let err = |e: &dyn std::fmt::Display| ExperimentError::Input {
-        source_name: input.source.clone(),
-        message: e.to_string(),
-    };
+    let err = |e: crate::Error| ExperimentError::input(&input.source, e);
     let op = Operator::assemble(
         kind,
         &input.mesh,
         &input.topology,
         &OperatorOptions::default(),
     )
-    .map_err(|e| err(&e))?;
-    let basis = EigenBasis::compute(&op, &BasisOptions::default()).map_err(|e| err(&e))?;
+    .map_err(|e| err(e.into()))?;
+    let basis = EigenBasis::compute(&op, &BasisOptions::default()).map_err(|e| err(e.into()))?;
     let x = positions_to_mat(&input.mesh.positions);
-    let y = truncated(&basis, x.as_ref(), keep.clamp(1, basis.len())).map_err(|e| err(&e))?;
-    let positions = mat_to_positions(y.as_ref()).map_err(|e| err(&e))?;
+    let y = truncated(&basis, x.as_ref(), keep.clamp(1, basis.len())).map_err(|e| err(e.into()))?;
+    let positions = mat_to_positions(y.as_ref()).map_err(|e| err(e.into()))?;
     let n = positions.len();
     let mean: [f64; 3] =
         std::array::from_fn(|k| input.mesh.positions.iter().map(|p| p[k]).sum::<f64>() / n as f64);
@@ -109,7 +231,8 @@ pub fn figure(
             height: size,
             azimuth: m.view.0,
             elevation: m.view.1,
-            frame: Some(bounding_sphere(&m.input.mesh)),
+            framing: Window::fit(&m.input.mesh, m.view.0, m.view.1)
+                .map_or(Framing::Fit, Framing::Window),
             ..Default::default()
         };
         let n = m.input.mesh.n_vertices();

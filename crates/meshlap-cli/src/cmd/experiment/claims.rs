@@ -1,14 +1,8 @@
 //! `meshlap experiment claims`.
 
+use super::{report_files, run_with_bar};
 use crate::common::print_json;
-use indicatif::{ProgressBar, ProgressStyle};
-use meshlap::analysis::properties::PropertyOptions;
-use meshlap::analysis::repair::RepairOptions;
-use meshlap::experiment::claims::{erratum, limits, properties, repair};
-use meshlap::experiment::Outputs;
-use meshlap::input::{self, Input, OpenOptions};
-use meshlap::operator::OperatorKind;
-use serde::Serialize;
+use meshlap::experiment::claims::{self, ClaimsOptions};
 use std::path::PathBuf;
 
 /// The paper's §2–3 claims about the operators, measured on meshes.
@@ -27,31 +21,19 @@ use std::path::PathBuf;
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Meshes for the property table (repeat the option).
-    #[arg(
-        long = "mesh",
-        value_name = "MESH",
-        default_values = ["../shared/data/meshes/cow.obj", "../shared/data/meshes/woody.obj", "builtin:grid:12", "builtin:icosahedron"]
-    )]
+    #[arg(long = "mesh", value_name = "MESH", default_values_t = ClaimsOptions::default().meshes)]
     pub meshes: Vec<String>,
     /// Meshes with boundary for the SQL erratum table.
-    #[arg(
-        long = "boundary-mesh",
-        value_name = "MESH",
-        default_values = ["../shared/data/meshes/teapot.obj", "../shared/data/meshes/stanford-bunny.obj", "builtin:grid:12"]
-    )]
+    #[arg(long = "boundary-mesh", value_name = "MESH", default_values_t = ClaimsOptions::default().boundary_meshes)]
     pub boundary_meshes: Vec<String>,
     /// Meshes for the SQL repair table.
-    #[arg(
-        long = "repair-mesh",
-        value_name = "MESH",
-        default_values = ["../shared/data/meshes/cow.obj", "../shared/data/meshes/teapot.obj", "../shared/data/meshes/horse.ply"]
-    )]
+    #[arg(long = "repair-mesh", value_name = "MESH", default_values_t = ClaimsOptions::default().repair_meshes)]
     pub repair_meshes: Vec<String>,
     /// Mesh for the smoothing-limit run (irregular valences make the two centroids differ).
-    #[arg(long, default_value = "../shared/data/meshes/woody.obj")]
+    #[arg(long, default_value_t = ClaimsOptions::default().limit_mesh)]
     pub limit_mesh: String,
     /// Smoothing steps of the limit run.
-    #[arg(long, default_value_t = 20000)]
+    #[arg(long, default_value_t = ClaimsOptions::default().steps)]
     pub steps: usize,
     /// Output directory (created if missing).
     #[arg(long, default_value = "claims")]
@@ -61,79 +43,21 @@ pub struct Args {
     pub json: bool,
 }
 
-#[derive(Serialize)]
-struct Results<'a> {
-    properties: &'a [meshlap::experiment::claims::PropertyRow],
-    erratum: &'a [meshlap::experiment::claims::ErratumRow],
-    repair: &'a [meshlap::experiment::claims::RepairRow],
-    limits: &'a [meshlap::experiment::claims::LimitRow],
-}
-
-fn open_all(specs: &[String]) -> meshlap::Result<Vec<Input>> {
-    specs
-        .iter()
-        .map(|s| input::open(s, &OpenOptions::default()))
-        .collect()
-}
-
 pub fn run(args: &Args) -> meshlap::Result<()> {
-    let mut out = Outputs::new(&args.out)?;
-    let bar = ProgressBar::new_spinner();
-    bar.set_style(
-        ProgressStyle::with_template("{spinner} {msg} [{elapsed}]").expect("static template"),
-    );
-
-    bar.set_message("properties");
-    let meshes = open_all(&args.meshes)?;
-    let (prop_rows, prop_table) = properties(
-        &meshes,
-        &OperatorKind::ALL,
-        &PropertyOptions::default(),
-        |m| bar.set_message(format!("properties: {m}")),
-    );
-    out.table("properties", &prop_table)?;
-
-    bar.set_message("SQL erratum");
-    let (err_rows, err_table) = erratum(&open_all(&args.boundary_meshes)?)?;
-    out.table("erratum", &err_table)?;
-
-    bar.set_message("SQL repair");
-    let (rep_rows, rep_table) = repair(&open_all(&args.repair_meshes)?, &RepairOptions::default())?;
-    out.table("repair", &rep_table)?;
-
-    bar.set_message("smoothing limits");
-    let limit_input = input::open(&args.limit_mesh, &OpenOptions::default())?;
-    let (lim_rows, lim_table, chart) = limits(
-        &limit_input,
-        &[
-            OperatorKind::Tutte,
-            OperatorKind::Kirchhoff,
-            OperatorKind::Sql,
-        ],
-        args.steps,
-        (args.steps / 200).max(1),
-    )?;
-    out.table("limits", &lim_table)?;
-    out.chart("limits.png", &chart)?;
-    bar.finish_and_clear();
-
-    let results = Results {
-        properties: &prop_rows,
-        erratum: &err_rows,
-        repair: &rep_rows,
-        limits: &lim_rows,
+    let opts = ClaimsOptions {
+        meshes: args.meshes.clone(),
+        boundary_meshes: args.boundary_meshes.clone(),
+        repair_meshes: args.repair_meshes.clone(),
+        limit_mesh: args.limit_mesh.clone(),
+        steps: args.steps,
     };
-    out.json("claims.json", &results)?;
+    let (results, out) = run_with_bar(&args.out, &[], |out, p| claims::run(&opts, out, p))?;
     if args.json {
         return print_json(&results);
     }
-    for t in [&prop_table, &err_table, &rep_table, &lim_table] {
+    for t in &results.tables {
         println!("{}", t.to_markdown());
     }
-    eprintln!(
-        "wrote {} files to {}",
-        out.written().len(),
-        out.dir().display()
-    );
+    report_files(&out);
     Ok(())
 }

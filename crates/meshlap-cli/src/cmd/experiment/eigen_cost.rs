@@ -1,14 +1,8 @@
 //! `meshlap experiment eigen-cost`.
 
+use super::run_with_bar;
 use crate::common::print_json;
-use indicatif::{ProgressBar, ProgressStyle};
-use meshlap::experiment::eigen_cost::{
-    compaction, compaction_models, cost, CompactionOrder, CompactionRow, CostRow,
-    COMPACTION_OPERATORS, COST_OPERATORS,
-};
-use meshlap::experiment::Outputs;
-use meshlap::input::{self, Input, OpenOptions};
-use serde::Serialize;
+use meshlap::experiment::eigen_cost::{self, EigenCostOptions};
 use std::path::PathBuf;
 
 /// The paper's Fig. 3 and §4.9 energy-compaction comparison.
@@ -19,7 +13,7 @@ use std::path::PathBuf;
 /// by breadth-first search from vertex 0 of each MESH (induced faces); also the time
 /// for the spectral coefficients (projection versus LU solve).
 ///
-/// Compaction: the transform efficiency of SSTL, SQL, TL and KL (centred geometry) on
+/// Compaction: the transform efficiency of SSTL, SQL, TL and KL (centered geometry) on
 /// smooth models (a patch of the first MESH, builtin:icosphere:3) and on models with
 /// sharp transitions (builtin:cube:8, builtin:step:20). The paper's order on smooth
 /// models is SSTL > SQL > TL > KL, often reversed on the sharp ones.
@@ -29,24 +23,16 @@ use std::path::PathBuf;
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Meshes to cut patches from (files or builtin:…); repeat the option.
-    #[arg(
-        long = "mesh",
-        value_name = "MESH",
-        default_value = "builtin:icosphere:5"
-    )]
+    #[arg(long = "mesh", value_name = "MESH", default_values_t = EigenCostOptions::default().meshes)]
     pub meshes: Vec<String>,
     /// Patch sizes n (vertices), comma separated.
-    #[arg(
-        long,
-        value_delimiter = ',',
-        default_value = "100,200,400,800,1200,1600"
-    )]
+    #[arg(long, value_delimiter = ',', default_values_t = EigenCostOptions::default().sizes)]
     pub sizes: Vec<usize>,
     /// Timing repetitions per measurement (median reported).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = EigenCostOptions::default().repeat)]
     pub repeat: usize,
     /// Vertices of the smooth-model patch in the compaction comparison.
-    #[arg(long, default_value_t = 1000)]
+    #[arg(long, default_value_t = EigenCostOptions::default().compaction_size)]
     pub compaction_size: usize,
     /// Output directory (created if missing).
     #[arg(long, default_value = "eigen-cost")]
@@ -56,80 +42,20 @@ pub struct Args {
     pub json: bool,
 }
 
-#[derive(Serialize)]
-struct Results<'a> {
-    cost: &'a [CostRow],
-    compaction: &'a [CompactionRow],
-    compaction_order: &'a CompactionOrder,
-}
-
-fn bar(len: usize) -> ProgressBar {
-    let b = ProgressBar::new(len as u64);
-    b.set_style(ProgressStyle::with_template("{bar:30} {pos}/{len} {msg} [{elapsed}]").unwrap());
-    b
-}
-
-/// File-name-safe version of a mesh or model name.
-fn slug(s: &str) -> String {
-    s.chars()
-        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
-        .collect::<String>()
-        .trim_matches('_')
-        .to_string()
-}
-
 pub fn run(args: &Args) -> meshlap::Result<()> {
-    let limit = meshlap::spectral::DENSE_LIMIT;
-    if args.sizes.is_empty() || args.sizes.iter().any(|&n| !(4..=limit).contains(&n)) {
-        return Err(meshlap::Error::InvalidArgument(format!(
-            "--sizes must be between 4 and {limit}"
-        )));
-    }
-    if !(4..=limit).contains(&args.compaction_size) {
-        return Err(meshlap::Error::InvalidArgument(format!(
-            "--compaction-size must be between 4 and {limit}"
-        )));
-    }
-    let meshes: Vec<Input> = args
-        .meshes
-        .iter()
-        .map(|m| input::open(m, &OpenOptions::default()))
-        .collect::<meshlap::Result<_>>()?;
-    let mut out = Outputs::new(&args.out)?;
-
-    let pb = bar(meshes.len() * args.sizes.len() * COST_OPERATORS.len());
-    let (cost_rows, cost_table, cost_charts) = cost(&meshes, &args.sizes, args.repeat, |m| {
-        pb.set_message(m.to_string());
-        pb.inc(1);
-    })?;
-    pb.finish_and_clear();
-    out.table("eigen_cost", &cost_table)?;
-    for (mesh, chart) in &cost_charts {
-        out.chart(&format!("eigen_cost_{}.png", slug(mesh)), chart)?;
-    }
-
-    let models = compaction_models(meshes.first(), args.compaction_size)?;
-    let pb = bar(models.len() * COMPACTION_OPERATORS.len());
-    let (comp_rows, order, comp_table, comp_charts) = compaction(&models, |m| {
-        pb.set_message(m.to_string());
-        pb.inc(1);
-    })?;
-    pb.finish_and_clear();
-    out.table("compaction", &comp_table)?;
-    for (model, chart) in &comp_charts {
-        out.chart(&format!("compaction_{}.png", slug(model)), chart)?;
-    }
-    let results = Results {
-        cost: &cost_rows,
-        compaction: &comp_rows,
-        compaction_order: &order,
+    let opts = EigenCostOptions {
+        meshes: args.meshes.clone(),
+        sizes: args.sizes.clone(),
+        repeat: args.repeat,
+        compaction_size: args.compaction_size,
     };
-    out.json("eigen_cost.json", &results)?;
+    let (results, out) = run_with_bar(&args.out, &[], |out, p| eigen_cost::run(&opts, out, p))?;
     if args.json {
         return print_json(&results);
     }
-    println!("{}", cost_table.to_markdown());
-    println!("{}", comp_table.to_markdown());
+    for t in &results.tables {
+        println!("{}", t.to_markdown());
+    }
     println!(
         "wrote {} files to {}",
         out.written().len(),

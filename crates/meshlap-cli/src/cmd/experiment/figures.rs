@@ -1,12 +1,8 @@
 //! `meshlap experiment figures`.
 
+use super::{report_files, run_with_bar};
 use crate::common::print_json;
-use indicatif::{ProgressBar, ProgressStyle};
-use meshlap::experiment::figures::{error_table, figure, FigureModel};
-use meshlap::experiment::Outputs;
-use meshlap::input::{self, OpenOptions};
-use meshlap::operator::OperatorKind;
-use serde::Serialize;
+use meshlap::experiment::figures::{self, FiguresOptions};
 use std::path::PathBuf;
 
 /// The paper's Figs. 1 and 4, re-made as rendered PNG panels.
@@ -21,16 +17,16 @@ use std::path::PathBuf;
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// The mesh of Fig. 1 beside builtin:icosphere:3 (dense ED: at most 5,000 vertices).
-    #[arg(long, default_value = "../shared/data/meshes/cow.obj")]
+    #[arg(long, default_value_t = FiguresOptions::default().mesh)]
     pub mesh: String,
     /// Fraction of the coefficients kept in Fig. 1.
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, default_value_t = FiguresOptions::default().keep_fraction)]
     pub keep_fraction: f64,
     /// Coefficients kept in Fig. 4.
-    #[arg(long, default_value_t = 24)]
+    #[arg(long, default_value_t = FiguresOptions::default().fig4_keep)]
     pub fig4_keep: usize,
     /// Picture size of each cell, pixels.
-    #[arg(long, default_value_t = 420)]
+    #[arg(long, default_value_t = FiguresOptions::default().size)]
     pub size: u32,
     /// Output directory (created if missing).
     #[arg(long, default_value = "figures")]
@@ -40,87 +36,18 @@ pub struct Args {
     pub json: bool,
 }
 
-#[derive(Serialize)]
-struct Results<'a> {
-    fig1: &'a [meshlap::experiment::figures::Reconstruction],
-    fig4: &'a [meshlap::experiment::figures::Reconstruction],
-}
-
 pub fn run(args: &Args) -> meshlap::Result<()> {
-    if !(args.keep_fraction > 0.0 && args.keep_fraction <= 1.0) {
-        return Err(meshlap::Error::InvalidArgument(format!(
-            "--keep-fraction must be in (0, 1], got {}",
-            args.keep_fraction
-        )));
-    }
-    let mut out = Outputs::new(&args.out)?;
-    let bar = ProgressBar::new_spinner();
-    bar.set_style(
-        ProgressStyle::with_template("{spinner} {msg} [{elapsed}]").expect("static template"),
-    );
-    bar.set_message("Fig. 1");
-    let mut models = Vec::new();
-    for (spec, name, view) in [
-        (args.mesh.as_str(), None, (-60.0, 15.0)),
-        ("builtin:icosphere:3", Some("Sphere"), (20.0, 20.0)),
-    ] {
-        let input = input::open(spec, &OpenOptions::default())?;
-        let n = input.mesh.n_vertices();
-        let name = name
-            .map(str::to_string)
-            .unwrap_or_else(|| meshlap::experiment::claims::short_name(spec));
-        models.push(FigureModel {
-            name,
-            input,
-            keep: ((n as f64 * args.keep_fraction).round() as usize).max(1),
-            view,
-        });
-    }
-    let fig1 = figure(
-        &mut out,
-        "fig1",
-        "Fig. 1 — GL versus GSML truncated reconstructions",
-        &models,
-        &[OperatorKind::Graph, OperatorKind::Sql, OperatorKind::Tutte],
-        args.size,
-    )?;
-    bar.set_message("Fig. 4");
-    let sphere = input::open("builtin:sphere48:12", &OpenOptions::default())?;
-    let fig4 = figure(
-        &mut out,
-        "fig4",
-        "Fig. 4 — KL artifacts at low-degree vertices",
-        &[FigureModel {
-            name: "4-8 sphere".into(),
-            input: sphere,
-            keep: args.fig4_keep,
-            view: (35.0, 30.0),
-        }],
-        &[
-            OperatorKind::Kirchhoff,
-            OperatorKind::Sql,
-            OperatorKind::Sstl,
-        ],
-        args.size,
-    )?;
-    bar.finish_and_clear();
-    let mut rows = fig1.clone();
-    rows.extend(fig4.iter().cloned());
-    let table = error_table("Truncated ED reconstructions (Figs. 1 and 4)", &rows);
-    out.table("figures", &table)?;
-    let results = Results {
-        fig1: &fig1,
-        fig4: &fig4,
+    let opts = FiguresOptions {
+        mesh: args.mesh.clone(),
+        keep_fraction: args.keep_fraction,
+        fig4_keep: args.fig4_keep,
+        size: args.size,
     };
-    out.json("figures.json", &results)?;
+    let (results, out) = run_with_bar(&args.out, &[], |out, p| figures::run(&opts, out, p))?;
     if args.json {
         return print_json(&results);
     }
-    println!("{}", table.to_markdown());
-    eprintln!(
-        "wrote {} files to {}",
-        out.written().len(),
-        out.dir().display()
-    );
+    println!("{}", results.table.to_markdown());
+    report_files(&out);
     Ok(())
 }
