@@ -2,6 +2,30 @@
 //! arguments, call the library, print. Errors print one line on stderr and exit 1;
 //! usage errors exit 2.
 
+/// `println!` for the commands' output: writes to stdout and stops the process
+/// quietly (exit 0) when the reader has gone away (`meshlap … | head`), like other
+/// Unix filters, instead of panicking on the broken pipe; any other write error is
+/// one line on stderr and exit 1. Shadows the prelude's macro in every module below.
+macro_rules! println {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        if let Err(e) = writeln!(std::io::stdout().lock(), $($arg)*) {
+            $crate::stdout_failed(&e);
+        }
+    }};
+}
+
+/// `print!` with the same handling of a closed stdout as [`println!`].
+#[allow(unused_macros)]
+macro_rules! print {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        if let Err(e) = write!(std::io::stdout().lock(), $($arg)*) {
+            $crate::stdout_failed(&e);
+        }
+    }};
+}
+
 mod cmd;
 mod common;
 
@@ -48,13 +72,6 @@ enum Command {
 }
 
 fn main() {
-    // Like other Unix filters, stop quietly when the reader of our output goes away
-    // (`meshlap info … | head`), instead of panicking on the broken pipe.
-    #[cfg(unix)]
-    // SAFETY: restoring the default disposition of SIGPIPE before any thread exists.
-    unsafe {
-        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
-    }
     let cli = Cli::parse();
     if let Some(t) = cli.threads {
         // A pool can only be built once; ignore a second attempt.
@@ -81,8 +98,36 @@ fn main() {
         Command::Experiment(a) => cmd::experiment::run(a),
     };
     if let Err(e) = result {
+        if broken_pipe(&e) {
+            std::process::exit(0);
+        }
         let msg = e.to_string().replace('\n', " ");
         eprintln!("meshlap: error: {msg}");
         std::process::exit(1);
     }
+}
+
+/// True when an `io::Error` of kind `BrokenPipe` is anywhere in the error's chain:
+/// the reader of our output went away, which is not a failure of the command.
+fn broken_pipe(e: &(dyn std::error::Error + 'static)) -> bool {
+    let mut cur = Some(e);
+    while let Some(err) = cur {
+        if err
+            .downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+        {
+            return true;
+        }
+        cur = err.source();
+    }
+    false
+}
+
+/// Handles a failed write to stdout (see [`println!`]).
+fn stdout_failed(e: &std::io::Error) -> ! {
+    if broken_pipe(e) {
+        std::process::exit(0);
+    }
+    eprintln!("meshlap: error: cannot write to standard output: {e}");
+    std::process::exit(1);
 }

@@ -584,3 +584,21 @@ fn experiment_all_quick_writes_every_experiment_and_an_index() {
     assert!(out.join("figures/fig4_4_8_sphere.png").is_file());
     assert!(out.join("claims/erratum.md").is_file());
 }
+
+/// A reader that goes away (`meshlap … | head -0`) ends the command quietly with
+/// exit 0: the broken pipe is recognised, not a panic and not an error line.
+#[test]
+fn closed_stdout_ends_quietly() {
+    use std::process::{Command, Stdio};
+    let mut child = Command::new(env!("CARGO_BIN_EXE_meshlap"))
+        .args(["spectrum", "builtin:grid:40", "--kind", "kl"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{:?}: {stderr}", out.status);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}

@@ -37,9 +37,6 @@ pub enum Error {
     /// Partitioning a mesh into patches failed.
     #[error(transparent)]
     Partition(#[from] crate::partition::PartitionError),
-    /// A partial (shift-invert) eigensolve failed.
-    #[error(transparent)]
-    PartialSpectrum(#[from] crate::spectral::partial::PartialError),
     /// Rendering a chart failed.
     #[cfg(feature = "pictures")]
     #[error(transparent)]

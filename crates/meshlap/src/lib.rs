@@ -28,8 +28,11 @@
 //!   through a color map (the paper's figures, eigenvectors; feature `pictures`).
 //! - [`partition`]: METIS graph partitioning of a mesh into connected patches (used by
 //!   the patch-wise transforms, the codec and watermarking).
-//! - [`spectral`]: eigenvalue-decomposition (ED) transforms, partial spectra, patch-wise
-//!   reconstruction.
+//! - [`spectral`]: eigenvalue-decomposition (ED) transforms, the k smallest eigenpairs
+//!   at any size ([`spectral::smallest`]), partial spectra, extreme eigenvalues,
+//!   patch-wise reconstruction.
+//!
+//! `ARCHITECTURE.md` at the repository root maps the layers to the modules.
 //!
 //! ## Features
 //! - `pictures`: [`raster`], [`plot`] and [`render`] (dependencies plotters, png,
@@ -41,6 +44,7 @@
 
 // Index loops over vertices read like the formulas they implement.
 #![allow(clippy::needless_range_loop)]
+#![warn(missing_docs)]
 
 pub mod analysis;
 pub mod codec;

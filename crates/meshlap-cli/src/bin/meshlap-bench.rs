@@ -12,7 +12,7 @@
 //! (compress and decompress in memory, default settings or `--patch-size P`, `--mode M`,
 //! `--bits Q`, `--target-bpv B`; non-manifold vertices split first),
 //! `partial` (the `--count` smallest eigenpairs by banded shift-invert block
-//! Krylov–Schur; `--tol`, `--band`, `--block` override `PartialOptions`), `partition`
+//! Krylov–Schur; `--tol`, `--band`, `--block` override `PartialParams`), `partition`
 //! (METIS patches of `--patch-size`), `project-patches` (partition + patch-wise
 //! truncated ED reconstruction, end to end, with the peak RSS).
 
@@ -292,7 +292,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                     &OperatorOptions::default(),
                 )
                 .unwrap();
-                let mut opts = meshlap::spectral::partial::PartialOptions::new(count);
+                let mut opts = meshlap::spectral::partial::PartialParams::new(count);
                 if let Some(t) = flag(&args, "--tol") {
                     opts.tolerance = t.parse().unwrap();
                 }
@@ -327,7 +327,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             out.insert(
                 "partial".into(),
                 serde_json::json!({"median": m, "times": t, "count": count,
-                    "bands": ps.bands.len(), "band_info": ps.bands, "max_residual": max_res,
+                    "bands": ps.info.bands.len(), "band_info": ps.info.bands, "max_residual": max_res,
                     "orthogonality": ortho,
                     "eigenvalues": ps.eigenvalues}),
             );

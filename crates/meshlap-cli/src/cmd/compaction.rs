@@ -4,8 +4,8 @@ use super::spectrum::BasisArgs;
 use crate::common::{print_json, MeshArgs};
 use meshlap::io::write_atomic;
 use meshlap::operator::OperatorKind;
-use meshlap::spectral::compaction::{centre, energy_compaction, Compaction};
-use meshlap::spectral::{forward, positions_to_mat, EigenPath};
+use meshlap::spectral::compaction::{positions_compaction, Compaction};
+use meshlap::spectral::EigenPath;
 use serde::Serialize;
 use std::path::PathBuf;
 
@@ -57,15 +57,14 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
     let input = args.mesh.open()?;
     let n = input.mesh.n_vertices();
     let op = args.basis.operator(&input)?;
-    let (basis, _) = args.basis.basis(&op)?;
-    let mut x = positions_to_mat(&input.mesh.positions);
-    if args.centre {
-        x = centre(x.as_ref());
-    }
-    let coeffs = forward(&basis, x.as_ref()).map_err(meshlap::Error::from)?;
-    let comp = energy_compaction(coeffs.as_ref());
-    if let Some(path) = &args.csv {
-        write_atomic(path, |w| {
+    let (comp, path) = positions_compaction(
+        &op,
+        &input.mesh.positions,
+        args.centre,
+        &args.basis.options(),
+    )?;
+    if let Some(csv) = &args.csv {
+        write_atomic(csv, |w| {
             writeln!(w, "m,x,y,z,total")?;
             for m in 0..comp.len() {
                 writeln!(
@@ -85,7 +84,7 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         return print_json(&CompactionJson {
             source: &input.source,
             kind: args.basis.kind,
-            path: basis.path(),
+            path,
             vertices: n,
             centred: args.centre,
             mean_efficiency: comp.mean_efficiency(),
@@ -100,7 +99,7 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         args.basis.kind,
         input.source,
         if args.centre { ", centred" } else { "" },
-        basis.path()
+        path
     );
     println!(
         "mean efficiency {:.6}; 90% of the energy in {} coefficients, 99% in {}, 99.9% in {}",

@@ -45,13 +45,13 @@ pub struct Args {
     #[arg(long)]
     pub json: bool,
     /// SQL boundary diagonal: zero-row-sum (correct) or printed (the paper's erratum).
-    #[arg(long, default_value = "zero-row-sum", value_parser = ["zero-row-sum", "printed"])]
-    pub sql_diagonal: String,
+    #[arg(long, value_enum, default_value_t = BoundaryDiagonal::default())]
+    pub sql_diagonal: BoundaryDiagonal,
     /// Mass matrix of the cotangent operator: voronoi or barycentric.
-    #[arg(long, default_value = "voronoi", value_parser = ["voronoi", "barycentric"])]
-    pub mass: String,
+    #[arg(long, value_enum, default_value_t = MassKind::default())]
+    pub mass: MassKind,
     /// Largest n for which the full spectrum is computed densely.
-    #[arg(long, default_value_t = 5000)]
+    #[arg(long, default_value_t = PropertyOptions::default().dense_limit)]
     pub dense_limit: usize,
 }
 
@@ -65,24 +65,13 @@ struct OperatorJson<'a> {
     same_spectrum_max_difference: Option<f64>,
 }
 
-pub fn options(sql_diagonal: &str, mass: &str) -> OperatorOptions {
-    OperatorOptions {
-        sql_boundary: if sql_diagonal == "printed" {
-            BoundaryDiagonal::AsPrinted
-        } else {
-            BoundaryDiagonal::ZeroRowSum
-        },
-        mass: if mass == "barycentric" {
-            MassKind::Barycentric
-        } else {
-            MassKind::Voronoi
-        },
-    }
+pub fn options(sql_boundary: BoundaryDiagonal, mass: MassKind) -> OperatorOptions {
+    OperatorOptions { sql_boundary, mass }
 }
 
 pub fn run(args: &Args) -> meshlap::Result<()> {
     let input = args.mesh.open()?;
-    let opts = options(&args.sql_diagonal, &args.mass);
+    let opts = options(args.sql_diagonal, args.mass);
     let op = Operator::assemble(args.kind, &input.mesh, &input.topology, &opts)?;
     if let Some(path) = &args.output {
         meshlap::io::write_matrix_market(path, op.matrix.as_ref())?;

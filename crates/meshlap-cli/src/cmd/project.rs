@@ -4,9 +4,8 @@ use super::spectrum::BasisArgs;
 use crate::common::{print_json, MeshArgs};
 use meshlap::io::{write_mesh, WriteOptions};
 use meshlap::operator::OperatorKind;
-use meshlap::spectral::{
-    compaction::energy_compaction, forward, inverse, mat_to_positions, positions_to_mat, EigenPath,
-};
+use meshlap::spectral::project::{project, Keep, ProjectParams};
+use meshlap::spectral::EigenPath;
 use serde::Serialize;
 use std::path::PathBuf;
 
@@ -45,11 +44,18 @@ pub struct Args {
 struct ProjectJson<'a> {
     source: &'a str,
     kind: OperatorKind,
-    path: EigenPath,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    path: Option<EigenPath>,
     vertices: usize,
     keep: usize,
-    /// Fraction of the coefficient energy in the kept coefficients.
-    energy_kept: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    patch_size: Option<usize>,
+    keep_fraction: f64,
+    /// Fraction of the coefficient energy in the kept coefficients (whole mesh).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    energy_kept: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    partition: Option<&'a meshlap::partition::PartitionStats>,
     /// ‖x − x⁽ᵐ⁾‖_F / ‖x‖_F.
     relative_error: f64,
     /// Largest vertex displacement divided by the bounding-box diagonal.
@@ -57,169 +63,95 @@ struct ProjectJson<'a> {
     seconds: f64,
 }
 
-/// Parses `m` or `P%` against n.
-pub fn parse_keep(s: &str, n: usize) -> meshlap::Result<usize> {
-    let bad = || {
-        meshlap::Error::InvalidArgument(format!(
-            "--keep must be a count in 1..={n} or a percentage like 10%, got `{s}`"
-        ))
-    };
-    let m = if let Some(p) = s.strip_suffix('%') {
-        let p: f64 = p.trim().parse().map_err(|_| bad())?;
-        if !(p > 0.0 && p <= 100.0) {
-            return Err(bad());
-        }
-        ((p / 100.0 * n as f64).round() as usize).max(1)
-    } else {
-        s.trim().parse().map_err(|_| bad())?
-    };
-    if m == 0 || m > n {
-        return Err(bad());
-    }
-    Ok(m)
-}
-
-#[derive(Serialize)]
-struct PatchJson<'a> {
-    source: &'a str,
-    kind: OperatorKind,
-    vertices: usize,
-    patch_size: usize,
-    keep_fraction: f64,
-    partition: &'a meshlap::partition::PartitionStats,
-    relative_error: f64,
-    max_displacement: f64,
-    seconds: f64,
-}
-
-/// `‖x − y‖_F / ‖x‖_F` and `max_i ‖x_i − y_i‖`.
-fn errors(x: &[[f64; 3]], y: &[[f64; 3]]) -> (f64, f64) {
-    let (mut err2, mut norm2, mut maxd) = (0.0f64, 0.0f64, 0.0f64);
-    for (a, b) in x.iter().zip(y) {
-        let d2: f64 = (0..3).map(|c| (a[c] - b[c]).powi(2)).sum();
-        err2 += d2;
-        norm2 += a.iter().map(|v| v * v).sum::<f64>();
-        maxd = maxd.max(d2.sqrt());
-    }
-    let rel = if norm2 > 0.0 {
-        (err2 / norm2).sqrt()
-    } else {
-        0.0
-    };
-    (rel, maxd)
-}
-
-fn run_patches(
-    args: &Args,
-    input: &meshlap::input::Input,
-    keep: usize,
-    p: usize,
-) -> meshlap::Result<()> {
-    use meshlap::partition::{partition_mesh, PartitionOptions};
-    use meshlap::spectral::patchwise::patchwise_reconstruction;
-    let n = input.mesh.n_vertices();
-    let t = std::time::Instant::now();
-    let part = partition_mesh(&input.mesh, &input.topology, &PartitionOptions::new(p))?;
-    let fraction = keep as f64 / n as f64;
-    let bar = indicatif::ProgressBar::new(part.n_patches() as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} patches [{elapsed}]")
-            .expect("static template"),
-    );
-    let positions =
-        patchwise_reconstruction(&input.mesh, &part, args.basis.kind, fraction, &|done, _| {
-            bar.set_position(done as u64)
-        })?;
-    bar.finish_and_clear();
-    let seconds = t.elapsed().as_secs_f64();
-    let mut out = input.mesh.clone();
-    out.positions = positions;
-    write_mesh(&args.output, &out, &WriteOptions::default())?;
-    let (relative_error, maxd) = errors(&input.mesh.positions, &out.positions);
-    let report = PatchJson {
-        source: &input.source,
-        kind: args.basis.kind,
-        vertices: n,
-        patch_size: p,
-        keep_fraction: fraction,
-        partition: part.stats(),
-        relative_error,
-        max_displacement: maxd / input.mesh.bbox_diagonal().max(f64::MIN_POSITIVE),
-        seconds,
-    };
-    if args.json {
-        return print_json(&report);
-    }
-    let st = part.stats();
-    println!(
-        "{} patches (sizes {}–{}, edge cut {}), kept {:.2}% of each patch's {} coefficients: relative error {:.3e}, max displacement {:.3e} × bbox diagonal, {:.2} s; wrote {}",
-        st.patches,
-        st.min_size,
-        st.max_size,
-        st.edge_cut,
-        100.0 * fraction,
-        report.kind,
-        relative_error,
-        report.max_displacement,
-        seconds,
-        args.output.display()
-    );
-    Ok(())
-}
-
 pub fn run(args: &Args) -> meshlap::Result<()> {
     let input = args.mesh.open()?;
     let n = input.mesh.n_vertices();
-    let keep = parse_keep(&args.keep, n)?;
-    if let Some(p) = args.patch_size {
-        return run_patches(args, &input, keep, p);
-    }
-    let op = args.basis.operator(&input)?;
-    let (basis, seconds) = args.basis.basis(&op)?;
-    let x = positions_to_mat(&input.mesh.positions);
-    let coeffs = forward(&basis, x.as_ref()).map_err(meshlap::Error::from)?;
-    let y = inverse(&basis, coeffs.as_ref().subrows(0, keep))?;
-    let mut out = input.mesh.clone();
-    out.positions = mat_to_positions(y.as_ref())?;
-    write_mesh(&args.output, &out, &WriteOptions::default())?;
-
-    let energy_kept = energy_compaction(coeffs.as_ref()).total[keep - 1];
-    let (mut err2, mut norm2, mut maxd) = (0.0f64, 0.0f64, 0.0f64);
-    for i in 0..n {
-        let mut d2 = 0.0;
-        for c in 0..3 {
-            d2 += (x[(i, c)] - y[(i, c)]).powi(2);
-            norm2 += x[(i, c)].powi(2);
-        }
-        err2 += d2;
-        maxd = maxd.max(d2.sqrt());
-    }
-    let report = ProjectJson {
-        source: &input.source,
-        kind: args.basis.kind,
-        path: basis.path(),
-        vertices: n,
-        keep,
-        energy_kept,
-        relative_error: if norm2 > 0.0 {
-            (err2 / norm2).sqrt()
-        } else {
-            0.0
-        },
-        max_displacement: maxd / input.mesh.bbox_diagonal().max(f64::MIN_POSITIVE),
-        seconds,
+    let keep: Keep = args.keep.parse().map_err(|_| {
+        meshlap::Error::InvalidArgument(format!(
+            "--keep must be a count in 1..={n} or a percentage like 10%, got `{}`",
+            args.keep
+        ))
+    })?;
+    let params = ProjectParams {
+        operator: super::operator::options(args.basis.sql_diagonal, args.basis.mass),
+        basis: args.basis.options(),
+        patch_size: args.patch_size,
     };
-    if args.json {
-        return print_json(&report);
+    let bar = indicatif::ProgressBar::new(0);
+    if args.patch_size.is_some() {
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} patches [{elapsed}]")
+                .expect("static template"),
+        );
+    } else {
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("{spinner} projecting [{elapsed}]")
+                .expect("static template"),
+        );
+        bar.enable_steady_tick(std::time::Duration::from_millis(120));
     }
-    println!(
-        "kept {keep} of {n} {} coefficients ({} path): {:.4}% of the energy; relative error {:.3e}, max displacement {:.3e} × bbox diagonal; wrote {}",
-        report.kind,
-        report.path,
-        100.0 * report.energy_kept,
-        report.relative_error,
-        report.max_displacement,
-        args.output.display()
+    let t = std::time::Instant::now();
+    let result = project(
+        &input.mesh,
+        &input.topology,
+        args.basis.kind,
+        keep,
+        &params,
+        &|done, total| {
+            bar.set_length(total as u64);
+            bar.set_position(done as u64)
+        },
     );
+    bar.finish_and_clear();
+    let seconds = t.elapsed().as_secs_f64();
+    let pr = result.map_err(|e| match e {
+        meshlap::Error::InvalidArgument(m) => meshlap::Error::InvalidArgument(format!("--{m}")),
+        e => e,
+    })?;
+    let mut out = input.mesh.clone();
+    out.positions = pr.positions;
+    write_mesh(&args.output, &out, &WriteOptions::default())?;
+    let info = &pr.info;
+    if args.json {
+        return print_json(&ProjectJson {
+            source: &input.source,
+            kind: args.basis.kind,
+            path: info.path,
+            vertices: n,
+            keep: info.keep,
+            patch_size: args.patch_size,
+            keep_fraction: info.keep_fraction,
+            energy_kept: info.energy_kept,
+            partition: info.partition.as_ref(),
+            relative_error: info.errors.relative,
+            max_displacement: info.errors.max,
+            seconds,
+        });
+    }
+    match (&info.partition, info.path, info.energy_kept) {
+        (Some(st), _, _) => println!(
+            "{} patches (sizes {}–{}, edge cut {}), kept {:.2}% of each patch's {} coefficients: relative error {:.3e}, max displacement {:.3e} × bbox diagonal, {:.2} s; wrote {}",
+            st.patches,
+            st.min_size,
+            st.max_size,
+            st.edge_cut,
+            100.0 * info.keep_fraction,
+            args.basis.kind,
+            info.errors.relative,
+            info.errors.max,
+            seconds,
+            args.output.display()
+        ),
+        (None, path, energy) => println!(
+            "kept {} of {n} {} coefficients ({} path): {:.4}% of the energy; relative error {:.3e}, max displacement {:.3e} × bbox diagonal; wrote {}",
+            info.keep,
+            args.basis.kind,
+            path.map_or("dense".to_string(), |p| p.to_string()),
+            100.0 * energy.unwrap_or(f64::NAN),
+            info.errors.relative,
+            info.errors.max,
+            args.output.display()
+        ),
+    }
     Ok(())
 }

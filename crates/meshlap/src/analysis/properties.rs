@@ -9,11 +9,19 @@
 //! its spectrum is real and is computed with the symmetric eigensolver. Otherwise the
 //! general (complex) dense eigensolver is used on small matrices.
 //!
+//! Above [`PropertyOptions::dense_limit`] a symmetric or symmetrizable operator's
+//! λ_min (shift-invert), λ_max (Krylov–Schur) and zero multiplicity (Sylvester's
+//! inertia) are computed by [`crate::spectral::extremes`], so the report is complete
+//! at any n; only a large operator that is neither symmetric nor symmetrizable has its
+//! spectral lines skipped (the general dense eigensolver is O(n³)).
+//!
 //! The smoothing matrix is `H = I − F/k` with the smallest admissible
 //! `k = max(λ_max/2, max_i F_ii)`: `k ≥ λ_max/2` makes H smoothing when F is a GSML
 //! (§2.5) and `k ≥ max F_ii` keeps H's diagonal nonnegative (§3.7, `k ≥ max D`).
 
 use crate::mesh::topology::UnionFind;
+pub use crate::operator::symmetrize::{asymmetry, diagonal_symmetrizer, entry};
+use crate::operator::symmetrize::{symmetric_product, symmetrized_dense, Scaling};
 use crate::SparseMatrix;
 use faer::Side;
 use serde::Serialize;
@@ -22,7 +30,9 @@ use serde::Serialize;
 #[derive(Clone, Copy, Debug)]
 pub struct PropertyOptions {
     /// Largest n for which the full spectrum of a symmetric (or symmetrizable)
-    /// operator is computed densely.
+    /// operator is computed densely; above it λ_min, λ_max and the multiplicity of
+    /// the zero eigenvalue come from the sparse solvers
+    /// ([`crate::spectral::extremes`]).
     pub dense_limit: usize,
     /// Largest n for the general (non-symmetric) dense eigensolver.
     pub nonsymmetric_dense_limit: usize,
@@ -113,7 +123,8 @@ pub struct PropertyReport {
     /// Largest column sum.
     pub column_sum_max: f64,
     /// How the spectrum was computed (`dense-symmetric`, `dense-symmetrized`,
-    /// `dense-general`), or why it was not.
+    /// `dense-general`, `sparse-symmetric …`, `sparse-symmetrized …`), or why it was
+    /// not.
     pub spectrum_method: String,
     /// Smallest eigenvalue (real part).
     pub lambda_min: Option<f64>,
@@ -188,13 +199,11 @@ pub fn analyze(f: &SparseMatrix, opts: &PropertyOptions) -> PropertyReport {
         .fold(f64::MAX, f64::min);
 
     // Spectrum.
-    let (spectrum_method, eigenvalues, max_imag) = spectrum(f, symmetric, opts);
-    let lambda_min = eigenvalues.as_ref().and_then(|e| e.first().copied());
-    let lambda_max = eigenvalues.as_ref().and_then(|e| e.last().copied());
+    let sp = spectrum(f, symmetric, gershgorin_min, opts);
+    let (spectrum_method, eigenvalues, max_imag) = (sp.method, sp.eigenvalues, sp.max_imag);
+    let (lambda_min, lambda_max) = (sp.lambda_min, sp.lambda_max);
     let ztol = 1e-8 * lambda_max.unwrap_or(1.0).abs().max(1.0);
-    let zero_mult = eigenvalues
-        .as_ref()
-        .map(|e| e.iter().filter(|x| x.abs() <= ztol).count());
+    let zero_mult = sp.zero_multiplicity;
     let psd = lambda_min.map(|l| l >= -ztol);
     let real_spectrum = max_imag.map(|m| m <= 1e-8 * scale);
     let gershgorin_holds = lambda_min
@@ -281,138 +290,103 @@ pub fn analyze(f: &SparseMatrix, opts: &PropertyOptions) -> PropertyReport {
     }
 }
 
-/// `max |F_ij − F_ji|` over the stored entries (binary search in the transposed
-/// position; a missing entry counts as 0).
-pub fn asymmetry(f: &SparseMatrix) -> f64 {
-    let mut worst = 0.0f64;
-    for j in 0..f.ncols() {
-        for (&i, &v) in f.row_idx_of_col_raw(j).iter().zip(f.val_of_col(j)) {
-            worst = worst.max((v - entry(f, j, i)).abs());
-        }
-    }
-    worst
+/// The spectrum as far as the report needs it.
+struct Spectrum {
+    method: String,
+    eigenvalues: Option<Vec<f64>>,
+    lambda_min: Option<f64>,
+    lambda_max: Option<f64>,
+    zero_multiplicity: Option<usize>,
+    max_imag: Option<f64>,
 }
 
-/// Entry (i, j) of a CSC matrix with sorted row indices (0 if not stored).
-pub fn entry(f: &SparseMatrix, i: usize, j: usize) -> f64 {
-    let rows = f.row_idx_of_col_raw(j);
-    match rows.binary_search(&i) {
-        Ok(p) => f.val_of_col(j)[p],
-        Err(_) => 0.0,
+impl Spectrum {
+    fn failed(method: String) -> Self {
+        Self {
+            method,
+            eigenvalues: None,
+            lambda_min: None,
+            lambda_max: None,
+            zero_multiplicity: None,
+            max_imag: None,
+        }
+    }
+
+    /// From a full spectrum (ascending real parts).
+    fn dense(method: &str, ev: Vec<f64>, max_imag: f64) -> Self {
+        let lambda_min = ev.first().copied();
+        let lambda_max = ev.last().copied();
+        let ztol = 1e-8 * lambda_max.unwrap_or(1.0).abs().max(1.0);
+        Self {
+            method: method.into(),
+            zero_multiplicity: Some(ev.iter().filter(|x| x.abs() <= ztol).count()),
+            lambda_min,
+            lambda_max,
+            eigenvalues: Some(ev),
+            max_imag: Some(max_imag),
+        }
+    }
+
+    /// Above the dense limit: the extremes and the zero multiplicity by the sparse
+    /// solvers ([`crate::spectral::extremes`]).
+    fn sparse(method: &str, k: &SparseMatrix, mass: Option<&[f64]>, lower: f64) -> Self {
+        match crate::spectral::extremes::extremes(k, mass, lower) {
+            Ok(e) => Self {
+                method: method.into(),
+                eigenvalues: None,
+                lambda_min: Some(e.lambda_min),
+                lambda_max: Some(e.lambda_max),
+                zero_multiplicity: Some(e.zero_multiplicity),
+                max_imag: Some(0.0),
+            },
+            Err(e) => Self::failed(format!("failed: {e}")),
+        }
     }
 }
 
-/// The dense symmetric matrix `S^{1/2} F S^{-1/2}` (n×n) similar to `F`, for a positive
-/// diagonal symmetrizer `s` of `F` (see [`diagonal_symmetrizer`]); rounding asymmetry is
-/// averaged away so a symmetric eigensolver may read either triangle. Its eigenvectors
-/// `u` give F's as `S^{-1/2} u`.
-pub fn symmetrized_dense(f: &SparseMatrix, s: &[f64]) -> faer::Mat<f64> {
-    let n = f.nrows();
-    let r: Vec<f64> = s.iter().map(|x| x.sqrt()).collect();
-    let mut d = f.to_dense();
-    for j in 0..n {
-        for i in 0..n {
-            d[(i, j)] *= r[i] / r[j];
-        }
-    }
-    for j in 0..n {
-        for i in 0..j {
-            let a = 0.5 * (d[(i, j)] + d[(j, i)]);
-            d[(i, j)] = a;
-            d[(j, i)] = a;
-        }
-    }
-    d
-}
-
-/// A positive diagonal `s` with `diag(s)·F` symmetric, if one exists: requires a
-/// symmetric pattern with `F_ij·F_ji > 0` and consistent ratios `s_j/s_i = F_ij/F_ji`
-/// around every cycle (checked on every stored pair, relative tolerance 1e-12).
-pub fn diagonal_symmetrizer(f: &SparseMatrix) -> Option<Vec<f64>> {
-    let n = f.nrows();
-    let mut s = vec![0.0f64; n];
-    let mut queue = std::collections::VecDeque::new();
-    for root in 0..n {
-        if s[root] != 0.0 {
-            continue;
-        }
-        s[root] = 1.0;
-        queue.push_back(root);
-        while let Some(i) = queue.pop_front() {
-            // Column i holds F_ki; the transposed entry F_ik decides s_k.
-            for (&k, &fki) in f.row_idx_of_col_raw(i).iter().zip(f.val_of_col(i)) {
-                if k == i || fki == 0.0 {
-                    continue;
-                }
-                let fik = entry(f, i, k);
-                if fik * fki <= 0.0 {
-                    return None;
-                }
-                // s_i F_ik = s_k F_ki
-                let sk = s[i] * fik / fki;
-                if s[k] == 0.0 {
-                    s[k] = sk;
-                    queue.push_back(k);
-                } else if (s[k] - sk).abs() > 1e-12 * s[k].abs() {
-                    return None;
-                }
-            }
-        }
-    }
-    Some(s)
-}
-
-fn spectrum(
-    f: &SparseMatrix,
-    symmetric: bool,
-    opts: &PropertyOptions,
-) -> (String, Option<Vec<f64>>, Option<f64>) {
+fn spectrum(f: &SparseMatrix, symmetric: bool, lower: f64, opts: &PropertyOptions) -> Spectrum {
     let n = f.nrows();
     if symmetric {
         if n > opts.dense_limit {
-            return (
-                format!("skipped: n = {n} > dense limit {}", opts.dense_limit),
-                None,
-                None,
-            );
+            return Spectrum::sparse("sparse-symmetric (Krylov–Schur, inertia)", f, None, lower);
         }
         return match f.to_dense().self_adjoint_eigenvalues(Side::Lower) {
-            Ok(ev) => ("dense-symmetric".into(), Some(ev), Some(0.0)),
-            Err(e) => (format!("failed: {e:?}"), None, None),
+            Ok(ev) => Spectrum::dense("dense-symmetric", ev, 0.0),
+            Err(_) => Spectrum::failed("failed: the dense eigensolver did not converge".into()),
         };
     }
     if let Some(s) = diagonal_symmetrizer(f) {
         if n > opts.dense_limit {
-            return (
-                format!("skipped: n = {n} > dense limit {}", opts.dense_limit),
-                None,
-                None,
-            );
+            return match symmetric_product(f, &s) {
+                Ok(k) => Spectrum::sparse(
+                    "sparse-symmetrized (Krylov–Schur, inertia)",
+                    &k,
+                    Some(&s),
+                    lower,
+                ),
+                Err(e) => Spectrum::failed(format!("failed: {e}")),
+            };
         }
-        let d = symmetrized_dense(f, &s);
+        let d = symmetrized_dense(f, Scaling::Similarity(&s));
         return match d.self_adjoint_eigenvalues(Side::Lower) {
-            Ok(ev) => ("dense-symmetrized".into(), Some(ev), Some(0.0)),
-            Err(e) => (format!("failed: {e:?}"), None, None),
+            Ok(ev) => Spectrum::dense("dense-symmetrized", ev, 0.0),
+            Err(_) => Spectrum::failed("failed: the dense eigensolver did not converge".into()),
         };
     }
     if n > opts.nonsymmetric_dense_limit {
-        return (
-            format!(
-                "skipped: non-symmetrizable and n = {n} > dense limit {}",
-                opts.nonsymmetric_dense_limit
-            ),
-            None,
-            None,
-        );
+        return Spectrum::failed(format!(
+            "skipped: neither symmetric nor symmetrizable, and n = {n} > the general dense limit {}",
+            opts.nonsymmetric_dense_limit
+        ));
     }
     match f.to_dense().eigenvalues() {
         Ok(ev) => {
             let max_imag = ev.iter().map(|c| c.im.abs()).fold(0.0, f64::max);
             let mut re: Vec<f64> = ev.iter().map(|c| c.re).collect();
             re.sort_by(f64::total_cmp);
-            ("dense-general".into(), Some(re), Some(max_imag))
+            Spectrum::dense("dense-general", re, max_imag)
         }
-        Err(e) => (format!("failed: {e:?}"), None, None),
+        Err(_) => Spectrum::failed("failed: the dense eigensolver did not converge".into()),
     }
 }
 

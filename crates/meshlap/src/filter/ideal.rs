@@ -11,7 +11,7 @@
 //! projection). Positions are the n×3 row-major block.
 
 use super::{Filter, FilterError, IdealOptions};
-use crate::analysis::properties::{diagonal_symmetrizer, symmetrized_dense};
+use crate::operator::symmetrize::{diagonal_symmetrizer, symmetrized_dense, Scaling};
 use crate::SparseMatrix;
 use faer::Mat;
 
@@ -44,7 +44,7 @@ pub fn ideal_lowpass(
         what: "the ideal low-pass",
     })?;
     let r: Vec<f64> = s.iter().map(|v| v.sqrt()).collect();
-    let evd = symmetrized_dense(f, &s)
+    let evd = symmetrized_dense(f, Scaling::Similarity(&s))
         .self_adjoint_eigen(faer::Side::Lower)
         .map_err(|_| FilterError::EigenNoConvergence)?;
     let kept = evd

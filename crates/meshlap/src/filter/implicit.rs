@@ -31,7 +31,7 @@
 
 use super::options::{positive, ImplicitOptions};
 use super::{FilterError, FilterKind};
-use crate::analysis::properties::{asymmetry, diagonal_symmetrizer};
+pub use crate::operator::symmetrize::{is_symmetric, symmetrizer};
 use crate::solve::{
     bicg, bicgstab, cg, check_sizes, relative_residuals, CholeskySolver, CsrMatrix,
     CsrWithTranspose, DirectError, DirectInfo, Info, InputError, Jacobi, LuSolver, Params,
@@ -98,42 +98,6 @@ impl SolverKind {
             kind => kind,
         }
     }
-}
-
-/// True when `f` is symmetric up to rounding (`max |F_ij − F_ji| ≤ 1e-12·max |F_ij|`).
-pub fn is_symmetric(f: &SparseMatrix) -> bool {
-    let scale = (0..f.ncols())
-        .flat_map(|j| f.val_of_col(j).iter())
-        .fold(0.0f64, |a, v| a.max(v.abs()));
-    asymmetry(f) <= 1e-12 * scale
-}
-
-/// The positive diagonal S making `S·F` symmetric, scaled so that the off-diagonal
-/// entries of `S·F` have mean magnitude 1 (S = D for the Tutte Laplacian). The ratios
-/// found by [`diagonal_symmetrizer`] carry rounding from products along paths; when
-/// every scaled entry is within 1e-9 (relative) of an integer — the degrees, for the
-/// TL — the integers are used, so that `S·F` is exactly the Kirchhoff operator.
-pub fn symmetrizer(f: &SparseMatrix) -> Option<Vec<f64>> {
-    let mut s = diagonal_symmetrizer(f)?;
-    let (mut sum, mut count) = (0.0, 0usize);
-    for j in 0..f.ncols() {
-        for (&i, &v) in f.row_idx_of_col_raw(j).iter().zip(f.val_of_col(j)) {
-            if i != j && v != 0.0 {
-                sum += (s[i] * v).abs();
-                count += 1;
-            }
-        }
-    }
-    if count > 0 && sum > 0.0 {
-        let c = count as f64 / sum;
-        s.iter_mut().for_each(|v| *v *= c);
-    }
-    if s.iter()
-        .all(|v| (v - v.round()).abs() <= 1e-9 * v.abs() && v.round() >= 1.0)
-    {
-        s.iter_mut().for_each(|v| *v = v.round());
-    }
-    Some(s)
 }
 
 enum Prepared {

@@ -122,6 +122,16 @@ pub enum IoError {
         /// The file.
         file: String,
     },
+    /// A sparse matrix could not be built from the file's entries (index overflow or
+    /// out of memory; faer's error kept).
+    #[error("{file}: cannot build the matrix")]
+    Matrix {
+        /// The file.
+        file: String,
+        /// faer's error.
+        #[source]
+        source: faer::sparse::CreationError,
+    },
     /// Data to write is inconsistent (e.g. a per-vertex property of the wrong length).
     #[error("{0}")]
     InvalidData(String),

@@ -77,10 +77,8 @@ pub fn read_matrix_market(path: &Path) -> Result<SparseMatrix, IoError> {
             trip.push(Triplet::new(j - 1, i - 1, v));
         }
     }
-    SparseMatrix::try_new_from_triplets(nr, nc, &trip).map_err(|e| IoError::Header {
-        file,
-        message: format!("cannot build the matrix: {e:?}"),
-    })
+    SparseMatrix::try_new_from_triplets(nr, nc, &trip)
+        .map_err(|source| IoError::Matrix { file, source })
 }
 
 #[cfg(test)]

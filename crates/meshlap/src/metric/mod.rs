@@ -16,6 +16,9 @@
 //!   the model size in a similar way).
 
 pub mod bvh;
+pub mod vertex;
+
+pub use vertex::{vertex_errors, VertexErrors};
 
 use crate::mesh::topology::Topology;
 use crate::mesh::TriMesh;
@@ -227,11 +230,9 @@ pub fn compare(
         None => b.clone(),
     };
     c.same_connectivity = canon_faces(&a.faces, |v| v) == canon_faces(&bb.faces, |v| v);
-    let d: Vec<f64> = (0..n)
-        .map(|i| norm(sub(a.positions[i], bb.positions[i])))
-        .collect();
-    c.vertex_rms = Some((d.iter().map(|x| x * x).sum::<f64>() / n as f64).sqrt() / diag);
-    c.vertex_max = Some(d.iter().copied().fold(0.0, f64::max) / diag);
+    let e = vertex_errors(&a.positions, &bb.positions, diag);
+    c.vertex_rms = Some(e.rms);
+    c.vertex_max = Some(e.max);
     if c.same_connectivity {
         if let (Some(la), Some(lb)) = (sdl_vectors(a), sdl_vectors(&bb)) {
             let mut s = 0.0;

@@ -22,6 +22,7 @@ use crate::SparseMatrix;
 
 /// Lumped mass matrix of the cotangent operator.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum MassKind {
     /// Mixed Voronoi areas (Meyer et al. 2003).
     #[default]

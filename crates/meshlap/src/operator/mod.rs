@@ -29,6 +29,7 @@ pub mod mean_value;
 pub mod sdl;
 pub mod sql;
 pub mod sstl;
+pub mod symmetrize;
 pub mod tutte;
 pub mod tutte2;
 

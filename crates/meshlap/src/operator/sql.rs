@@ -34,11 +34,13 @@ use crate::SparseMatrix;
 
 /// Which boundary diagonal the SQL uses; see the module documentation.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum BoundaryDiagonal {
     /// `1 + ½ Σ (1/d_j − 1/d_k)`: zero row sums (correct).
     #[default]
     ZeroRowSum,
     /// `1 + ½ Σ (1/d_k − 1/d_j)`, as printed in the paper (wrong sign; row sums ≠ 0).
+    #[cfg_attr(feature = "clap", value(name = "printed"))]
     AsPrinted,
 }
 

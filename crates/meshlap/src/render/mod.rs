@@ -105,9 +105,6 @@ pub enum RenderError {
     /// The dense eigendecomposition failed (see [`crate::spectral::SpectralError`]).
     #[error(transparent)]
     Spectral(#[from] crate::spectral::SpectralError),
-    /// The partial eigensolver failed (above the dense limit).
-    #[error(transparent)]
-    PartialSpectrum(#[from] crate::spectral::partial::PartialError),
     /// A panel needs at least one picture.
     #[error("a panel needs at least one picture")]
     EmptyPanel,

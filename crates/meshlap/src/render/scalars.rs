@@ -15,7 +15,7 @@ use super::RenderError;
 use crate::mesh::{topology::Topology, TriMesh};
 use crate::operator::Operator;
 use crate::raster::Colormap;
-use crate::spectral::partial::{operator_partial_spectrum, PartialOptions};
+use crate::spectral::partial::{operator_partial_spectrum, PartialParams};
 use crate::spectral::{BasisOptions, EigenBasis, DENSE_LIMIT};
 use std::path::Path;
 
@@ -101,7 +101,7 @@ impl Scalars {
             let spectrum = operator_partial_spectrum(
                 op,
                 op.mass.is_some(),
-                &PartialOptions::new(k + 1),
+                &PartialParams::new(k + 1),
                 &mut |_, _| {},
             )?;
             let v = spectrum.eigenvectors.col(k).iter().copied().collect();

@@ -91,6 +91,24 @@ pub fn energy_compaction(coeffs: MatRef<'_, f64>) -> Compaction {
     }
 }
 
+/// The energy compaction of a mesh's vertex positions (n×3) in the ED basis of `op`
+/// (dense, n ≤ [`super::DENSE_LIMIT`]), centred first when `centred`: the one-shot
+/// behind `meshlap compaction`. Returns the compaction and the eigensolver path.
+pub fn positions_compaction(
+    op: &crate::operator::Operator,
+    positions: &[[f64; 3]],
+    centred: bool,
+    opts: &super::BasisOptions,
+) -> Result<(Compaction, super::EigenPath), super::SpectralError> {
+    let basis = super::EigenBasis::compute(op, opts)?;
+    let mut x = super::positions_to_mat(positions);
+    if centred {
+        x = centre(x.as_ref());
+    }
+    let coeffs = super::forward(&basis, x.as_ref())?;
+    Ok((energy_compaction(coeffs.as_ref()), basis.path()))
+}
+
 /// The signal with each column's mean removed (the mesh translated to its centroid).
 pub fn centre(x: MatRef<'_, f64>) -> Mat<f64> {
     let n = x.nrows().max(1) as f64;

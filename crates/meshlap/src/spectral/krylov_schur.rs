@@ -136,9 +136,13 @@ pub enum KrylovSchurError {
         /// Restarts.
         restarts: usize,
     },
-    /// The projected eigenproblem failed (non-finite entries).
-    #[error("the projected eigenproblem failed: {0}")]
-    Projected(String),
+    /// The projected (dense) eigenproblem did not converge: the Krylov basis holds
+    /// non-finite entries, which points at a non-finite operator.
+    #[error("the projected eigenproblem of size {size} did not converge")]
+    Projected {
+        /// Dimension of the projected matrix.
+        size: usize,
+    },
 }
 
 /// Eigenpairs found by [`largest_magnitude`].
@@ -261,7 +265,7 @@ fn projected_evd(t: &Mat<f64>) -> Result<(Vec<f64>, Mat<f64>), KrylovSchurError>
         MemStack::new(&mut mem),
         Default::default(),
     )
-    .map_err(|e| KrylovSchurError::Projected(format!("{e:?}")))?;
+    .map_err(|_| KrylovSchurError::Projected { size: n })?;
     Ok(((0..n).map(|i| s[i]).collect(), u))
 }
 

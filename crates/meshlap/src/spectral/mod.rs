@@ -21,11 +21,16 @@ pub mod transform;
 
 pub use basis::{BasisOptions, DenseSolver, EigenBasis, EigenPath, Normalization, DENSE_LIMIT};
 pub use compaction::{energy_compaction, Compaction};
+pub use smallest::{smallest, Smallest, SmallestInfo, SmallestParams, SmallestPath};
 pub use transform::{forward, inverse, mat_to_positions, positions_to_mat, truncated};
 
+pub mod extremes;
 pub mod krylov_schur;
 pub mod partial;
 pub mod patchwise;
+pub mod project;
+pub mod sign;
+pub mod smallest;
 pub(crate) mod thin_products;
 
 /// Errors of spectral computations.
@@ -97,6 +102,103 @@ pub enum SpectralError {
     /// Another invalid argument.
     #[error("{0}")]
     InvalidArgument(String),
+    /// The operator kind has no real spectrum the partial solver can compute.
+    ///
+    /// Cause: the operator is neither symmetric nor symmetrizable by a positive
+    /// diagonal (e.g. the mean-value operator). Fix: use a symmetric or symmetrizable
+    /// kind, or the dense general path ([`EigenPath::General`]) on small meshes.
+    #[error("the {0} operator is neither symmetric nor symmetrizable by a positive diagonal; its partial spectrum is not available")]
+    NoRealSpectrum(crate::operator::OperatorKind),
+    /// The matrix is not square.
+    #[error("the matrix is {rows}×{cols}, not square")]
+    NotSquare {
+        /// Rows.
+        rows: usize,
+        /// Columns.
+        cols: usize,
+    },
+    /// More eigenpairs than the dimension were requested.
+    #[error("asked for {count} eigenpairs of an {n}×{n} matrix")]
+    TooMany {
+        /// Requested.
+        count: usize,
+        /// Dimension.
+        n: usize,
+    },
+    /// A sparse matrix could not be built (index out of range; kept from faer).
+    #[error("cannot build the sparse matrix")]
+    SparseCreation(#[source] faer::sparse::CreationError),
+    /// The symbolic analysis (fill-reducing ordering) of `K − σM` failed (out of
+    /// memory or index overflow; kept from faer).
+    #[error("symbolic factorization of K − σM failed")]
+    SymbolicFactorization(#[source] faer::sparse::FaerError),
+    /// The numeric LDLᵀ factorization of `K − σM` failed.
+    ///
+    /// Cause: a zero pivot (σ exactly at an eigenvalue) or non-finite entries. The
+    /// band driver moves its shifts off the computed eigenvalues, so this points at an
+    /// operator with huge or tiny entries: check the mesh for degenerate faces.
+    #[error("factorization of K − σM at σ = {shift} failed")]
+    Factorization {
+        /// The shift.
+        shift: f64,
+        /// What failed.
+        #[source]
+        source: FactorizationFailure,
+    },
+    /// The block Krylov–Schur iteration could not run at a shift.
+    #[error("Krylov–Schur at σ = {shift} failed")]
+    Krylov {
+        /// The shift.
+        shift: f64,
+        /// The iteration's error.
+        #[source]
+        source: krylov_schur::KrylovSchurError,
+    },
+    /// The Krylov–Schur iteration did not converge within its restart limit.
+    ///
+    /// Fix: raise [`partial::PartialParams::max_restarts`] or loosen the tolerance.
+    #[error("the eigensolver converged on {converged} of {wanted} eigenpairs at σ = {shift} within {restarts} restarts")]
+    NotConverged {
+        /// The shift.
+        shift: f64,
+        /// Converged pairs.
+        converged: usize,
+        /// Wanted pairs.
+        wanted: usize,
+        /// Restart limit.
+        restarts: usize,
+    },
+    /// The eigensolver found a different number of eigenvalues in a window than
+    /// Sylvester's inertia counts there: a result would have skipped eigenpairs, so
+    /// none is returned.
+    #[error("at σ = {shift}: found {found} eigenvalues in the band window, the inertia count is {expected}")]
+    InertiaMismatch {
+        /// The shift.
+        shift: f64,
+        /// Eigenvalues found in the window.
+        found: usize,
+        /// Eigenvalues in the window by inertia.
+        expected: usize,
+    },
+    /// The bands made no progress (should not happen on a PSD operator).
+    #[error("band {band}: no new eigenvalue found above {edge}")]
+    Stalled {
+        /// Band number.
+        band: usize,
+        /// Upper edge reached.
+        edge: f64,
+    },
+}
+
+/// Why a numeric factorization of `K − σM` failed.
+#[derive(Debug, thiserror::Error)]
+pub enum FactorizationFailure {
+    /// faer's LDLᵀ met a zero pivot.
+    #[error("zero pivot")]
+    Ldlt(#[from] faer::linalg::cholesky::ldlt::factor::LdltError),
+    /// A pivot came out NaN or infinite.
+    #[error("non-finite pivot")]
+    NonFinitePivot,
 }
 
 #[cfg(test)]

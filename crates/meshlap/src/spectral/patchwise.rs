@@ -24,7 +24,7 @@ pub fn patchwise_reconstruction(
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> crate::Result<Vec<[f64; 3]>> {
     use crate::operator::{Operator, OperatorOptions};
-    use crate::spectral::partial::{partial_spectrum, PartialOptions, SymmetricProblem};
+    use crate::spectral::partial::{partial_spectrum, PartialParams, SymmetricProblem};
     use rayon::prelude::*;
     if !(keep_fraction > 0.0 && keep_fraction <= 1.0) {
         return Err(crate::Error::InvalidArgument(format!(
@@ -43,9 +43,9 @@ pub fn patchwise_reconstruction(
             let prob = SymmetricProblem::from_operator(&op, true)?;
             let n = sub.vertices.len();
             let m = ((keep_fraction * n as f64).ceil() as usize).clamp(1, n);
-            let opts = PartialOptions {
+            let opts = PartialParams {
                 dense_below: usize::MAX,
-                ..PartialOptions::new(m)
+                ..PartialParams::new(m)
             };
             let ps =
                 partial_spectrum(&prob.stiffness, prob.mass.as_deref(), &opts, &mut |_, _| {})?;

@@ -1,0 +1,206 @@
+use super::*;
+use crate::mesh::builtin;
+
+fn tet() -> TriMesh {
+    builtin::tetrahedron()
+}
+
+#[test]
+fn tetrahedron_counts() {
+    let t = Topology::new(&tet()).unwrap();
+    assert_eq!(t.n_edges(), 6);
+    assert_eq!(t.boundary_edges().count(), 0);
+    assert!(t.is_manifold());
+    assert_eq!(t.inconsistently_oriented_edges(), 0);
+    for v in 0..4 {
+        assert_eq!(t.degree(VertexId(v)), 3);
+        assert_eq!(t.one_ring(VertexId(v)).unwrap().len(), 3);
+    }
+    assert_eq!(t.components().1, 1);
+}
+
+#[test]
+fn grid_boundary_and_rings() {
+    let g = builtin::grid(4).unwrap();
+    let t = Topology::new(&g).unwrap();
+    assert_eq!(t.boundary_loop_count(), 1);
+    let loops = t.boundary_loops();
+    assert_eq!(loops.len(), 1);
+    assert_eq!(loops[0].len(), 16);
+    for v in 0..g.n_vertices() as u32 {
+        let ring = t.one_ring(VertexId(v)).unwrap();
+        let mut sorted = ring.clone();
+        sorted.sort_unstable();
+        assert_eq!(sorted, t.neighbors(VertexId(v)), "vertex {v}");
+        // consecutive ring vertices are adjacent
+        for w in ring.windows(2) {
+            assert!(t.find_edge(VertexId(w[0]), VertexId(w[1])).is_some());
+        }
+    }
+    // Interior vertices of the regular grid have degree 6.
+    assert_eq!(t.degree(VertexId(6)), 6);
+}
+
+#[test]
+fn opposite_vertices() {
+    let t = Topology::new(&tet()).unwrap();
+    for e in 0..t.n_edges() as u32 {
+        let [a, b] = t.edge(EdgeId(e));
+        let opp: Vec<u32> = t.edge_opposite_vertices(EdgeId(e)).collect();
+        assert_eq!(opp.len(), 2);
+        for o in opp {
+            assert!(o != a && o != b);
+        }
+    }
+}
+
+#[test]
+fn non_manifold_edge_detected() {
+    // three triangles sharing edge (0, 1)
+    let m = TriMesh::new(vec![[0.0; 3]; 5], vec![[0, 1, 2], [1, 0, 3], [0, 1, 4]]);
+    let t = Topology::new(&m).unwrap();
+    assert_eq!(t.non_manifold_edges().count(), 1);
+    assert!(!t.is_manifold_vertex(VertexId(0)));
+    assert!(!t.is_manifold());
+}
+
+#[test]
+fn bowtie_vertex_detected() {
+    let m = TriMesh::new(vec![[0.0; 3]; 5], vec![[0, 1, 2], [0, 3, 4]]);
+    let t = Topology::new(&m).unwrap();
+    assert_eq!(t.non_manifold_edges().count(), 0);
+    assert!(!t.is_manifold_vertex(VertexId(0)));
+    assert_eq!(t.non_manifold_vertices().count(), 1);
+    assert_eq!(t.boundary_loop_count(), 1);
+}
+
+#[test]
+fn inconsistent_orientation_detected() {
+    let m = TriMesh::new(vec![[0.0; 3]; 4], vec![[0, 1, 2], [0, 1, 3]]);
+    let t = Topology::new(&m).unwrap();
+    assert_eq!(t.inconsistently_oriented_edges(), 1);
+}
+
+/// One flipped face on a closed mesh: three inconsistent edges, but every vertex
+/// is still manifold and its one-ring still lists all its neighbours cyclically.
+#[test]
+fn flipped_face_is_inconsistent_but_manifold() {
+    let mut m = builtin::icosahedron();
+    let [a, b, c] = m.faces[0];
+    m.faces[0] = [a, c, b];
+    let t = Topology::new(&m).unwrap();
+    assert_eq!(t.inconsistently_oriented_edges(), 3);
+    assert!(t.is_manifold());
+    for v in 0..12 {
+        let ring = t.one_ring(VertexId(v)).unwrap();
+        let mut sorted = ring.clone();
+        sorted.sort_unstable();
+        assert_eq!(sorted, t.neighbors(VertexId(v)));
+        for k in 0..ring.len() {
+            let (x, y) = (ring[k], ring[(k + 1) % ring.len()]);
+            assert!(t.find_edge(VertexId(x), VertexId(y)).is_some());
+        }
+    }
+}
+
+/// Cross-check against a naive map-based construction on seeded random face
+/// soups (non-manifold edges, bowties, inconsistent orientation included), with
+/// enough vertices that the parallel grouping and scatter split into chunks.
+#[test]
+fn matches_naive_construction_on_random_soups() {
+    use rand::{Rng, SeedableRng};
+    use std::collections::{BTreeMap, BTreeSet};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    for (n, m) in [(6usize, 8usize), (40, 120), (20_000, 60_000)] {
+        let mut faces = Vec::new();
+        while faces.len() < m {
+            let a = rng.gen_range(0..n as u32);
+            // Local triangles, so that edges are shared by several faces.
+            let b = (a + rng.gen_range(1..4)) % n as u32;
+            let c = (a + rng.gen_range(4..7)) % n as u32;
+            if a != b && b != c && a != c {
+                faces.push(if rng.gen_bool(0.5) {
+                    [a, b, c]
+                } else {
+                    [a, c, b]
+                });
+            }
+        }
+        let t = Topology::from_faces(n, &faces).unwrap();
+        let mut naive: BTreeMap<(u32, u32), Vec<u32>> = BTreeMap::new();
+        for (f, tri) in faces.iter().enumerate() {
+            for c in 0..3 {
+                let (a, b) = (tri[c], tri[(c + 1) % 3]);
+                naive
+                    .entry((a.min(b), a.max(b)))
+                    .or_default()
+                    .push((3 * f + c) as u32);
+            }
+        }
+        let want: Vec<[u32; 2]> = naive.keys().map(|&(a, b)| [a, b]).collect();
+        assert_eq!(t.edges(), &want[..]);
+        let mut inconsistent = 0;
+        for (e, hs) in naive.values().enumerate() {
+            let e = EdgeId(e as u32);
+            assert_eq!(t.edge_face_count(e), hs.len());
+            for &h in hs {
+                assert_eq!(t.half_edge_edge(h), e);
+                let expect = if hs.len() == 2 {
+                    hs[0] + hs[1] - h
+                } else {
+                    INVALID
+                };
+                assert_eq!(t.twin(h), expect);
+            }
+            if hs.len() == 2 && t.from(hs[0]) == t.from(hs[1]) {
+                inconsistent += 1;
+            }
+        }
+        assert_eq!(t.inconsistently_oriented_edges(), inconsistent);
+        for v in 0..n as u32 {
+            let nb: BTreeSet<u32> = naive
+                .keys()
+                .filter_map(|&(a, b)| (a == v).then_some(b).or_else(|| (b == v).then_some(a)))
+                .collect();
+            let nb: Vec<u32> = nb.into_iter().collect();
+            assert_eq!(t.neighbors(VertexId(v)), &nb[..]);
+            // Manifold vertex: no edge with > 2 faces and its faces are connected
+            // through its edges (flood fill over the faces at v).
+            let at_v: Vec<usize> = (0..faces.len())
+                .filter(|&f| faces[f].contains(&v))
+                .collect();
+            let nm_edge = nb.iter().any(|&u| naive[&(v.min(u), v.max(u))].len() > 2);
+            let mut seen = vec![false; at_v.len()];
+            if !at_v.is_empty() {
+                let mut stack = vec![0usize];
+                seen[0] = true;
+                while let Some(i) = stack.pop() {
+                    for j in 0..at_v.len() {
+                        let shared = faces[at_v[i]]
+                            .iter()
+                            .filter(|&&x| x != v && faces[at_v[j]].contains(&x))
+                            .count();
+                        if !seen[j] && shared > 0 {
+                            seen[j] = true;
+                            stack.push(j);
+                        }
+                    }
+                }
+            }
+            let manifold = !nm_edge && seen.iter().all(|&s| s);
+            assert_eq!(t.is_manifold_vertex(VertexId(v)), manifold, "vertex {v}");
+            if n > 1000 && v > 200 {
+                break; // the quadratic fan check on a prefix is enough
+            }
+        }
+    }
+}
+
+#[test]
+fn out_of_range_is_an_error() {
+    let m = TriMesh::new(vec![[0.0; 3]; 2], vec![[0, 1, 2]]);
+    assert!(matches!(
+        Topology::new(&m),
+        Err(MeshError::IndexOutOfRange { .. })
+    ));
+}

@@ -1,0 +1,175 @@
+//! The extreme eigenvalues of a large sparse symmetric problem and the multiplicity of
+//! its zero eigenvalue, without a dense eigendecomposition: what the property report
+//! (Zhang 2004, §2: positive semi-definiteness, the simple zero eigenvalue of a GSML,
+//! the smoothing bound `k ≥ λ_max/2`) needs at any n.
+//!
+//! **Sign convention.** Operators are `F = D − W`, positive semi-definite (libigl and
+//! pmp use the negative); nothing here assumes definiteness.
+//!
+//! For `K v = λ M v` (K symmetric n×n, M a positive diagonal or the identity):
+//! - `λ_min`: the smallest eigenpair by the banded shift-invert solver
+//!   ([`super::partial`]);
+//! - `λ_max`: block Krylov–Schur ([`super::krylov_schur`]) for the eigenvalue of
+//!   largest magnitude of `M^{-1/2} K M^{-1/2} + cI`, with `c = max(0, −g)` for a lower
+//!   bound `g` of the spectrum (Gershgorin), so that the largest magnitude is
+//!   `λ_max + c`;
+//! - the number of eigenvalues in `[−τ, τ]`, `τ = 10⁻⁸·max(1, |λ_max|)`, by
+//!   Sylvester's law of inertia: the negative pivots of the LDLᵀ of `K − τM` minus
+//!   those of `K + τM` ([`super::partial::eigenvalues_below`]).
+
+use super::krylov_schur::{largest_magnitude, BlockOperator, KrylovSchurParams};
+use super::partial::{eigenvalues_below, partial_spectrum, PartialParams};
+use super::SpectralError;
+use crate::SparseMatrix;
+use faer::{MatMut, MatRef};
+use serde::Serialize;
+
+/// Extreme eigenvalues and the zero multiplicity of `K v = λ M v`.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Extremes {
+    /// Smallest eigenvalue.
+    pub lambda_min: f64,
+    /// Largest eigenvalue.
+    pub lambda_max: f64,
+    /// Eigenvalues with `|λ| ≤ zero_tolerance`, by inertia.
+    pub zero_multiplicity: usize,
+    /// `τ = 10⁻⁸·max(1, |λ_max|)`.
+    pub zero_tolerance: f64,
+}
+
+/// `M^{-1/2} K M^{-1/2} + cI` applied to blocks.
+struct Shifted<'a> {
+    k: &'a SparseMatrix,
+    inv_sqrt_mass: Option<Vec<f64>>,
+    c: f64,
+}
+
+impl BlockOperator for Shifted<'_> {
+    fn dim(&self) -> usize {
+        self.k.nrows()
+    }
+
+    fn apply_block(&self, x: MatRef<'_, f64>, mut out: MatMut<'_, f64>) {
+        let scale = |i: usize| self.inv_sqrt_mass.as_ref().map_or(1.0, |s| s[i]);
+        let y = faer::Mat::from_fn(x.nrows(), x.ncols(), |i, j| x[(i, j)] * scale(i));
+        let ky = self.k.as_ref() * &y;
+        for j in 0..x.ncols() {
+            for i in 0..x.nrows() {
+                out[(i, j)] = ky[(i, j)] * scale(i) + self.c * x[(i, j)];
+            }
+        }
+    }
+}
+
+/// The extremes of `K v = λ M v` (see the module documentation); `lower_bound` is any
+/// lower bound of the spectrum (e.g. Gershgorin's `min_i (F_ii − Σ_{j≠i} |F_ij|)`
+/// of the operator), used only to shift the largest eigenvalue to the top of the
+/// magnitudes.
+pub fn extremes(
+    k: &SparseMatrix,
+    mass: Option<&[f64]>,
+    lower_bound: f64,
+) -> Result<Extremes, SpectralError> {
+    super::partial::check_problem(k, mass)?;
+    let n = k.nrows();
+    if n == 0 {
+        return Err(SpectralError::Empty);
+    }
+    let low = partial_spectrum(k, mass, &PartialParams::new(1), &mut |_, _| {})?;
+    let lambda_min = low.eigenvalues[0];
+    let c = if lower_bound.is_finite() {
+        (-lower_bound).max(0.0)
+    } else {
+        0.0
+    };
+    let op = Shifted {
+        k,
+        inv_sqrt_mass: mass.map(|m| m.iter().map(|x| 1.0 / x.sqrt()).collect()),
+        c,
+    };
+    let lambda_max = if n <= 2 {
+        let dense = partial_spectrum(k, mass, &PartialParams::new(n), &mut |_, _| {})?;
+        dense.eigenvalues[n - 1]
+    } else {
+        let block = 2.min(n - 1);
+        let params = KrylovSchurParams {
+            block,
+            max_dim: 24.min(n - block),
+            tolerance: 1e-10,
+            max_restarts: 2000,
+            seed: 0x6c6d_6178,
+        };
+        let top = largest_magnitude(&op, 1, None, &params)
+            .map_err(|source| SpectralError::Krylov { shift: 0.0, source })?;
+        top.values[0] - c
+    };
+    let tau = 1e-8 * lambda_max.abs().max(1.0);
+    let zero_multiplicity =
+        eigenvalues_below(k, mass, tau)?.saturating_sub(eigenvalues_below(k, mass, -tau)?);
+    Ok(Extremes {
+        lambda_min,
+        lambda_max,
+        zero_multiplicity,
+        zero_tolerance: tau,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::{builtin, topology::Topology, TriMesh};
+    use crate::operator::{Operator, OperatorKind, OperatorOptions};
+    use crate::spectral::partial::SymmetricProblem;
+
+    fn problem(mesh: &TriMesh, kind: OperatorKind) -> SymmetricProblem {
+        let t = Topology::new(mesh).unwrap();
+        let op = Operator::assemble(kind, mesh, &t, &OperatorOptions::default()).unwrap();
+        SymmetricProblem::from_operator(&op, true).unwrap()
+    }
+
+    /// Cross-check against the full dense spectrum, on a closed mesh (simple zero),
+    /// two components (double zero), the symmetrized TL and the cotangent with mass.
+    #[test]
+    fn extremes_match_the_dense_spectrum() {
+        let mut two = builtin::icosphere(2).unwrap();
+        let shift = two.n_vertices() as u32;
+        let copy = builtin::icosphere(2).unwrap();
+        two.positions
+            .extend(copy.positions.iter().map(|p| [p[0] + 3.0, p[1], p[2]]));
+        two.faces.extend(
+            copy.faces
+                .iter()
+                .map(|f| [f[0] + shift, f[1] + shift, f[2] + shift]),
+        );
+        let cases = [
+            (builtin::torus(12, 9).unwrap(), OperatorKind::Sql, 1),
+            (two, OperatorKind::Kirchhoff, 2),
+            (builtin::icosphere(2).unwrap(), OperatorKind::Tutte, 1),
+            (builtin::icosphere(2).unwrap(), OperatorKind::Cotan, 1),
+        ];
+        for (mesh, kind, zeros) in cases {
+            let p = problem(&mesh, kind);
+            let n = p.stiffness.nrows();
+            let all = partial_spectrum(
+                &p.stiffness,
+                p.mass.as_deref(),
+                &PartialParams::new(n),
+                &mut |_, _| {},
+            )
+            .unwrap();
+            let e = extremes(&p.stiffness, p.mass.as_deref(), -1e3).unwrap();
+            let (lo, hi) = (all.eigenvalues[0], all.eigenvalues[n - 1]);
+            assert!(
+                (e.lambda_min - lo).abs() < 1e-9,
+                "{kind}: {} vs {lo}",
+                e.lambda_min
+            );
+            assert!(
+                (e.lambda_max - hi).abs() < 1e-7 * hi,
+                "{kind}: {} vs {hi}",
+                e.lambda_max
+            );
+            assert_eq!(e.zero_multiplicity, zeros, "{kind}");
+        }
+    }
+}

@@ -1,0 +1,258 @@
+//! The band driver: shifts chained upwards from just below zero, each band's window
+//! checked complete by inertia (see the module documentation of [`super`]).
+
+use super::dense::msqrt_of;
+use super::factor::{count_below, factor_at, negative_pivots, symbolic_of, ShiftedPattern};
+use super::residuals::finish;
+use super::solve::ShiftInvert;
+use super::{BandInfo, PartialParams, PartialSpectrum};
+use crate::spectral::krylov_schur::{largest_magnitude, KrylovSchurError, KrylovSchurParams};
+use crate::spectral::SpectralError;
+use crate::SparseMatrix;
+use faer::{Col, Mat, MatRef};
+
+/// The `b` eigenpairs of largest |μ| of `A_σ` (on the complement of `deflate`, when
+/// given) as (λ = σ + 1/μ, w) with `w` in the symmetric coordinates (`w = M^{1/2} v`),
+/// by block Krylov–Schur.
+fn shift_invert_pairs(
+    op: &ShiftInvert<'_>,
+    sigma: f64,
+    b: usize,
+    deflate: Option<MatRef<'_, f64>>,
+    opts: &PartialParams,
+    seed: u64,
+) -> Result<Vec<(f64, Col<f64>)>, SpectralError> {
+    let params = krylov_params(opts, b, seed);
+    let got = largest_magnitude(op, b, deflate, &params);
+    let got = got.map_err(|e| match e {
+        KrylovSchurError::NoConvergence {
+            converged,
+            wanted,
+            restarts,
+        } => SpectralError::NotConverged {
+            shift: sigma,
+            converged,
+            wanted,
+            restarts,
+        },
+        source => SpectralError::Krylov {
+            shift: sigma,
+            source,
+        },
+    })?;
+    Ok(got
+        .values
+        .iter()
+        .enumerate()
+        .map(|(j, &mu)| (sigma + 1.0 / mu, got.vectors.col(j).to_owned()))
+        .collect())
+}
+
+/// Size of a band after the first when `need` eigenpairs are still missing: the full
+/// band size, or — for the last band — enough for `need` (an interior band keeps
+/// about 3/4 of its pairs, the rest overlap the previous window or lie beyond its
+/// edge) instead of a full band for a handful of pairs.
+fn next_band_size(need: usize, b_max: usize, block: usize) -> usize {
+    let enough = need * 3 / 2 + 2 * block.max(1);
+    enough.min(b_max).max(1)
+}
+
+/// Block size and basis size for `b` wanted pairs.
+fn krylov_params(opts: &PartialParams, b: usize, seed: u64) -> KrylovSchurParams {
+    let p = opts.block_size.max(1);
+    KrylovSchurParams {
+        block: p,
+        max_dim: krylov_dim(b, p),
+        tolerance: opts.tolerance,
+        max_restarts: opts.max_restarts,
+        seed,
+    }
+}
+
+/// The Krylov–Schur basis size for `b` wanted pairs and blocks of `p`.
+pub(super) fn krylov_dim(b: usize, p: usize) -> usize {
+    (5 * b / 2).max(b + 2 * p)
+}
+
+/// Band-by-band shift-invert; see the module documentation.
+pub(super) fn banded(
+    k: &SparseMatrix,
+    mass: Option<&[f64]>,
+    opts: &PartialParams,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<PartialSpectrum, SpectralError> {
+    let n = k.nrows();
+    let count = opts.count;
+    let msqrt = msqrt_of(mass, n);
+    let pattern = ShiftedPattern::new(k)?;
+    let symbolic = symbolic_of(&pattern)?;
+    // Scale of the spectrum (mean diagonal of M⁻¹K) and a Gershgorin lower bound.
+    let mut mean_diag = 0.0;
+    let mut gersh = f64::INFINITY;
+    for j in 0..n {
+        let mj = mass.map_or(1.0, |m| m[j]);
+        let (mut d, mut off) = (0.0, 0.0);
+        for (&i, &v) in k.row_idx_of_col_raw(j).iter().zip(k.val_of_col(j)) {
+            if i == j {
+                d += v;
+            } else {
+                off += v.abs();
+            }
+        }
+        mean_diag += d / mj / n as f64;
+        gersh = gersh.min((d - off) / mj);
+    }
+    let scale = if mean_diag.is_finite() && mean_diag > 0.0 {
+        mean_diag
+    } else {
+        1.0
+    };
+    let b_max = opts.band_size.max(1);
+    let mut kept: Vec<(f64, Col<f64>)> = Vec::with_capacity(count);
+    let mut bands = Vec::new();
+    let mut upper = f64::NEG_INFINITY;
+    let mut below_upper = 0usize;
+    // Below the whole spectrum: every eigenvalue lies above σ₀.
+    // σ₀ just below zero, as scipy users do; if K − σ₀M is indefinite (an operator
+    // with negative eigenvalues) fall back to below the Gershgorin bound. A shift far
+    // below the spectrum compresses the μ = 1/(λ − σ) and slows convergence.
+    let mut sigma = -1e-3 * scale;
+    let mut first = Some(factor_at(&pattern, &symbolic, mass, sigma)?);
+    if first
+        .as_ref()
+        .is_some_and(|values| negative_pivots(&symbolic, values) > 0)
+    {
+        sigma = gersh.min(0.0) - 1e-3 * scale;
+        first = None;
+    }
+    let mut band_no = 0usize;
+    loop {
+        let b = if kept.is_empty() {
+            count.min(b_max)
+        } else {
+            next_band_size(count - kept.len(), b_max, opts.block_size)
+        };
+        let values = match first.take() {
+            Some(values) => values,
+            None => factor_at(&pattern, &symbolic, mass, sigma)?,
+        };
+        let op = ShiftInvert {
+            symbolic: &symbolic,
+            values,
+            msqrt: &msqrt,
+        };
+        let seed = opts.seed.wrapping_add(1_000 * band_no as u64);
+        let mut found = shift_invert_pairs(&op, sigma, b, None, opts, seed)?;
+        band_no += 1;
+        let r = found
+            .iter()
+            .map(|(l, _)| (l - sigma).abs())
+            .fold(0.0f64, f64::max);
+        let delta = 1e-8 * (sigma.abs() + r).max(1.0);
+        let lower_edge = sigma - r + delta;
+        if !(kept.is_empty() || lower_edge <= upper) {
+            // The window misses eigenvalues just above `upper`: move the shift down.
+            let step = (sigma - upper) / 2.0;
+            if step <= delta {
+                return Err(SpectralError::Stalled {
+                    band: band_no,
+                    edge: upper,
+                });
+            }
+            sigma = upper + step;
+            continue;
+        }
+        let new_upper = sigma + r - delta;
+        // Sylvester inertia: exactly how many eigenvalues [upper, new_upper) holds.
+        let below_new = count_below(&pattern, &symbolic, mass, new_upper)?;
+        let expected = below_new.saturating_sub(below_upper);
+        let in_window = |l: f64| l >= upper && l < new_upper;
+        let mut n_in = found.iter().filter(|(l, _)| in_window(*l)).count();
+        // The Krylov method may miss copies of a repeated eigenvalue: look for them in the
+        // complement of everything this band found.
+        let mut tries = 0;
+        while n_in < expected && tries < 8 {
+            let w = Mat::from_fn(n, found.len(), |i, j| found[j].1[i]);
+            let want = (expected - n_in).min(b).max(1);
+            let more = shift_invert_pairs(
+                &op,
+                sigma,
+                want,
+                Some(w.as_ref()),
+                opts,
+                seed + 7 + tries as u64,
+            )?;
+            let mut added = 0;
+            for (l, v) in more {
+                if in_window(l) {
+                    added += 1;
+                    found.push((l, v));
+                }
+            }
+            n_in += added;
+            tries += 1;
+            if added == 0 {
+                break;
+            }
+        }
+        if n_in != expected {
+            return Err(SpectralError::InertiaMismatch {
+                shift: sigma,
+                found: n_in,
+                expected,
+            });
+        }
+        // Mean eigenvalue spacing in this band, for the next shift.
+        let (lo, hi) = found
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), (l, _)| {
+                (a.min(*l), b.max(*l))
+            });
+        let spacing = (hi - lo) / (found.len().max(2) - 1) as f64;
+        let mut fresh: Vec<(f64, Col<f64>)> = Vec::new();
+        let mut edge: Vec<(f64, Col<f64>)> = Vec::new();
+        for (l, w) in found {
+            if in_window(l) {
+                fresh.push((l, w));
+            } else if l >= new_upper {
+                edge.push((l, w));
+            }
+        }
+        fresh.sort_by(|a, b| a.0.total_cmp(&b.0));
+        edge.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let n_fresh = fresh.len();
+        kept.extend(fresh);
+        bands.push(BandInfo {
+            shift: sigma,
+            found: b,
+            kept: n_fresh,
+            upper_edge: new_upper,
+        });
+        progress(kept.len().min(count), count);
+        if kept.len() + edge.len() >= count || kept.len() >= n {
+            // The edge eigenvalues are the next ones above the complete window.
+            kept.extend(edge);
+            kept.truncate(count);
+            break;
+        }
+        if new_upper <= upper {
+            return Err(SpectralError::Stalled {
+                band: band_no,
+                edge: upper,
+            });
+        }
+        upper = new_upper;
+        below_upper = below_new;
+        // The next band's b eigenvalues nearest σ span about ±(b/2)·spacing: place σ
+        // so that its window reaches 30 % of that radius below the edge.
+        let b_next = next_band_size(count - kept.len(), b_max, opts.block_size);
+        let step = 0.7 * 0.5 * b_next as f64 * spacing;
+        sigma = upper
+            + if step.is_finite() && step > 2.0 * delta {
+                step.min(0.55 * r)
+            } else {
+                0.55 * r
+            };
+    }
+    Ok(finish(k, &msqrt, kept, bands, false))
+}

@@ -1,0 +1,174 @@
+//! `K − σM`: its pattern (built once), the symbolic analysis (shared by every shift),
+//! the numeric LDLᵀ at a shift, and the inertia count (Sylvester's law: the negative
+//! pivots of `K − xM = LDLᵀ` are the eigenvalues of `K v = λ M v` below x).
+
+use super::ordering::{nested_dissection, NESTED_DISSECTION_FROM};
+use crate::spectral::{FactorizationFailure, SpectralError};
+use crate::SparseMatrix;
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, SymbolicCholesky, SymmetricOrdering,
+};
+use faer::sparse::{SparseColMat, Triplet};
+use faer::Side;
+
+/// Builds the pattern of `K − σM` once: `K` plus an explicit diagonal.
+pub(super) struct ShiftedPattern {
+    pub(super) base: SparseMatrix,
+    diag_pos: Vec<usize>,
+}
+
+impl ShiftedPattern {
+    pub(super) fn new(k: &SparseMatrix) -> Result<Self, SpectralError> {
+        let n = k.nrows();
+        let mut trip = Vec::with_capacity(k.compute_nnz() + n);
+        for j in 0..n {
+            for (&i, &v) in k.row_idx_of_col_raw(j).iter().zip(k.val_of_col(j)) {
+                trip.push(Triplet::new(i, j, v));
+            }
+            trip.push(Triplet::new(j, j, 0.0));
+        }
+        let base: SparseMatrix = SparseColMat::try_new_from_triplets(n, n, &trip)
+            .map_err(SpectralError::SparseCreation)?;
+        let mut diag_pos = Vec::with_capacity(n);
+        let col_ptr = base.symbolic().col_ptr();
+        for j in 0..n {
+            // Every column holds its diagonal: an explicit (possibly zero) entry
+            // was added above, and duplicates are summed into one.
+            let p = base.row_idx_of_col_raw(j).partition_point(|&i| i < j);
+            diag_pos.push(col_ptr[j] + p);
+        }
+        Ok(Self { base, diag_pos })
+    }
+
+    fn shifted(&self, sigma: f64, mass: Option<&[f64]>) -> SparseMatrix {
+        let mut a = self.base.clone();
+        let vals = a.val_mut();
+        for (j, &p) in self.diag_pos.iter().enumerate() {
+            vals[p] -= sigma * mass.map_or(1.0, |m| m[j]);
+        }
+        a
+    }
+}
+
+pub(super) fn factor_at(
+    pattern: &ShiftedPattern,
+    symbolic: &SymbolicCholesky<usize>,
+    mass: Option<&[f64]>,
+    sigma: f64,
+) -> Result<Vec<f64>, SpectralError> {
+    let par = faer::get_global_parallelism();
+    let a = pattern.shifted(sigma, mass);
+    let mut values = vec![0.0f64; symbolic.len_val()];
+    let req = symbolic.factorize_numeric_ldlt_scratch::<f64>(par, Default::default());
+    let mut buf = MemBuffer::new(req);
+    symbolic
+        .factorize_numeric_ldlt(
+            &mut values,
+            a.as_ref(),
+            Side::Lower,
+            LdltRegularization::default(),
+            par,
+            MemStack::new(&mut buf),
+            Default::default(),
+        )
+        .map_err(|e| SpectralError::Factorization {
+            shift: sigma,
+            source: e.into(),
+        })?;
+    if values.iter().any(|v| !v.is_finite()) {
+        return Err(SpectralError::Factorization {
+            shift: sigma,
+            source: FactorizationFailure::NonFinitePivot,
+        });
+    }
+    Ok(values)
+}
+
+/// Number of negative pivots of the LDLᵀ factors: by Sylvester's law of inertia,
+/// the number of eigenvalues of `K v = λ M v` below the shift.
+pub(super) fn negative_pivots(symbolic: &SymbolicCholesky<usize>, values: &[f64]) -> usize {
+    use faer::sparse::linalg::cholesky::{supernodal::SupernodalLdltRef, SymbolicCholeskyRaw};
+    match symbolic.raw() {
+        SymbolicCholeskyRaw::Simplicial(s) => {
+            let (cp, ri) = (s.col_ptr(), s.row_idx());
+            (0..s.ncols())
+                .filter(|&j| {
+                    (cp[j]..cp[j + 1])
+                        .find(|&p| ri[p] == j)
+                        .is_some_and(|p| values[p] < 0.0)
+                })
+                .count()
+        }
+        SymbolicCholeskyRaw::Supernodal(s) => {
+            let l = SupernodalLdltRef::new(s, values);
+            (0..s.n_supernodes())
+                .map(|sn| {
+                    let node = l.supernode(sn);
+                    let val = node.val();
+                    let ncols = val.ncols();
+                    (0..ncols).filter(|&j| val[(j, j)] < 0.0).count()
+                })
+                .sum()
+        }
+    }
+}
+
+/// Eigenvalues of `K v = λ M v` below `x` (Sylvester inertia of `K − xM`).
+pub(super) fn count_below(
+    pattern: &ShiftedPattern,
+    symbolic: &SymbolicCholesky<usize>,
+    mass: Option<&[f64]>,
+    x: f64,
+) -> Result<usize, SpectralError> {
+    let values = factor_at(pattern, symbolic, mass, x)?;
+    Ok(negative_pivots(symbolic, &values))
+}
+
+/// The symbolic LDLᵀ analysis of the pattern: AMD ordering, or METIS nested
+/// dissection from [`NESTED_DISSECTION_FROM`] vertices on.
+pub(super) fn symbolic_of(
+    pattern: &ShiftedPattern,
+) -> Result<SymbolicCholesky<usize>, SpectralError> {
+    let n = pattern.base.nrows();
+    let nd = if n >= NESTED_DISSECTION_FROM {
+        nested_dissection(&pattern.base)
+    } else {
+        None
+    };
+    let ordering = match &nd {
+        Some((fwd, inv)) => {
+            SymmetricOrdering::Custom(faer::perm::PermRef::new_checked(fwd, inv, n))
+        }
+        None => SymmetricOrdering::Amd,
+    };
+    factorize_symbolic_cholesky(
+        pattern.base.symbolic(),
+        Side::Lower,
+        ordering,
+        Default::default(),
+    )
+    .map_err(SpectralError::SymbolicFactorization)
+}
+
+/// The number of eigenvalues of `K v = λ M v` strictly below `x` (each `x` one sparse
+/// LDLᵀ of `K − xM`; Sylvester's law of inertia), for `K` symmetric n×n (both
+/// triangles stored) and `M` a positive diagonal (`None`: the identity).
+///
+/// Exact up to the factorization's rounding: an eigenvalue within rounding of `x` may
+/// be counted on either side. Used by the property report for the multiplicity of
+/// the zero eigenvalue at any n.
+pub fn eigenvalues_below(
+    k: &SparseMatrix,
+    mass: Option<&[f64]>,
+    x: f64,
+) -> Result<usize, SpectralError> {
+    super::check_problem(k, mass)?;
+    if k.nrows() == 0 {
+        return Ok(0);
+    }
+    let pattern = ShiftedPattern::new(k)?;
+    let symbolic = symbolic_of(&pattern)?;
+    count_below(&pattern, &symbolic, mass, x)
+}

@@ -1,0 +1,131 @@
+//! Finishing: eigenvectors in the operator's coordinates with canonical signs,
+//! Rayleigh-quotient eigenvalues and residuals.
+
+use super::{BandInfo, PartialInfo, PartialSpectrum};
+use crate::spectral::basis::BasisOptions;
+use crate::spectral::sign::{canonicalize, clusters};
+use crate::SparseMatrix;
+use faer::{Col, Mat};
+
+/// Relative gap below which returned eigenvalues form one cluster for the sign rule:
+/// the dense path's default.
+const CLUSTER_TOLERANCE: f64 = BasisOptions::DEFAULT_CLUSTER_TOLERANCE;
+
+/// Converts `w` to `v = M^{-1/2} w`, recomputes λ as a Rayleigh quotient, fixes the
+pub(super) fn finish(
+    k: &SparseMatrix,
+    msqrt: &[f64],
+    pairs: Vec<(f64, Col<f64>)>,
+    bands: Vec<BandInfo>,
+    dense: bool,
+) -> PartialSpectrum {
+    use rayon::prelude::*;
+    let n = msqrt.len();
+    let m = pairs.len();
+    // v = M^{-1/2} w / ‖w‖, per pair in parallel.
+    let mut eigenvectors = Mat::<f64>::zeros(n, m);
+    eigenvectors
+        .par_col_chunks_mut(1)
+        .zip(pairs.par_iter())
+        .for_each(|(col, (_, w))| {
+            let nw = w.norm_l2();
+            col.col_mut(0)
+                .iter_mut()
+                .enumerate()
+                .for_each(|(i, e)| *e = w[i] / nw / msqrt[i]);
+        });
+    // The crate's one sign and cluster rule, on the operator's coordinates v (the
+    // M-orthonormal basis of a cluster stays M-orthonormal under its rotation).
+    let approx: Vec<f64> = pairs.iter().map(|p| p.0).collect();
+    drop(pairs);
+    canonicalize(
+        &mut eigenvectors,
+        &clusters(&approx, CLUSTER_TOLERANCE),
+        None,
+    );
+    // K V by rows (K is symmetric: row i of K V gathers over column i of K), on
+    // interleaved chunks of 8 vectors; then the Rayleigh quotients and residuals.
+    let mut eigenvalues = vec![0.0f64; m];
+    let mut residuals = vec![0.0f64; m];
+    const CW: usize = 8;
+    let mut j0 = 0;
+    while j0 < m {
+        let w = CW.min(m - j0);
+        let vt: Vec<[f64; CW]> = (0..n)
+            .into_par_iter()
+            .map(|i| {
+                std::array::from_fn(|t| {
+                    if t < w {
+                        eigenvectors[(i, j0 + t)]
+                    } else {
+                        0.0
+                    }
+                })
+            })
+            .collect();
+        let kvt: Vec<[f64; CW]> = (0..n)
+            .into_par_iter()
+            .map(|i| {
+                let mut acc = [0.0f64; CW];
+                for (&r, &a) in k.row_idx_of_col_raw(i).iter().zip(k.val_of_col(i)) {
+                    let x = &vt[r];
+                    for t in 0..CW {
+                        acc[t] += a * x[t];
+                    }
+                }
+                acc
+            })
+            .collect();
+        // Σ v·Kv and Σ v²m per vector, then Σ ((Kv − λMv)/√m)², by parallel folds.
+        let add = |mut a: [f64; CW], b: [f64; CW]| {
+            for t in 0..CW {
+                a[t] += b[t];
+            }
+            a
+        };
+        let (vkv, vmv) = (0..n)
+            .into_par_iter()
+            .fold(
+                || ([0.0f64; CW], [0.0f64; CW]),
+                |(mut a, mut b), i| {
+                    let mi = msqrt[i] * msqrt[i];
+                    for t in 0..CW {
+                        a[t] += vt[i][t] * kvt[i][t];
+                        b[t] += vt[i][t] * vt[i][t] * mi;
+                    }
+                    (a, b)
+                },
+            )
+            .reduce(
+                || ([0.0f64; CW], [0.0f64; CW]),
+                |x, y| (add(x.0, y.0), add(x.1, y.1)),
+            );
+        let lambda: [f64; CW] =
+            std::array::from_fn(|t| if vmv[t] > 0.0 { vkv[t] / vmv[t] } else { 0.0 });
+        let rr = (0..n)
+            .into_par_iter()
+            .fold(
+                || [0.0f64; CW],
+                |mut a, i| {
+                    let mi = msqrt[i] * msqrt[i];
+                    for t in 0..CW {
+                        let r = (kvt[i][t] - lambda[t] * mi * vt[i][t]) / msqrt[i];
+                        a[t] += r * r;
+                    }
+                    a
+                },
+            )
+            .reduce(|| [0.0f64; CW], add);
+        for t in 0..w {
+            eigenvalues[j0 + t] = lambda[t];
+            residuals[j0 + t] = rr[t].sqrt() / vmv[t].sqrt();
+        }
+        j0 += w;
+    }
+    PartialSpectrum {
+        eigenvalues,
+        eigenvectors,
+        residuals,
+        info: PartialInfo { bands, dense },
+    }
+}

@@ -1,0 +1,295 @@
+use super::dense::msqrt_of;
+use super::factor::{factor_at, ShiftedPattern};
+use super::solve::ShiftInvert;
+use super::*;
+use crate::mesh::{builtin, topology::Topology, TriMesh};
+use crate::operator::OperatorKind;
+use crate::operator::OperatorOptions;
+use crate::spectral::krylov_schur::BlockOperator;
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, LdltRef, SymmetricOrdering};
+use faer::sparse::Triplet;
+use faer::Side;
+use faer::{Conj, Par};
+
+fn assemble(kind: OperatorKind, mesh: &TriMesh) -> Operator {
+    let topo = Topology::new(mesh).unwrap();
+    Operator::assemble(kind, mesh, &topo, &OperatorOptions::default()).unwrap()
+}
+
+/// Dense reference: eigenpairs of M^{-1/2} K M^{-1/2}, ascending (w coordinates).
+fn dense_reference(k: &SparseMatrix, mass: Option<&[f64]>) -> (Vec<f64>, Mat<f64>) {
+    let n = k.nrows();
+    let ms = msqrt_of(mass, n);
+    let kd = k.to_dense();
+    let a = Mat::from_fn(n, n, |i, j| kd[(i, j)] / (ms[i] * ms[j]));
+    let evd = a.self_adjoint_eigen(Side::Lower).unwrap();
+    let s: Vec<f64> = (0..n).map(|i| evd.S()[i]).collect();
+    (s, evd.U().to_owned())
+}
+
+/// Checks a partial spectrum against the dense one: eigenvalues to 1e-8,
+/// residuals ≤ 1e-9, VᵀMV = I to 1e-9, and every complete cluster of equal
+/// eigenvalues spans the dense eigenspace.
+fn check_against_dense(k: &SparseMatrix, mass: Option<&[f64]>, ps: &PartialSpectrum) {
+    let n = k.nrows();
+    let m = ps.eigenvalues.len();
+    let (s, u) = dense_reference(k, mass);
+    let ms = msqrt_of(mass, n);
+    for j in 0..m {
+        assert!(
+            (ps.eigenvalues[j] - s[j]).abs() < 1e-8,
+            "λ_{j}: {} vs dense {}",
+            ps.eigenvalues[j],
+            s[j]
+        );
+        assert!(ps.residuals[j] <= 1e-9, "residual {j}: {}", ps.residuals[j]);
+    }
+    // M-orthonormality.
+    let w = Mat::from_fn(n, m, |i, j| ps.eigenvectors[(i, j)] * ms[i]);
+    let g = w.transpose() * &w;
+    for a in 0..m {
+        for b in 0..m {
+            let want = if a == b { 1.0 } else { 0.0 };
+            assert!(
+                (g[(a, b)] - want).abs() < 1e-9,
+                "WᵀW[{a},{b}] = {}",
+                g[(a, b)]
+            );
+        }
+    }
+    // Clusters: [lo, hi) with equal dense eigenvalues, complete inside 0..m.
+    let mut lo = 0;
+    while lo < m {
+        let mut hi = lo + 1;
+        while hi < n && (s[hi] - s[lo]).abs() < 1e-7 {
+            hi += 1;
+        }
+        if hi <= m {
+            // ‖W_c − U_c U_cᵀ W_c‖ small.
+            let uc = u.subcols(lo, hi - lo);
+            let wc = w.subcols(lo, hi - lo);
+            let proj = uc * (uc.transpose() * wc);
+            let err = (&proj - wc).norm_max();
+            assert!(err < 1e-7, "cluster {lo}..{hi}: subspace error {err}");
+        }
+        lo = hi;
+    }
+}
+
+#[test]
+fn interleaved_supernodal_solve_matches_faer_for_both_orderings() {
+    use faer::sparse::linalg::cholesky::SymbolicCholeskyRaw;
+    // icosphere:5 (10,242 vertices) gets a supernodal factorization.
+    let mesh = builtin::icosphere(5).unwrap();
+    let op = assemble(OperatorKind::Sql, &mesh);
+    let n = mesh.n_vertices();
+    let pattern = ShiftedPattern::new(&op.matrix).unwrap();
+    let nd = super::ordering::nested_dissection(&pattern.base).expect("METIS ordering");
+    let msqrt: Vec<f64> = (0..n).map(|i| 1.0 + (i % 5) as f64 * 0.1).collect();
+    let mut x = Mat::<f64>::zeros(n, 13);
+    super::super::krylov_schur::random_fill(x.as_mut(), 42);
+    for custom in [false, true] {
+        let ordering = if custom {
+            SymmetricOrdering::Custom(faer::perm::PermRef::new_checked(&nd.0, &nd.1, n))
+        } else {
+            SymmetricOrdering::Amd
+        };
+        let symbolic = factorize_symbolic_cholesky(
+            pattern.base.symbolic(),
+            Side::Lower,
+            ordering,
+            Default::default(),
+        )
+        .unwrap();
+        assert!(matches!(symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_)));
+        // A shift inside the spectrum: K − σI is indefinite.
+        let sigma = 0.37;
+        let values = factor_at(&pattern, &symbolic, None, sigma).unwrap();
+        let si = ShiftInvert {
+            symbolic: &symbolic,
+            values: values.clone(),
+            msqrt: &msqrt,
+        };
+        for p in [1usize, 3, 8, 13] {
+            let xb = x.as_ref().subcols(0, p);
+            let mut ours = Mat::<f64>::zeros(n, p);
+            si.apply_block(xb, ours.as_mut());
+            // faer's solve of the same system.
+            let mut reference = Mat::from_fn(n, p, |i, j| xb[(i, j)] * msqrt[i]);
+            let mut buf = MemBuffer::new(symbolic.solve_in_place_scratch::<f64>(p, Par::Seq));
+            LdltRef::new(&symbolic, &values).solve_in_place_with_conj(
+                Conj::No,
+                reference.as_mut(),
+                Par::Seq,
+                MemStack::new(&mut buf),
+            );
+            let reference = Mat::from_fn(n, p, |i, j| reference[(i, j)] * msqrt[i]);
+            let err = (&ours - &reference).norm_max() / reference.norm_max();
+            assert!(err < 1e-10, "p = {p}, METIS = {custom}: {err}");
+            // And it solves (K − σI) y = M^{1/2} x for y = M^{-1/2} out.
+            let y = Mat::from_fn(n, p, |i, j| ours[(i, j)] / msqrt[i]);
+            let ky = op.matrix.as_ref() * &y;
+            let res = Mat::from_fn(n, p, |i, j| {
+                ky[(i, j)] - sigma * y[(i, j)] - msqrt[i] * xb[(i, j)]
+            });
+            assert!(res.norm_max() < 1e-8 * y.norm_max().max(1.0), "p = {p}");
+        }
+    }
+}
+
+#[test]
+fn band_shifts_find_the_dense_smallest_with_multiplicities() {
+    // icosphere:3 (642 vertices): highly repeated eigenvalues.
+    let mesh = builtin::icosphere(3).unwrap();
+    let op = assemble(OperatorKind::Sql, &mesh);
+    let mut opts = PartialParams::new(80);
+    opts.dense_below = 0;
+    opts.band_size = 24; // several bands, overlapping clusters
+    let mut calls = 0;
+    let ps = operator_partial_spectrum(&op, true, &opts, &mut |_, _| calls += 1).unwrap();
+    assert!(!ps.info.dense);
+    assert!(ps.info.bands.len() >= 3, "{:?}", ps.info.bands);
+    assert!(calls >= ps.info.bands.len());
+    assert_eq!(ps.eigenvalues.len(), 80);
+    check_against_dense(&op.matrix, None, &ps);
+    // The multiplicities are real: some eigenvalue repeats at least 5 times.
+    let (s, _) = dense_reference(&op.matrix, None);
+    let mut max_mult = 1;
+    let mut run = 1;
+    for j in 1..80 {
+        run = if (s[j] - s[j - 1]).abs() < 1e-7 {
+            run + 1
+        } else {
+            1
+        };
+        max_mult = max_mult.max(run);
+    }
+    assert!(max_mult >= 5, "max multiplicity {max_mult}");
+}
+
+#[test]
+fn single_band_agrees_with_dense_kirchhoff_on_irregular_mesh() {
+    let mesh = builtin::cube(9).unwrap();
+    let op = assemble(OperatorKind::Kirchhoff, &mesh);
+    let mut opts = PartialParams::new(30);
+    opts.dense_below = 0;
+    let ps = operator_partial_spectrum(&op, true, &opts, &mut |_, _| {}).unwrap();
+    assert_eq!(ps.info.bands.len(), 1);
+    check_against_dense(&op.matrix, None, &ps);
+    assert!(ps.eigenvalues[0].abs() < 1e-10);
+}
+
+#[test]
+fn generalized_cotangent_problem_matches_dense_mass_normalized() {
+    let mesh = builtin::torus(30, 14).unwrap();
+    let op = assemble(OperatorKind::Cotan, &mesh);
+    let mass = op.mass.clone().unwrap();
+    let mut opts = PartialParams::new(45);
+    opts.dense_below = 0;
+    opts.band_size = 20;
+    let ps = operator_partial_spectrum(&op, true, &opts, &mut |_, _| {}).unwrap();
+    check_against_dense(&op.matrix, Some(&mass), &ps);
+    // L v = λ M v directly.
+    let n = mesh.n_vertices();
+    for j in 0..45 {
+        let v = ps.eigenvectors.col(j);
+        let lv = op.matrix.as_ref() * v;
+        let err = (0..n)
+            .map(|i| (lv[i] - ps.eigenvalues[j] * mass[i] * v[i]).abs())
+            .fold(0.0f64, f64::max);
+        assert!(err < 1e-8, "pair {j}: {err}");
+    }
+}
+
+#[test]
+fn tutte_through_its_symmetrizer_has_the_graph_spectrum() {
+    let mesh = builtin::step(16).unwrap();
+    let tl = assemble(OperatorKind::Tutte, &mesh);
+    let gl = assemble(OperatorKind::Graph, &mesh);
+    let mut opts = PartialParams::new(25);
+    opts.dense_below = 0;
+    let pt = operator_partial_spectrum(&tl, true, &opts, &mut |_, _| {}).unwrap();
+    let pg = operator_partial_spectrum(&gl, true, &opts, &mut |_, _| {}).unwrap();
+    for j in 0..25 {
+        assert!((pt.eigenvalues[j] - pg.eigenvalues[j]).abs() < 1e-9);
+        // T v = λ v for the returned (D-normalised) vectors.
+        let v = pt.eigenvectors.col(j);
+        let tv = tl.matrix.as_ref() * v;
+        let err = (&tv - v * faer::Scale(pt.eigenvalues[j])).norm_max();
+        assert!(err < 1e-9 * v.norm_max().max(1.0), "pair {j}: {err}");
+    }
+}
+
+/// The partial solver's vectors equal the dense canonical basis (one sign and
+/// cluster rule on both paths), on the dense fallback and on the banded path, with
+/// the icosphere's 3-, 5- and 7-fold eigenvalues complete among the returned pairs.
+#[test]
+fn both_paths_give_the_dense_canonical_basis() {
+    use crate::spectral::{BasisOptions, EigenBasis};
+    for (level, want, dense_below) in [(1usize, 9usize, 600usize), (3, 16, 100)] {
+        let mesh = builtin::icosphere(level).unwrap();
+        let op = assemble(OperatorKind::Graph, &mesh);
+        let basis = EigenBasis::compute(&op, &BasisOptions::default()).unwrap();
+        // The largest count ≤ want that ends a cluster (the returned set must hold
+        // whole clusters for their bases to be unique).
+        let k = basis
+            .clusters()
+            .iter()
+            .map(|c| c.0 + c.1)
+            .filter(|&end| end <= want)
+            .max()
+            .unwrap();
+        assert!(k >= want - 7 && basis.clusters().iter().any(|c| c.1 > 1));
+        let mut params = PartialParams::new(k);
+        params.dense_below = dense_below;
+        let ps = operator_partial_spectrum(&op, true, &params, &mut |_, _| {}).unwrap();
+        assert_eq!(ps.info.dense, level == 1);
+        check_against_dense(&op.matrix, None, &ps);
+        let e = basis.vectors();
+        for j in 0..k {
+            let err = (0..mesh.n_vertices())
+                .map(|i| (ps.eigenvectors[(i, j)] - e[(i, j)]).abs())
+                .fold(0.0f64, f64::max);
+            assert!(err < 1e-7, "icosphere {level}, vector {j}: {err}");
+        }
+    }
+}
+
+#[test]
+fn bad_input_is_an_error() {
+    let mesh = builtin::icosahedron();
+    let op = assemble(OperatorKind::Kirchhoff, &mesh);
+    let opts = PartialParams::new(3);
+    assert!(matches!(
+        partial_spectrum(&op.matrix, Some(&[1.0; 5]), &opts, &mut |_, _| {}),
+        Err(SpectralError::ShapeMismatch { what: "mass", .. })
+    ));
+    let mut bad = vec![1.0; 12];
+    bad[4] = 0.0;
+    assert!(matches!(
+        partial_spectrum(&op.matrix, Some(&bad), &opts, &mut |_, _| {}),
+        Err(SpectralError::InvalidMass { vertex: 4, .. })
+    ));
+    assert!(matches!(
+        partial_spectrum(&op.matrix, None, &PartialParams::new(13), &mut |_, _| {}),
+        Err(SpectralError::TooMany { count: 13, n: 12 })
+    ));
+    // F_01 F_10 < 0: no positive diagonal symmetrizer.
+    let trip = [
+        Triplet::new(0usize, 0usize, 1.0),
+        Triplet::new(0, 1, -1.0),
+        Triplet::new(1, 0, 1.0),
+        Triplet::new(1, 1, 1.0),
+    ];
+    let m = SparseMatrix::try_new_from_triplets(2, 2, &trip).unwrap();
+    let op = Operator {
+        kind: OperatorKind::MeanValue,
+        matrix: m,
+        mass: None,
+    };
+    assert!(matches!(
+        operator_partial_spectrum(&op, true, &opts, &mut |_, _| {}),
+        Err(SpectralError::NoRealSpectrum(OperatorKind::MeanValue))
+    ));
+}
