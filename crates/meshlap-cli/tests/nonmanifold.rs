@@ -168,7 +168,7 @@ fn the_sql_refuses_a_non_manifold_edge_in_one_line() {
     for spec in ["builtin:nm-fin", "builtin:nm-book", &data("beetle.obj")] {
         for args in [
             vec!["operator", spec, "-k", "sql"],
-            vec!["project", spec, "-k", "sql", "--keep", "10", "-o", o],
+            vec!["project", spec, "-k", "sql", "--keep", "50%", "-o", o],
             vec!["smooth", spec, "--operator", "sql", "-o", o],
             vec![
                 "compress",
