@@ -8,15 +8,7 @@ use rand::{Rng, SeedableRng};
 
 /// Canonical face set: each face rotated so its smallest index comes first, sorted.
 pub(crate) fn canon(faces: &[[u32; 3]]) -> Vec<[u32; 3]> {
-    let mut v: Vec<[u32; 3]> = faces
-        .iter()
-        .map(|f| {
-            let k = (0..3).min_by_key(|&k| f[k]).unwrap();
-            [f[k], f[(k + 1) % 3], f[(k + 2) % 3]]
-        })
-        .collect();
-    v.sort_unstable();
-    v
+    crate::metric::canon_faces(faces, |v| v)
 }
 
 /// `data` with one seeded corruption: cut at a random length or one bit flipped.
