@@ -7,8 +7,9 @@
 //!   (each [`ParameterError`] names the range); fix the option.
 //! * [`CodecError::Mesh`]: the mesh itself is invalid (no faces, a NaN coordinate, an
 //!   index out of range).
-//! * [`CodecError::Unreferenced`]: a vertex belongs to no face; drop such vertices
-//!   first (`mesh::clean::clean` does, and every command of the CLI cleans its input).
+//! * [`CodecError::Unreferenced`], [`CodecError::DegenerateFace`]: a vertex belongs to
+//!   no face, or a face uses a vertex twice; drop them first (`mesh::clean::clean`
+//!   does, and every command of the CLI cleans its input).
 //! * [`CodecError::NonManifold`], [`CodecError::NotOriented`]: only the connectivity
 //!   coder alone ([`super::connectivity::encode`]) returns them; [`super::compress`]
 //!   cuts such meshes itself and codes how to re-join them.
@@ -133,6 +134,14 @@ pub enum CodecError {
     /// The mesh is invalid (no faces, a non-finite coordinate, an index out of range).
     #[error("cannot compress this mesh: {0}")]
     Mesh(#[source] MeshError),
+    /// A face uses a vertex twice (`compress` needs cleaned faces).
+    #[error(
+        "cannot compress face {face}: it uses a vertex twice; drop such faces first (clean the mesh)"
+    )]
+    DegenerateFace {
+        /// The first such face.
+        face: usize,
+    },
     /// A vertex belongs to no face (`compress` needs every vertex in a face).
     #[error(
         "cannot compress vertex {vertex}: no face references it ({count} such vertices); drop them first (clean the mesh)"

@@ -285,7 +285,8 @@ fn header_bytes(n: usize, f: usize) -> Vec<u8> {
 ///
 /// Errors: [`CodecError::Parameter`] for an option out of range, [`CodecError::Mesh`]
 /// for an invalid mesh (no faces, a NaN coordinate), [`CodecError::Unreferenced`] for
-/// a vertex no face references, [`CodecError::PatchOperator`]
+/// a vertex no face references, [`CodecError::DegenerateFace`] for a face that uses a
+/// vertex twice, [`CodecError::PatchOperator`]
 /// when the spectral coder's operator is undefined on the mesh (the SQL on a
 /// non-manifold edge: choose another `operator` or the spatial coder).
 pub fn compress(
@@ -296,6 +297,13 @@ pub fn compress(
     opts.validate()?;
     mesh.validate().map_err(CodecError::Mesh)?;
     let n = mesh.n_vertices();
+    if let Some(face) = mesh
+        .faces
+        .iter()
+        .position(|f| f[0] == f[1] || f[1] == f[2] || f[0] == f[2])
+    {
+        return Err(CodecError::DegenerateFace { face });
+    }
     let unreferenced = (0..n as u32).filter(|&v| topo.degree(VertexId(v)) == 0);
     if let Some(vertex) = unreferenced.clone().next() {
         return Err(CodecError::Unreferenced {
@@ -426,10 +434,19 @@ pub fn decompress(bytes: &[u8]) -> Result<TriMesh, CodecError> {
         Some(r) => {
             let to_decoded = rejoin::decode(r, n, nf)?;
             let cut_faces = connectivity::decode(conn, to_decoded.len(), nf)?;
-            cut_faces
+            let faces: Vec<[u32; 3]> = cut_faces
                 .iter()
                 .map(|f| f.map(|v| to_decoded[v as usize]))
-                .collect()
+                .collect();
+            // The encoder never joins two corners of one face (its input has no
+            // degenerate faces): a forged section could.
+            if faces
+                .iter()
+                .any(|f| f[0] == f[1] || f[1] == f[2] || f[0] == f[2])
+            {
+                return Err(CodecError::Corrupt("a re-joined face repeats a vertex"));
+            }
+            faces
         }
     };
     let topo = Topology::from_faces(n, &faces).map_err(CodecError::CorruptFaces)?;

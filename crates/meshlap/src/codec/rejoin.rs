@@ -57,6 +57,16 @@ impl Split {
 /// documentation). A manifold, consistently oriented mesh without two-edge boundary
 /// loops comes back unchanged (no copies).
 pub(super) fn split(topo: &Topology) -> Result<Split, CodecError> {
+    if topo.is_manifold()
+        && topo.inconsistently_oriented_edges() == 0
+        && corners_to_detach(topo).is_empty()
+    {
+        // Nothing to cut (the common case): no union-find, no second topology.
+        return Ok(Split {
+            faces: topo.faces().to_vec(),
+            parent: (0..topo.n_vertices() as u32).collect(),
+        });
+    }
     let nh = 3 * topo.n_faces();
     let mut cut = vec![false; nh];
     for h in 0..nh as u32 {
