@@ -279,16 +279,16 @@ fn header_bytes(n: usize, f: usize) -> Vec<u8> {
 
 /// Compresses a triangle mesh (n vertices, f faces; non-manifold edges and vertices,
 /// inconsistent orientation, boundaries, several components and handles allowed;
-/// every vertex must be in a face: clean the mesh first) to an `.mlz` file image: connectivity losslessly (the decoded
-/// faces are `mesh`'s, up to the vertex order), geometry to the quantization of
-/// `opts`. `topo` is `mesh`'s connectivity.
+/// every vertex must be in a face: clean the mesh first) to an `.mlz` file image:
+/// connectivity losslessly (the decoded faces are `mesh`'s, up to the vertex order),
+/// geometry to the quantization of `opts`. `topo` is `mesh`'s connectivity.
 ///
 /// Errors: [`CodecError::Parameter`] for an option out of range, [`CodecError::Mesh`]
 /// for an invalid mesh (no faces, a NaN coordinate), [`CodecError::Unreferenced`] for
 /// a vertex no face references, [`CodecError::DegenerateFace`] for a face that uses a
-/// vertex twice, [`CodecError::PatchOperator`]
-/// when the spectral coder's operator is undefined on the mesh (the SQL on a
-/// non-manifold edge: choose another `operator` or the spatial coder).
+/// vertex twice, [`CodecError::PatchOperator`] when the spectral coder's operator is
+/// undefined on the mesh (the SQL on a non-manifold edge: choose another `operator` or
+/// the spatial coder).
 pub fn compress(
     mesh: &TriMesh,
     topo: &Topology,
