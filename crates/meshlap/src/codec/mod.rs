@@ -21,7 +21,7 @@
 //! **Any mesh that `clean` accepts** is compressed: non-manifold edges and vertices,
 //! inconsistently oriented faces, boundaries, several components, handles. The
 //! connectivity coder needs a manifold, consistently oriented mesh, so the encoder cuts
-//! the mesh into one ([`rejoin`]: vertices duplicated per fan) and codes, in the
+//! the mesh into one (module `rejoin`: vertices duplicated per fan) and codes, in the
 //! re-join section, which vertices of the cut mesh are copies of which; the decoder
 //! glues them back, so the decoded faces are exactly the input's (same orientation, up
 //! to the vertex order — and in the input's vertex order too with `preserve_order`).
