@@ -74,26 +74,6 @@ fn corrupt_and_foreign_files_fail_cleanly() {
 }
 
 #[test]
-fn non_manifold_input_suggests_splitting() {
-    let dir = tempfile::tempdir().unwrap();
-    let bowtie = dir.path().join("bowtie.obj");
-    std::fs::write(
-        &bowtie,
-        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv -1 0 0\nv 0 -1 0\nf 1 2 3\nf 1 4 5\n",
-    )
-    .unwrap();
-    let mlz = dir.path().join("b.mlz");
-    let o = meshlap(&[
-        "compress",
-        bowtie.to_str().unwrap(),
-        "-o",
-        mlz.to_str().unwrap(),
-    ]);
-    assert_one_line_error(&o, "--split-nonmanifold");
-    assert!(!mlz.exists());
-}
-
-#[test]
 fn options_out_of_range_are_one_line_errors_naming_the_option() {
     let dir = tempfile::tempdir().unwrap();
     let mlz = dir.path().join("p.mlz");

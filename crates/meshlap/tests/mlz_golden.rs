@@ -62,12 +62,26 @@ fn golden_files_decode_bit_for_bit() {
             "no golden file for {mode}, preserved order {order}"
         );
     }
+    let mut with_rejoin = 0;
     for (file, n, nf, hash) in &files {
         let bytes = std::fs::read(dir().join(file)).unwrap();
+        // Version 4 files never have a re-join section; the non-manifold ones (v5) do.
+        let version = u16::from_le_bytes([bytes[4], bytes[5]]);
+        let secs = meshlap::codec::container::read(&bytes).unwrap();
+        let rejoin = meshlap::codec::container::section(
+            &secs,
+            meshlap::codec::container::SectionKind::Rejoin,
+        );
+        assert_eq!(rejoin.is_some(), version == 5, "{file} (version {version})");
+        with_rejoin += usize::from(rejoin.is_some());
         let m = meshlap::codec::decompress(&bytes).unwrap_or_else(|e| panic!("{file}: {e}"));
         assert_eq!((m.n_vertices(), m.n_faces()), (*n, *nf), "{file}");
         assert_eq!(&mesh_hash(&m), hash, "{file} decodes differently");
     }
+    assert!(
+        with_rejoin >= 3,
+        "golden files of non-manifold meshes (version 5)"
+    );
 }
 
 #[test]

@@ -2,8 +2,8 @@
 
 use crate::common::{print_json, MeshArgs};
 use meshlap::codec::{
-    compress, CodecError, CompressOptions, CompressReport, Compressed, GeometryMode, Keep,
-    Quantization, SpatialParams, SpectralParams,
+    compress, CompressOptions, CompressReport, Compressed, GeometryMode, Keep, Quantization,
+    SpatialParams, SpectralParams,
 };
 use meshlap::operator::OperatorKind;
 use std::path::PathBuf;
@@ -16,8 +16,10 @@ use std::path::PathBuf;
 /// from the connectivity — or spatial coding — each vertex, in the connectivity
 /// coder's order, predicted from already decoded ones (parallelograms), its residual
 /// quantized in the loop and range-coded. By default both are tried and the better
-/// kept (spectral wins at low rates, spatial at high rates). The mesh must be
-/// manifold and consistently oriented (see `meshlap clean`).
+/// kept (spectral wins at low rates, spatial at high rates). Any mesh `clean`
+/// accepts is compressed: non-manifold edges and vertices and inconsistently oriented
+/// faces are cut apart for the connectivity coder and re-joined by the decoder (a
+/// re-join section), so the decoded faces are exactly the input's.
 #[derive(clap::Args, Debug)]
 pub struct Args {
     #[command(flatten)]
@@ -114,19 +116,9 @@ impl Args {
     }
 }
 
-/// The library's error, with what to run about it where a command can fix it.
-fn with_hint(e: CodecError) -> meshlap::Error {
-    match e {
-        CodecError::NonManifold(_) => meshlap::Error::InvalidArgument(format!(
-            "{e}; run `meshlap clean --split-nonmanifold` first"
-        )),
-        e => e.into(),
-    }
-}
-
 pub fn run(args: &Args) -> meshlap::Result<()> {
     let input = args.mesh.open()?;
-    let c = compress(&input.mesh, &input.topology, &args.options()).map_err(with_hint)?;
+    let c = compress(&input.mesh, &input.topology, &args.options())?;
     meshlap::io::write_atomic(&args.output, |w| w.write_all(&c.bytes))?;
     let distortion = if args.measure {
         Some(c.distortion(&input.mesh, args.samples)?)
@@ -153,9 +145,15 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
     );
     println!("vertices        {}  faces {}", r.vertices, r.faces);
     println!(
-        "bits/vertex     {:.3} total = {:.3} connectivity + {:.3} geometry + {:.3} order",
-        r.bits_per_vertex, r.connectivity_bpv, r.geometry_bpv, r.permutation_bpv
+        "bits/vertex     {:.3} total = {:.3} connectivity + {:.3} geometry + {:.3} order + {:.3} re-join",
+        r.bits_per_vertex, r.connectivity_bpv, r.geometry_bpv, r.permutation_bpv, r.rejoin_bpv
     );
+    if r.vertex_copies > 0 {
+        println!(
+            "re-join         {} vertex copies (non-manifold or inconsistently oriented parts cut apart, re-joined on decoding)",
+            r.vertex_copies
+        );
+    }
     println!(
         "quantization    step {:.4e} ({:.2} bits of the diagonal)",
         r.step, r.quantization_bits

@@ -16,6 +16,11 @@ use std::path::PathBuf;
 ///
 /// Kinds: kirchhoff (kl), tutte (tl), graph (gl), sql, sstl, tutte2 (t2), sdl, cotan,
 /// mean-value (mv). Sign convention F = D − W (positive semi-definite).
+///
+/// On non-manifold meshes every kind but the SQL is assembled from its definition
+/// (graph operators from the distinct neighbours; the cotangent and mean-value weights
+/// sum over every face at an edge or vertex); the SQL needs the two vertices opposite
+/// an edge and refuses a non-manifold edge, naming it.
 #[derive(clap::Args, Debug)]
 pub struct Args {
     #[command(flatten)]

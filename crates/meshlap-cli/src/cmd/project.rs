@@ -17,6 +17,10 @@ use std::path::PathBuf;
 /// eigenvector is not constant), as the paper's Fig. 1 shows.
 ///
 /// Whole-mesh, dense (n ≤ 5000).
+///
+/// Non-manifold edges and vertices and inconsistently oriented faces are kept as they
+/// are (the output has the input's faces); every operator but the SQL is defined on
+/// them, and the SQL refuses a non-manifold edge in one line naming it.
 #[derive(clap::Args, Debug)]
 pub struct Args {
     #[command(flatten)]

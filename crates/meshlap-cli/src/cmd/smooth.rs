@@ -28,6 +28,11 @@ use std::path::PathBuf;
 /// "CG (TL)", (D + λK)x = Db. The SQL with negative weights may make the system
 /// indefinite: that is reported as an error (run `meshlap repair-sql` first).
 ///
+/// Non-manifold edges and vertices and inconsistently oriented faces are kept as they
+/// are (the output has the input's faces); every operator but the SQL is defined on
+/// them (the cotangent weight of an edge sums over all its faces), and the SQL
+/// refuses a non-manifold edge in one line naming it.
+///
 /// `--json` prints iterations per coordinate column, residuals, timings and volumes.
 #[derive(clap::Args, Debug)]
 pub struct Args {

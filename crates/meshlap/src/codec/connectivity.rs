@@ -33,9 +33,9 @@
 //! traversal meets the vertices (`order[new] = old`); the caller stores `order` when
 //! the input order must be kept.
 //!
-//! Bad input: a non-manifold edge or vertex gives [`CodecError::NonManifold`] (split
-//! them first: `mesh::clean::split_non_manifold`), inconsistent orientation
-//! [`CodecError::NotOriented`]; a corrupt stream gives a typed error, never a panic,
+//! Bad input: a non-manifold edge or vertex gives [`CodecError::NonManifold`],
+//! inconsistent orientation [`CodecError::NotOriented`] ([`super::compress`] never
+//! passes such a mesh: it cuts it first and codes how to re-join it, `rejoin`); a corrupt stream gives a typed error, never a panic,
 //! and the decoder grows its arrays only as symbols arrive (and stops at the counts
 //! the container declares).
 

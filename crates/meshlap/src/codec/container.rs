@@ -2,13 +2,17 @@
 //!
 //! ```text
 //! magic      4 bytes  "MLZ\x1a"
-//! version    u16 LE   (4: patch partition and patch eigenbases changed (METIS with
+//! version    u16 LE   (5: the optional re-join section (kind 5) of meshes cut for
+//!                     the connectivity coder, see `rejoin`; otherwise as 4, which is
+//!                     still read;
+//!                     4: patch partition and patch eigenbases changed (METIS with
 //!                     one initial partitioning; see `geometry`); 3: a geometry-mode
 //!                     byte opens the geometry section; 2 added inter-patch
-//!                     prediction; other versions are refused)
+//!                     prediction; versions before 4 are refused)
 //! sections   u16 LE   count (≤ 16)
 //! per section:
-//!   kind     u8       1 header, 2 connectivity, 3 permutation, 4 geometry
+//!   kind     u8       1 header, 2 connectivity, 3 permutation, 4 geometry,
+//!                     5 re-join (version 5 only)
 //!   length   u32 LE   payload bytes
 //!   crc32    u32 LE   of the kind byte and the payload (IEEE, `crc32fast`)
 //!   payload  `length` bytes
@@ -23,8 +27,10 @@ use super::CodecError;
 
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"MLZ\x1a";
-/// Current format version.
-pub const VERSION: u16 = 4;
+/// Current format version (what [`write`] writes).
+pub const VERSION: u16 = 5;
+/// Oldest format version [`read`] accepts (its files decode as they always did).
+pub const MIN_VERSION: u16 = 4;
 const MAX_SECTIONS: u16 = 16;
 
 /// Section kinds.
@@ -39,6 +45,8 @@ pub enum SectionKind {
     Permutation = 3,
     /// Range-coded geometry.
     Geometry = 4,
+    /// Which vertices of the cut mesh are copies of which (optional; version 5).
+    Rejoin = 5,
 }
 
 impl SectionKind {
@@ -48,6 +56,7 @@ impl SectionKind {
             2 => SectionKind::Connectivity,
             3 => SectionKind::Permutation,
             4 => SectionKind::Geometry,
+            5 => SectionKind::Rejoin,
             _ => return Err(CodecError::Corrupt("unknown section kind")),
         })
     }
@@ -58,6 +67,7 @@ impl SectionKind {
             SectionKind::Connectivity => "connectivity",
             SectionKind::Permutation => "permutation",
             SectionKind::Geometry => "geometry",
+            SectionKind::Rejoin => "re-join",
         }
     }
 }
@@ -84,7 +94,7 @@ pub fn write(sections: &[(SectionKind, &[u8])]) -> Result<Vec<u8>, CodecError> {
 }
 
 /// Parses a file image into its sections (borrowing the payloads), verifying the
-/// magic, version, lengths and checksums.
+/// magic, version ([`MIN_VERSION`] to [`VERSION`]), lengths and checksums.
 pub fn read(bytes: &[u8]) -> Result<Vec<(SectionKind, &[u8])>, CodecError> {
     let mut r = ByteReader::new(bytes, "file header");
     let magic = r.take(4)?;
@@ -92,10 +102,11 @@ pub fn read(bytes: &[u8]) -> Result<Vec<(SectionKind, &[u8])>, CodecError> {
         return Err(CodecError::BadMagic);
     }
     let version = r.u16()?;
-    if version != VERSION {
+    if !(MIN_VERSION..=VERSION).contains(&version) {
         return Err(CodecError::Version {
             found: version,
-            supported: VERSION,
+            oldest: MIN_VERSION,
+            newest: VERSION,
         });
     }
     let count = r.u16()?;
@@ -106,6 +117,9 @@ pub fn read(bytes: &[u8]) -> Result<Vec<(SectionKind, &[u8])>, CodecError> {
     for _ in 0..count {
         r.what = "section table";
         let kind = SectionKind::from_u8(r.u8()?)?;
+        if kind == SectionKind::Rejoin && version < 5 {
+            return Err(CodecError::Corrupt("a re-join section in a version 4 file"));
+        }
         let len = r.u32()? as usize;
         let crc = r.u32()?;
         r.what = kind.name();
@@ -238,7 +252,16 @@ mod tests {
         old[4..6].copy_from_slice(&3u16.to_le_bytes());
         let e = read(&old).unwrap_err();
         assert!(matches!(e, CodecError::Version { found: 3, .. }));
-        assert!(e.to_string().contains("reads version 4"), "{e}");
+        assert!(e.to_string().contains("reads versions 4 to 5"), "{e}");
+        // Version 4 is still read, but without the section version 5 added.
+        let mut v4 = img.clone();
+        v4[4..6].copy_from_slice(&4u16.to_le_bytes());
+        assert!(read(&v4).is_ok());
+        let rj = write(&[(SectionKind::Rejoin, &b)]).unwrap();
+        assert!(read(&rj).is_ok());
+        let mut rj4 = rj.clone();
+        rj4[4..6].copy_from_slice(&4u16.to_le_bytes());
+        assert!(matches!(read(&rj4), Err(CodecError::Corrupt(_))));
         let mut huge = img[..8].to_vec();
         huge.extend_from_slice(&[1, 0xFF, 0xFF, 0xFF, 0xFF, 0, 0, 0, 0]);
         assert!(matches!(read(&huge), Err(CodecError::Truncated(_))));

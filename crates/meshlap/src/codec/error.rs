@@ -5,11 +5,14 @@
 //! Causes and fixes:
 //! * [`CodecError::Parameter`]: an option of [`super::compress`] is out of its range
 //!   (each [`ParameterError`] names the range); fix the option.
-//! * [`CodecError::NonManifold`], [`CodecError::NotOriented`]: the connectivity coder
-//!   needs a manifold, consistently oriented mesh; split non-manifold edges and
-//!   vertices (`mesh::clean::split_non_manifold`) and orient the faces first.
 //! * [`CodecError::Mesh`]: the mesh itself is invalid (no faces, a NaN coordinate, an
 //!   index out of range).
+//! * [`CodecError::Unreferenced`], [`CodecError::DegenerateFace`]: a vertex belongs to
+//!   no face, or a face uses a vertex twice; drop them first (`mesh::clean::clean`
+//!   does, and every command of the CLI cleans its input).
+//! * [`CodecError::NonManifold`], [`CodecError::NotOriented`]: only the connectivity
+//!   coder alone ([`super::connectivity::encode`]) returns them; [`super::compress`]
+//!   cuts such meshes itself and codes how to re-join them.
 //! * [`CodecError::StepTooSmall`]: the quantization step is so fine that a quantized
 //!   value exceeds 31 bits; use fewer bits.
 //! * [`CodecError::Partition`], [`CodecError::PatchOperator`],
@@ -131,10 +134,28 @@ pub enum CodecError {
     /// The mesh is invalid (no faces, a non-finite coordinate, an index out of range).
     #[error("cannot compress this mesh: {0}")]
     Mesh(#[source] MeshError),
-    /// The mesh has a non-manifold edge or vertex.
+    /// A face uses a vertex twice (`compress` needs cleaned faces).
+    #[error(
+        "cannot compress face {face}: it uses a vertex twice; drop such faces first (clean the mesh)"
+    )]
+    DegenerateFace {
+        /// The first such face.
+        face: usize,
+    },
+    /// A vertex belongs to no face (`compress` needs every vertex in a face).
+    #[error(
+        "cannot compress vertex {vertex}: no face references it ({count} such vertices); drop them first (clean the mesh)"
+    )]
+    Unreferenced {
+        /// The first such vertex.
+        vertex: u32,
+        /// How many vertices no face references.
+        count: usize,
+    },
+    /// The mesh has a non-manifold edge or vertex (the connectivity coder alone).
     #[error("cannot compress a non-manifold mesh ({0})")]
     NonManifold(NonManifold),
-    /// The mesh is not consistently oriented.
+    /// The mesh is not consistently oriented (the connectivity coder alone).
     #[error("cannot compress a mesh that is not consistently oriented ({0} edges disagree)")]
     NotOriented(usize),
     /// The quantization step is too fine for the coordinates.
@@ -168,13 +189,15 @@ pub enum CodecError {
     BadMagic,
     /// A format version this build cannot read.
     #[error(
-        "unsupported .mlz version {found}: this build reads version {supported} only; re-compress the mesh with this meshlap"
+        "unsupported .mlz version {found}: this build reads versions {oldest} to {newest}; re-compress the mesh with this meshlap"
     )]
     Version {
         /// The file's version.
         found: u16,
-        /// The version this build reads.
-        supported: u16,
+        /// The oldest version this build reads.
+        oldest: u16,
+        /// The newest version this build reads (and writes).
+        newest: u16,
     },
     /// The checksum does not match.
     #[error("corrupt file: checksum mismatch in the {0} section")]

@@ -18,10 +18,26 @@
 //! ([`SpectralParams`], [`SpatialParams`]), so front ends (the CLI, the Python
 //! package) only pass values on.
 //!
-//! File layout (`.mlz` version [`container::VERSION`]): a header section (vertex and
-//! face counts, `u32` LE each), the connectivity section, the optional permutation
-//! section (the input vertex order) and the geometry section — a mode byte (0
-//! spectral, 1 spatial) then that coder's stream.
+//! **Any mesh that `clean` accepts** is compressed: non-manifold edges and vertices,
+//! inconsistently oriented faces, boundaries, several components, handles. The
+//! connectivity coder needs a manifold, consistently oriented mesh, so the encoder cuts
+//! the mesh into one (module `rejoin`: vertices duplicated per fan) and codes, in the
+//! re-join section, which vertices of the cut mesh are copies of which; the decoder
+//! glues them back, so the decoded faces are exactly the input's (same orientation, up
+//! to the vertex order — and in the input's vertex order too with `preserve_order`).
+//! Positions are coded once per input vertex: the geometry coders run on the re-joined
+//! (possibly non-manifold) mesh. A manifold, consistently oriented mesh is not cut and
+//! its file has no re-join section. Vertices no face references are refused by
+//! [`compress`] ([`CodecError::Unreferenced`], in every mode: the spectral coder's
+//! patches are made of faces), as everywhere in meshlap: `clean` drops them, and
+//! `meshlap compress` reads its input through `clean`, so the CLI's files hold the
+//! cleaned mesh.
+//!
+//! File layout (`.mlz` version [`container::VERSION`]; version 4 files, which never
+//! have a re-join section, are still read): a header section (vertex and face counts,
+//! `u32` LE each), the connectivity section (of the cut mesh), the optional re-join
+//! section, the optional permutation section (the input vertex order) and the geometry
+//! section — a mode byte (0 spectral, 1 spatial) then that coder's stream.
 
 #![warn(missing_docs)]
 
@@ -33,6 +49,7 @@ mod geometry;
 mod permutation;
 mod quantize;
 mod rate;
+mod rejoin;
 pub mod spatial;
 pub mod spectral;
 #[cfg(test)]
@@ -43,7 +60,7 @@ pub use spatial::SpatialParams;
 pub use spectral::{Keep, SpectralParams, SpectralStats};
 
 use crate::mesh::topology::Topology;
-use crate::mesh::TriMesh;
+use crate::mesh::{TriMesh, VertexId};
 use container::{ByteReader, SectionKind};
 use serde::Serialize;
 
@@ -197,6 +214,12 @@ pub struct CompressReport {
     pub geometry_bpv: f64,
     /// Permutation section, bits per vertex (0 unless the vertex order is kept).
     pub permutation_bpv: f64,
+    /// Re-join section, bits per vertex (0 unless the mesh had to be cut: non-manifold
+    /// edges or vertices, inconsistent orientation).
+    pub rejoin_bpv: f64,
+    /// Vertex copies the cut for the connectivity coder made (each re-joined by the
+    /// decoder).
+    pub vertex_copies: usize,
     /// Global quantization step (absolute).
     pub step: f64,
     /// The same as bits: `log2(diag / step)`.
@@ -254,14 +277,18 @@ fn header_bytes(n: usize, f: usize) -> Vec<u8> {
     h
 }
 
-/// Compresses a manifold, consistently oriented triangle mesh (n vertices, f faces;
-/// boundaries, several components and handles allowed) to an `.mlz` file image:
-/// connectivity losslessly, geometry to the quantization of `opts`. `topo` is
-/// `mesh`'s connectivity.
+/// Compresses a triangle mesh (n vertices, f faces; non-manifold edges and vertices,
+/// inconsistent orientation, boundaries, several components and handles allowed;
+/// every vertex must be in a face: clean the mesh first) to an `.mlz` file image:
+/// connectivity losslessly (the decoded faces are `mesh`'s, up to the vertex order),
+/// geometry to the quantization of `opts`. `topo` is `mesh`'s connectivity.
 ///
-/// Errors: [`CodecError::Parameter`] for an option out of range,
-/// [`CodecError::NonManifold`] / [`CodecError::NotOriented`] for a mesh the
-/// connectivity coder cannot represent, [`CodecError::Mesh`] for an invalid mesh.
+/// Errors: [`CodecError::Parameter`] for an option out of range, [`CodecError::Mesh`]
+/// for an invalid mesh (no faces, a NaN coordinate), [`CodecError::Unreferenced`] for
+/// a vertex no face references, [`CodecError::DegenerateFace`] for a face that uses a
+/// vertex twice, [`CodecError::PatchOperator`] when the spectral coder's operator is
+/// undefined on the mesh (the SQL on a non-manifold edge: choose another `operator` or
+/// the spatial coder).
 pub fn compress(
     mesh: &TriMesh,
     topo: &Topology,
@@ -270,13 +297,39 @@ pub fn compress(
     opts.validate()?;
     mesh.validate().map_err(CodecError::Mesh)?;
     let n = mesh.n_vertices();
-    let conn = connectivity::encode(topo)?;
-    let positions: Vec<[f64; 3]> = conn
-        .order
+    if let Some(face) = mesh
+        .faces
         .iter()
-        .map(|&v| mesh.positions[v as usize])
-        .collect();
-    let dtopo = Topology::from_faces(n, &conn.faces).map_err(CodecError::Mesh)?;
+        .position(|f| f[0] == f[1] || f[1] == f[2] || f[0] == f[2])
+    {
+        return Err(CodecError::DegenerateFace { face });
+    }
+    let unreferenced = (0..n as u32).filter(|&v| topo.degree(VertexId(v)) == 0);
+    if let Some(vertex) = unreferenced.clone().next() {
+        return Err(CodecError::Unreferenced {
+            vertex,
+            count: unreferenced.count(),
+        });
+    }
+    let cut = rejoin::split(topo)?;
+    let copies = cut.copies(n);
+    let (conn, rejoin_section, order, faces) = if copies == 0 {
+        let conn = connectivity::encode(topo)?;
+        let (order, faces) = (conn.order.clone(), conn.faces.clone());
+        (conn, None, order, faces)
+    } else {
+        let stopo = Topology::from_faces(cut.parent.len(), &cut.faces).map_err(CodecError::Mesh)?;
+        let conn = connectivity::encode(&stopo)?;
+        let (bytes, to_decoded, order) = rejoin::encode(&cut.parent, n, &conn.order);
+        let faces = conn
+            .faces
+            .iter()
+            .map(|f| f.map(|v| to_decoded[v as usize]))
+            .collect();
+        (conn, Some(bytes), order, faces)
+    };
+    let positions: Vec<[f64; 3]> = order.iter().map(|&v| mesh.positions[v as usize]).collect();
+    let dtopo = Topology::from_faces(n, &faces).map_err(CodecError::Mesh)?;
     let diag = mesh.bbox_diagonal().max(f64::MIN_POSITIVE);
     let modes = opts.mode.coders();
     let fixed_step = match opts.quantization {
@@ -291,22 +344,23 @@ pub fn compress(
         opts.spatial,
         fixed_step,
     )?;
-    let perm = opts
-        .preserve_order
-        .then(|| permutation::encode(&conn.order));
+    let perm = opts.preserve_order.then(|| permutation::encode(&order));
     let header = header_bytes(n, mesh.n_faces());
     let assemble = |geo: &[u8]| -> Result<Vec<u8>, CodecError> {
         let mut secs: Vec<(SectionKind, &[u8])> = vec![
             (SectionKind::Header, &header),
             (SectionKind::Connectivity, &conn.data),
         ];
+        if let Some(r) = &rejoin_section {
+            secs.push((SectionKind::Rejoin, r));
+        }
         if let Some(p) = &perm {
             secs.push((SectionKind::Permutation, p));
         }
         secs.push((SectionKind::Geometry, geo));
         container::write(&secs)
     };
-    let estimate = rate::Estimate::new(&positions, &conn.faces, diag);
+    let estimate = rate::Estimate::new(&positions, &faces, diag);
     let choice = rate::choose(
         &mut coders,
         modes,
@@ -327,6 +381,8 @@ pub fn compress(
         connectivity_bpv: bpv(conn.data.len()),
         geometry_bpv: bpv(geo.bytes.len()),
         permutation_bpv: perm.as_ref().map_or(0.0, |p| bpv(p.len())),
+        rejoin_bpv: rejoin_section.as_ref().map_or(0.0, |r| bpv(r.len())),
+        vertex_copies: copies,
         step: choice.step,
         quantization_bits: (diag / choice.step).log2(),
         operator: opts.spectral.operator,
@@ -337,11 +393,11 @@ pub fn compress(
     };
     let (decoded, order) = if opts.preserve_order {
         (
-            permutation::apply(&conn.order, &geo.decoded, &conn.faces),
+            permutation::apply(&order, &geo.decoded, &faces),
             (0..n as u32).collect(),
         )
     } else {
-        (TriMesh::new(geo.decoded, conn.faces), conn.order)
+        (TriMesh::new(geo.decoded, faces), order)
     };
     Ok(Compressed {
         bytes,
@@ -351,8 +407,9 @@ pub fn compress(
     })
 }
 
-/// Decompresses an `.mlz` file image. Connectivity is rebuilt exactly; geometry to
-/// the coded precision; the vertex order is the input's if it was stored.
+/// Decompresses an `.mlz` file image (version 4 or 5). Connectivity is rebuilt
+/// exactly (a cut mesh re-joined); geometry to the coded precision; the vertex order
+/// is the input's if it was stored.
 ///
 /// A truncated, corrupt or foreign file is an error ([`CodecError::Truncated`],
 /// [`CodecError::Corrupt`], [`CodecError::Checksum`], [`CodecError::BadMagic`],
@@ -372,7 +429,26 @@ pub fn decompress(bytes: &[u8]) -> Result<TriMesh, CodecError> {
     if nf as u64 > 400 * (conn.len() as u64 + 16) || n > 3 * nf + 3 {
         return Err(CodecError::Corrupt("counts larger than the data can hold"));
     }
-    let faces = connectivity::decode(conn, n, nf)?;
+    let faces = match container::section(&secs, SectionKind::Rejoin) {
+        None => connectivity::decode(conn, n, nf)?,
+        Some(r) => {
+            let to_decoded = rejoin::decode(r, n, nf)?;
+            let cut_faces = connectivity::decode(conn, to_decoded.len(), nf)?;
+            let faces: Vec<[u32; 3]> = cut_faces
+                .iter()
+                .map(|f| f.map(|v| to_decoded[v as usize]))
+                .collect();
+            // The encoder never joins two corners of one face (its input has no
+            // degenerate faces): a forged section could.
+            if faces
+                .iter()
+                .any(|f| f[0] == f[1] || f[1] == f[2] || f[0] == f[2])
+            {
+                return Err(CodecError::Corrupt("a re-joined face repeats a vertex"));
+            }
+            faces
+        }
+    };
     let topo = Topology::from_faces(n, &faces).map_err(CodecError::CorruptFaces)?;
     let pos = geometry::decode(&topo, need(SectionKind::Geometry)?)?;
     match container::section(&secs, SectionKind::Permutation) {

@@ -9,6 +9,7 @@
 //! | `grid:N` | open unit square, N×N quads each split along the same diagonal (interior valence 6, boundary) |
 //! | `cube:N` | tessellated cube surface, N×N quads per side (closed; valences 3–6) |
 //! | `step:N` | `grid:N` lifted to a step function `z = 0.5·[x ≥ ½]`: the paper's sharp-transition model |
+//! | `nm-fin`, `nm-book`, `nm-bowtie`, `nm-fans`, `nm-flipped`, `nm-moebius`, `nm-mixed` | small non-manifold or inconsistently oriented meshes ([`super::nonmanifold`]) |
 //!
 //! All faces are oriented counter-clockwise seen from outside (closed meshes) or from
 //! +z (height fields).
@@ -38,6 +39,14 @@ pub fn from_spec(spec: &str) -> Result<TriMesh, MeshError> {
             }
         }
     };
+    if let Some(kind) = super::nonmanifold::NonManifoldKind::from_name(name) {
+        if !args.is_empty() {
+            return Err(MeshError::Builtin(format!(
+                "`{name}` takes no arguments, got `{spec}`"
+            )));
+        }
+        return Ok(super::nonmanifold::non_manifold(kind));
+    }
     let max_args = match name {
         "tetrahedron" | "octahedron" | "icosahedron" => 0,
         "icosphere" | "grid" | "cube" | "sphere48" | "step" => 1,
@@ -79,6 +88,13 @@ pub const NAMES: &[&str] = &[
     "cube:N",
     "sphere48:N",
     "step:N",
+    "nm-fin",
+    "nm-book",
+    "nm-bowtie",
+    "nm-fans",
+    "nm-flipped",
+    "nm-moebius",
+    "nm-mixed",
 ];
 
 /// Flips every face whose normal points towards the origin (for star-shaped meshes

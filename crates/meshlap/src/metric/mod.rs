@@ -123,7 +123,9 @@ fn one_sided(from: &TriMesh, to: &TriMesh, samples: usize, seed: u64) -> (f64, f
     (rms, d.iter().copied().fold(0.0, f64::max))
 }
 
-fn canon_faces(faces: &[[u32; 3]], map: impl Fn(u32) -> u32) -> Vec<[u32; 3]> {
+/// The oriented face set of `faces` renumbered by `map`: each face rotated so its
+/// smallest index comes first, sorted.
+pub(crate) fn canon_faces(faces: &[[u32; 3]], map: impl Fn(u32) -> u32) -> Vec<[u32; 3]> {
     let mut v: Vec<[u32; 3]> = faces
         .iter()
         .map(|t| {
