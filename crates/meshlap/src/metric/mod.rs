@@ -16,6 +16,8 @@
 //!   the model size in a similar way).
 
 pub mod bvh;
+pub mod msdm2;
+pub mod sym3;
 
 use crate::mesh::topology::Topology;
 use crate::mesh::TriMesh;
