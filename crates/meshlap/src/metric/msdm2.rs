@@ -341,8 +341,16 @@ fn local_distance(pts: &[(f64, f64, f64, f64)], p: &Msdm2Params) -> f64 {
     let (sw1, sw2) = pts.iter().fold((0.0, 0.0), |(a, b), q| (a + q.1, b + q.3));
     let mu1 = pts.iter().map(|q| q.1 * q.0).sum::<f64>() / sw1;
     let mu2 = pts.iter().map(|q| q.3 * q.2).sum::<f64>() / sw2;
-    let var1 = pts.iter().map(|q| q.1 * ((q.0 - mu1) * (q.0 - mu1))).sum::<f64>() / sw1;
-    let var2 = pts.iter().map(|q| q.3 * ((q.2 - mu2) * (q.2 - mu2))).sum::<f64>() / sw2;
+    let var1 = pts
+        .iter()
+        .map(|q| q.1 * ((q.0 - mu1) * (q.0 - mu1)))
+        .sum::<f64>()
+        / sw1;
+    let var2 = pts
+        .iter()
+        .map(|q| q.3 * ((q.2 - mu2) * (q.2 - mu2)))
+        .sum::<f64>()
+        / sw2;
     let cov = pts
         .iter()
         .map(|q| q.1 * ((q.0 - mu1) * (q.2 - mu2)))
