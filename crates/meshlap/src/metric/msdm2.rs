@@ -145,7 +145,7 @@ impl<'a> Side<'a> {
         v: u32,
         r: f64,
         stack: &mut Vec<u32>,
-        seen: &mut Vec<u32>,
+        seen: &mut (Vec<u32>, Vec<bool>),
         mut inside: impl FnMut(u32),
         mut crossing: impl FnMut(u32, u32, f64),
         mut edge: impl FnMut(u32, f64),
@@ -153,9 +153,17 @@ impl<'a> Side<'a> {
         let o = self.pos[v as usize];
         let r2 = r * r;
         stack.clear();
-        seen.clear();
+        // Reset the flags of the previous ball (cheaper than clearing all of them).
+        for &w in &seen.0 {
+            seen.1[w as usize] = false;
+        }
+        seen.0.clear();
+        if seen.1.len() != self.pos.len() {
+            seen.1 = vec![false; self.pos.len()];
+        }
         stack.push(v);
-        seen.push(v);
+        seen.0.push(v);
+        seen.1[v as usize] = true;
         inside(v);
         while let Some(w) = stack.pop() {
             let pw = self.pos[w as usize];
@@ -172,8 +180,9 @@ impl<'a> Side<'a> {
                     if w < u {
                         edge(e, (pu - pw).length());
                     }
-                    if !seen.contains(&u) {
-                        seen.push(u);
+                    if !seen.1[u as usize] {
+                        seen.0.push(u);
+                        seen.1[u as usize] = true;
                         stack.push(u);
                         inside(u);
                     }
@@ -200,7 +209,7 @@ impl<'a> Side<'a> {
         (0..self.pos.len() as u32)
             .into_par_iter()
             .map_init(
-                || (Vec::new(), Vec::new()),
+                || (Vec::new(), (Vec::new(), Vec::new())),
                 |(stack, seen), v| {
                     let mut t = [[0.0; 3]; 3];
                     self.ball(
@@ -290,7 +299,7 @@ fn local(
         let ld: Vec<f64> = (0..x.pos.len() as u32)
             .into_par_iter()
             .map_init(
-                || (Vec::new(), Vec::new(), Vec::new()),
+                || (Vec::new(), (Vec::new(), Vec::new()), Vec::new()),
                 |(stack, seen, pts), v| {
                     // (c1, w1, c2, w2) per neighbourhood point.
                     pts.clear();
