@@ -144,14 +144,14 @@ impl<'a> Side<'a> {
         &self,
         v: u32,
         r: f64,
-        stack: &mut Vec<u32>,
-        seen: &mut (Vec<u32>, Vec<bool>),
+        scratch: &mut Scratch,
         mut inside: impl FnMut(u32),
         mut crossing: impl FnMut(u32, u32, f64),
         mut edge: impl FnMut(u32, f64),
     ) {
         let o = self.pos[v as usize];
         let r2 = r * r;
+        let Scratch { stack, seen } = scratch;
         stack.clear();
         // Reset the flags of the previous ball (cheaper than clearing all of them).
         for &w in &seen.0 {
@@ -208,31 +208,27 @@ impl<'a> Side<'a> {
         let area = std::f64::consts::PI * r * r;
         (0..self.pos.len() as u32)
             .into_par_iter()
-            .map_init(
-                || (Vec::new(), (Vec::new(), Vec::new())),
-                |(stack, seen), v| {
-                    let mut t = [[0.0; 3]; 3];
-                    self.ball(
-                        v,
-                        r,
-                        stack,
-                        seen,
-                        |_| {},
-                        |_, _, _| {},
-                        |e, len| {
-                            let (d, beta) = self.edge_shape[e as usize];
-                            let w = beta * len;
-                            for i in 0..3 {
-                                for j in i..3 {
-                                    t[i][j] += w * d[i] * d[j];
-                                }
+            .map_init(Scratch::default, |scratch, v| {
+                let mut t = [[0.0; 3]; 3];
+                self.ball(
+                    v,
+                    r,
+                    scratch,
+                    |_| {},
+                    |_, _, _| {},
+                    |e, len| {
+                        let (d, beta) = self.edge_shape[e as usize];
+                        let w = beta * len;
+                        for i in 0..3 {
+                            for j in i..3 {
+                                t[i][j] += w * d[i] * d[j];
                             }
-                        },
-                    );
-                    let (l, _) = sym3_eigen(t);
-                    scale * (l[0].abs() + l[1].abs()) / (2.0 * area)
-                },
-            )
+                        }
+                    },
+                );
+                let (l, _) = sym3_eigen(t);
+                scale * (l[0].abs() + l[1].abs()) / (2.0 * area)
+            })
             .collect()
     }
 
@@ -249,6 +245,14 @@ impl<'a> Side<'a> {
             })
             .collect()
     }
+}
+
+/// Per-thread work space of [`Side::ball`]: the traversal stack and the vertices
+/// seen (list, and a flag per vertex).
+#[derive(Default)]
+struct Scratch {
+    stack: Vec<u32>,
+    seen: (Vec<u32>, Vec<bool>),
 }
 
 /// Barycentric coordinates of `q` (a point of the triangle) in `[a, b, c]`; exact at
@@ -299,8 +303,8 @@ fn local(
         let ld: Vec<f64> = (0..x.pos.len() as u32)
             .into_par_iter()
             .map_init(
-                || (Vec::new(), (Vec::new(), Vec::new()), Vec::new()),
-                |(stack, seen, pts), v| {
+                || (Scratch::default(), Vec::new()),
+                |(scratch, pts), v| {
                     // (c1, w1, c2, w2) per neighbourhood point.
                     pts.clear();
                     let (o1, o2) = (x.pos[v as usize], m[v as usize].0);
@@ -314,8 +318,7 @@ fn local(
                     x.ball(
                         v,
                         h,
-                        stack,
-                        seen,
+                        scratch,
                         |w| inside.push(w),
                         |w, u, t| cross.push((w, u, t)),
                         |_, _| {},
@@ -397,7 +400,7 @@ pub fn msdm2(
         return Err(MetricError::Empty("test"));
     }
     let d = max_side(reference);
-    if !(d > 0.0) || !d.is_finite() {
+    if !d.is_finite() || d <= 0.0 {
         return Err(MetricError::Empty("reference"));
     }
     let a = Side::new(reference)?;

@@ -71,7 +71,7 @@ impl Quadric {
         let a = DMat3::from_cols_array(&[q[0], q[1], q[2], q[1], q[4], q[5], q[2], q[5], q[7]]);
         let scale = q[0].abs() + q[4].abs() + q[7].abs();
         let det = a.determinant();
-        if !(det.abs() > 1e-12 * scale * scale * scale) {
+        if det.is_nan() || det.abs() <= 1e-12 * scale * scale * scale {
             return None;
         }
         let x = a.inverse() * DVec3::new(-q[3], -q[6], -q[8]);
