@@ -282,6 +282,16 @@ pub(crate) fn mean_distance_to_centroid(p: &[[f64; 3]]) -> f64 {
         / p.len().max(1) as f64
 }
 
+/// Test helper: the report of `m`, checking that cleaning removes nothing (no
+/// unreferenced vertex, degenerate or duplicate face).
+#[cfg(test)]
+pub(crate) fn checked_report(m: &TriMesh) -> crate::mesh::clean::MeshReport {
+    use crate::mesh::clean::{clean, CleanOptions, MeshReport};
+    let (c, r) = clean(m, &CleanOptions::default()).unwrap();
+    assert_eq!((c.n_vertices(), c.n_faces()), (m.n_vertices(), m.n_faces()));
+    MeshReport::new(&c, &crate::mesh::topology::Topology::new(&c).unwrap(), &r)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

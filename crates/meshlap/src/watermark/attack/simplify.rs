@@ -363,15 +363,9 @@ pub fn simplify(mesh: &TriMesh, percent: f64) -> Result<TriMesh, AttackError> {
 
 #[cfg(test)]
 mod tests {
+    use super::super::checked_report as report;
     use super::*;
     use crate::mesh::builtin;
-    use crate::mesh::clean::{clean, CleanOptions, MeshReport};
-
-    fn report(m: &TriMesh) -> MeshReport {
-        let (c, r) = clean(m, &CleanOptions::default()).unwrap();
-        assert_eq!((c.n_vertices(), c.n_faces()), (m.n_vertices(), m.n_faces()));
-        MeshReport::new(&c, &Topology::new(&c).unwrap(), &r)
-    }
 
     #[test]
     fn removes_the_fraction_and_stays_a_closed_manifold() {

@@ -139,16 +139,9 @@ fn sqrt3_step(mesh: &TriMesh) -> Result<TriMesh, AttackError> {
 
 #[cfg(test)]
 mod tests {
+    use super::super::checked_report as report;
     use super::*;
     use crate::mesh::builtin;
-    use crate::mesh::clean::{clean, CleanOptions, MeshReport};
-
-    fn report(m: &TriMesh) -> MeshReport {
-        let (c, r) = clean(m, &CleanOptions::default()).unwrap();
-        assert_eq!(c.n_vertices(), m.n_vertices(), "no vertex dropped");
-        assert_eq!(c.n_faces(), m.n_faces(), "no face dropped");
-        MeshReport::new(&c, &Topology::new(&c).unwrap(), &r)
-    }
 
     #[test]
     fn vertex_and_face_counts_and_topology_are_right() {
