@@ -31,6 +31,8 @@
 //! - [`spectral`]: eigenvalue-decomposition (ED) transforms, the k smallest eigenpairs
 //!   at any size ([`spectral::smallest`]), partial spectra, extreme eigenvalues,
 //!   patch-wise reconstruction.
+//! - [`watermark`]: spectral mesh watermarking (Ohbuchi et al. 2001/2002) and the
+//!   attacks of the watermarking benchmark (Wang et al. 2010).
 //!
 //! `ARCHITECTURE.md` at the repository root maps the layers to the modules.
 //!
@@ -68,6 +70,7 @@ pub mod render;
 pub mod rng;
 pub mod solve;
 pub mod spectral;
+pub mod watermark;
 
 pub use error::{Error, Result};
 pub use mesh::{FaceId, TriMesh, VertexId};

@@ -1,0 +1,15 @@
+//! Spectral mesh watermarking after Ohbuchi, Takahashi, Miyazawa and Mukaiyama (GI 2001)
+//! and Ohbuchi, Mukaiyama and Takahashi (CGF 2002), the application of the
+//! eigenvalue-decomposition transforms that Zhang (2004, §4.9) names beside spectral
+//! compression: a bit stream is spread over the low-frequency spectral coefficients of
+//! a mesh (per METIS patch, the eigenvectors of a combinatorial Laplacian `F = D − W`,
+//! positive semi-definite) so that it survives attacks such as smoothing; detection is
+//! non-blind (registration against the original, resampling, correlation).
+//!
+//! - [`attack`]: the attacks of the 3D mesh watermarking benchmark of Wang, Lavoué,
+//!   Denis and Baskurt (SMI 2010) — noise, smoothing, quantization, similarity,
+//!   simplification, subdivision, cropping — and the benchmark's strengths.
+//!
+//! The imperceptibility metric MSDM2 is [`crate::metric::msdm2`].
+
+pub mod attack;
