@@ -22,7 +22,13 @@ const GENERATED: [&str; 7] = [
 /// `meshlap compare`'s measurement of `b` against `a` (same vertex order): whether
 /// the oriented face sets are identical, and the largest vertex error ÷ diagonal.
 fn same_faces_and_error(a: &TriMesh, b: &TriMesh) -> (bool, f64) {
-    let c = meshlap::metric::compare(a, b, None, 1000).unwrap();
+    let c = meshlap::metric::compare(
+        a,
+        b,
+        None,
+        &meshlap::metric::CompareOptions::without_msdm2(1000),
+    )
+    .unwrap();
     (c.same_connectivity, c.vertex_max.unwrap_or(f64::INFINITY))
 }
 

@@ -1,7 +1,8 @@
 //! `meshlap compare`.
 
-use crate::common::{print_json, MeshArgs};
+use crate::common::{opt, print_json, MeshArgs};
 use meshlap::io::Format;
+use meshlap::metric::CompareOptions;
 use std::path::PathBuf;
 
 /// Measure how far mesh B is from mesh A: RMS and maximum vertex error (when the
@@ -25,7 +26,7 @@ pub struct Args {
     #[arg(long)]
     pub map: Option<PathBuf>,
     /// Sample points per surface for the surface distance (besides the vertices).
-    #[arg(long, default_value_t = 200_000)]
+    #[arg(long, default_value_t = CompareOptions::default().samples)]
     pub samples: usize,
     /// Print machine-readable JSON.
     #[arg(long)]
@@ -51,7 +52,11 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
             })?)
         }
     };
-    let c = meshlap::metric::compare(&a.mesh, &b.mesh, map.as_deref(), args.samples)?;
+    let opts = CompareOptions {
+        samples: args.samples,
+        ..Default::default()
+    };
+    let c = meshlap::metric::compare(&a.mesh, &b.mesh, map.as_deref(), &opts)?;
     if args.json {
         return print_json(&c);
     }
@@ -74,6 +79,6 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
     println!("Hausdorff            {:.6e}", c.hausdorff);
     println!("Zhang SDL measure    {}", o(c.zhang_sdl));
     println!("Karni–Gotsman error  {}", o(c.karni_gotsman));
-    println!("MSDM2                {:.6e}", c.msdm2);
+    println!("MSDM2                {}", opt(c.msdm2));
     Ok(())
 }

@@ -265,7 +265,12 @@ impl Compressed {
         input: &TriMesh,
         samples: usize,
     ) -> Result<crate::metric::Comparison, crate::metric::MetricError> {
-        crate::metric::compare(input, &self.decoded, Some(&self.order), samples)
+        crate::metric::compare(
+            input,
+            &self.decoded,
+            Some(&self.order),
+            &crate::metric::CompareOptions::without_msdm2(samples),
+        )
     }
 }
 

@@ -186,8 +186,13 @@ pub fn rate_distortion(
                     },
                 )
                 .map_err(|e| err(e.into()))?;
-                let d = crate::metric::compare(&mesh, &c.decoded, Some(&c.order), opts.samples)
-                    .map_err(|e| err(e.into()))?;
+                let d = crate::metric::compare(
+                    &mesh,
+                    &c.decoded,
+                    Some(&c.order),
+                    &crate::metric::CompareOptions::without_msdm2(opts.samples),
+                )
+                .map_err(|e| err(e.into()))?;
                 out.push(RdPoint {
                     mesh: name.clone(),
                     coder: op.name().to_string(),

@@ -74,8 +74,9 @@ pub struct Comparison {
     /// Samples per surface.
     pub samples: usize,
     /// MSDM2 perceptual distance (Lavoué 2011, [`msdm2`]; published parameters;
-    /// works across connectivities).
-    pub msdm2: f64,
+    /// works across connectivities); `None` when not asked for
+    /// ([`CompareOptions::msdm2`]).
+    pub msdm2: Option<f64>,
 }
 
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
@@ -185,15 +186,45 @@ fn kg_laplacian(m: &TriMesh, topo: &Topology) -> Vec<[f64; 3]> {
         .collect()
 }
 
+/// What [`compare`] measures.
+#[derive(Clone, Copy, Debug)]
+pub struct CompareOptions {
+    /// Sample points per surface for the Metro distance (besides the vertices).
+    pub samples: usize,
+    /// Also compute MSDM2 (curvature statistics at three scales on both meshes: the
+    /// most expensive measure here; the codec's rate loops leave it out).
+    pub msdm2: bool,
+}
+
+impl Default for CompareOptions {
+    /// 200,000 samples and MSDM2, as `meshlap compare` reports.
+    fn default() -> Self {
+        Self {
+            samples: 200_000,
+            msdm2: true,
+        }
+    }
+}
+
+impl CompareOptions {
+    /// The surface and vertex measures only, with `samples` points per surface.
+    pub fn without_msdm2(samples: usize) -> Self {
+        Self {
+            samples,
+            msdm2: false,
+        }
+    }
+}
+
 /// Compares `a` (reference) and `b`. `map[i]`, if given, is the vertex of `a` that
-/// vertex `i` of `b` corresponds to (e.g. a codec's decoded order); `samples` points
-/// per surface for the surface distance.
+/// vertex `i` of `b` corresponds to (e.g. a codec's decoded order).
 pub fn compare(
     a: &TriMesh,
     b: &TriMesh,
     map: Option<&[u32]>,
-    samples: usize,
+    opts: &CompareOptions,
 ) -> Result<Comparison, MetricError> {
+    let samples = opts.samples;
     if a.faces.is_empty() {
         return Err(MetricError::Empty("A"));
     }
@@ -216,7 +247,11 @@ pub fn compare(
         zhang_sdl: None,
         karni_gotsman: None,
         samples,
-        msdm2: msdm2::msdm2(a, b, &msdm2::Msdm2Params::default())?,
+        msdm2: if opts.msdm2 {
+            Some(msdm2::msdm2(a, b, &msdm2::Msdm2Params::default())?)
+        } else {
+            None
+        },
     };
     let n = a.n_vertices();
     if b.n_vertices() != n {
@@ -294,11 +329,20 @@ mod tests {
     #[test]
     fn identical_meshes_have_zero_distance() {
         let m = builtin::from_spec("builtin:icosphere:2").unwrap();
-        let c = compare(&m, &m, None, 2000).unwrap();
+        let c = compare(
+            &m,
+            &m,
+            None,
+            &CompareOptions {
+                samples: 2000,
+                msdm2: true,
+            },
+        )
+        .unwrap();
         assert!(c.same_connectivity);
         assert!(c.hausdorff < 1e-12 && c.vertex_max.unwrap() == 0.0);
         assert!(c.zhang_sdl.unwrap() < 1e-20 && c.karni_gotsman.unwrap() < 1e-12);
-        assert_eq!(c.msdm2, 0.0);
+        assert_eq!(c.msdm2, Some(0.0));
     }
 
     #[test]
@@ -312,7 +356,16 @@ mod tests {
         for p in &mut h.positions {
             p[k] += off;
         }
-        let c = compare(&g, &h, None, 4000).unwrap();
+        let c = compare(
+            &g,
+            &h,
+            None,
+            &CompareOptions {
+                samples: 4000,
+                msdm2: true,
+            },
+        )
+        .unwrap();
         let d = off / c.diagonal;
         assert!((c.hausdorff - d).abs() < 1e-9 && (c.a_to_b_rms - d).abs() < 1e-9);
         assert!((c.vertex_rms.unwrap() - d).abs() < 1e-12);
@@ -322,7 +375,16 @@ mod tests {
         for p in &mut t.positions {
             *p = p.map(|x| 1.1 * x);
         }
-        let c = compare(&s, &t, None, 4000).unwrap();
+        let c = compare(
+            &s,
+            &t,
+            None,
+            &CompareOptions {
+                samples: 4000,
+                msdm2: true,
+            },
+        )
+        .unwrap();
         let r = norm(s.positions[0]);
         assert!((c.vertex_max.unwrap() * c.diagonal - 0.1 * r).abs() < 1e-9);
         // Inner to outer polyhedron: 0.1 × the distance of the point's face plane from
@@ -354,9 +416,27 @@ mod tests {
             map.iter().map(|&v| m.positions[v as usize]).collect(),
             m.faces.iter().map(|f| f.map(|v| inv[v as usize])).collect(),
         );
-        let c = compare(&m, &b, Some(&map), 1000).unwrap();
+        let c = compare(
+            &m,
+            &b,
+            Some(&map),
+            &CompareOptions {
+                samples: 1000,
+                msdm2: true,
+            },
+        )
+        .unwrap();
         assert!(c.same_connectivity && c.vertex_max.unwrap() == 0.0);
-        let c = compare(&m, &b, None, 1000).unwrap();
+        let c = compare(
+            &m,
+            &b,
+            None,
+            &CompareOptions {
+                samples: 1000,
+                msdm2: true,
+            },
+        )
+        .unwrap();
         assert!(!c.same_connectivity && c.hausdorff < 1e-12);
     }
 }
