@@ -45,6 +45,7 @@ enum Command {
     Compaction(cmd::compaction::Args),
     Render(cmd::render::Args),
     Experiment(cmd::experiment::Args),
+    Watermark(cmd::watermark::Args),
 }
 
 fn main() {
@@ -79,6 +80,7 @@ fn main() {
         Command::Compaction(a) => cmd::compaction::run(a),
         Command::Render(a) => cmd::render::run(a),
         Command::Experiment(a) => cmd::experiment::run(a),
+        Command::Watermark(a) => cmd::watermark::run(a),
     };
     if let Err(e) = result {
         let msg = e.to_string().replace('\n', " ");

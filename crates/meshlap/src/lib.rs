@@ -64,6 +64,7 @@ pub mod render;
 pub mod rng;
 pub mod solve;
 pub mod spectral;
+pub mod watermark;
 
 pub use error::{Error, Result};
 pub use mesh::{FaceId, TriMesh, VertexId};

@@ -16,3 +16,4 @@ pub mod render;
 pub mod repair;
 pub mod smooth;
 pub mod spectrum;
+pub mod watermark;
