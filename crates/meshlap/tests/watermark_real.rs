@@ -1,0 +1,195 @@
+//! Watermark embedding and detection on real meshes: the cow round trip (zero errors,
+//! wrong key and unmarked mesh rejected) and robustness to simple perturbations
+//! written here (noise, umbrella smoothing, quantization, midpoint subdivision,
+//! cropping). The benchmark attacks themselves are run by `meshlap experiment
+//! watermark`. `WM_SWEEP=1 cargo test -p meshlap --test watermark_real sweep -- --ignored
+//! --nocapture` prints the parameter sweep recorded in BENCHMARKS.md.
+
+mod common;
+use common::{data, load, shared};
+use meshlap::mesh::{builtin, TriMesh};
+use meshlap::rng::SplitMix64;
+use meshlap::watermark::{embed, DetectParams, Detector, EmbedParams, LayoutParams, Message};
+
+const MSG: &str = "c0ffee15deadbeef";
+
+fn noise(m: &TriMesh, percent: f64, seed: u64) -> TriMesh {
+    let n = m.positions.len() as f64;
+    let c: [f64; 3] = std::array::from_fn(|k| m.positions.iter().map(|p| p[k]).sum::<f64>() / n);
+    let mean = m
+        .positions
+        .iter()
+        .map(|p| (0..3).map(|k| (p[k] - c[k]).powi(2)).sum::<f64>().sqrt())
+        .sum::<f64>()
+        / n;
+    let a = percent / 100.0 * mean;
+    let mut g = SplitMix64::new(seed);
+    let mut out = m.clone();
+    for p in &mut out.positions {
+        for v in p.iter_mut() {
+            *v += a * g.next_signed();
+        }
+    }
+    out
+}
+
+fn smooth(m: &TriMesh, iterations: usize, lambda: f64) -> TriMesh {
+    let topo = meshlap::mesh::topology::Topology::new(m).unwrap();
+    let mut x = m.positions.clone();
+    for _ in 0..iterations {
+        let prev = x.clone();
+        for (i, p) in x.iter_mut().enumerate() {
+            let nb = topo.neighbors(meshlap::VertexId(i as u32));
+            let mut c = [0.0; 3];
+            for &j in nb {
+                for k in 0..3 {
+                    c[k] += prev[j as usize][k] / nb.len() as f64;
+                }
+            }
+            for k in 0..3 {
+                p[k] += lambda * (c[k] - prev[i][k]);
+            }
+        }
+    }
+    TriMesh::new(x, m.faces.clone())
+}
+
+fn quantize(m: &TriMesh, bits: u32) -> TriMesh {
+    let (lo, hi) = m.bounding_box().unwrap();
+    let steps = (1u64 << bits) as f64 - 1.0;
+    let mut out = m.clone();
+    for p in &mut out.positions {
+        for k in 0..3 {
+            let s = (hi[k] - lo[k]) / steps;
+            p[k] = lo[k] + ((p[k] - lo[k]) / s).round() * s;
+        }
+    }
+    out
+}
+
+/// Drops the `percent` % of vertices with the largest x (and their faces).
+fn crop(m: &TriMesh, percent: f64) -> TriMesh {
+    let mut xs: Vec<f64> = m.positions.iter().map(|p| p[0]).collect();
+    xs.sort_by(f64::total_cmp);
+    let cut = xs[((1.0 - percent / 100.0) * (xs.len() - 1) as f64) as usize];
+    let faces = m
+        .faces
+        .iter()
+        .copied()
+        .filter(|f| f.iter().all(|&v| m.positions[v as usize][0] <= cut))
+        .collect();
+    meshlap::mesh::clean::clean(&TriMesh::new(m.positions.clone(), faces), &Default::default())
+        .unwrap()
+        .0
+}
+
+fn params(layout: LayoutParams) -> DetectParams {
+    DetectParams {
+        layout,
+        expect: Some(Message::from_hex(MSG).unwrap()),
+        ..DetectParams::new(7, 64)
+    }
+}
+
+#[test]
+fn cow_round_trip_wrong_key_unmarked_and_perturbations() {
+    let cow = load(&data("cow.obj")).mesh;
+    let layout = LayoutParams {
+        patch_size: 500,
+        ..Default::default()
+    };
+    let ep = EmbedParams {
+        layout,
+        ..EmbedParams::new(7, Message::from_hex(MSG).unwrap())
+    };
+    let (marked, rep) = embed(&cow, &ep).unwrap();
+    assert!(rep.mrms <= 1.5e-4);
+    let det = Detector::new(&cow, &params(layout)).unwrap();
+    let d = det.detect(&marked).unwrap();
+    assert!(d.found);
+    assert_eq!(d.message.as_deref(), Some(MSG));
+    assert!(d.false_positive_probability < 1e-6);
+    for key in [8, 9, 1 << 40] {
+        let w = det.with_key(key).detect(&marked).unwrap();
+        assert!(!w.found, "key {key}: {}", w.false_positive_probability);
+        assert!(w.message.is_none());
+    }
+    let unmarked = det.detect(&noise(&cow, 0.1, 1)).unwrap();
+    assert!(!unmarked.found, "{}", unmarked.false_positive_probability);
+    for (what, s) in [
+        ("noise 0.1 %", noise(&marked, 0.1, 2)),
+        ("smooth 10", smooth(&marked, 10, 0.1)),
+        ("quantize 10", quantize(&marked, 10)),
+        ("midpoint", builtin::subdivide_midpoint(&marked).unwrap()),
+    ] {
+        let d = det.detect(&s).unwrap();
+        assert!(d.found, "{what}: {}", d.false_positive_probability);
+        assert_eq!(d.bit_errors, Some(0), "{what}");
+    }
+}
+
+/// The parameter sweep of BENCHMARKS.md (slow: run on demand).
+#[test]
+#[ignore]
+fn sweep() {
+    let meshes: Vec<String> = std::env::var("WM_MESHES")
+        .unwrap_or_else(|_| "stanford-bunny.obj".into())
+        .split(',')
+        .map(String::from)
+        .collect();
+    let configs: Vec<(usize, usize, f64)> = std::env::var("WM_CONFIGS")
+        .unwrap_or_else(|_| "1000:24:1.2e-4".into())
+        .split(',')
+        .map(|c| {
+            let v: Vec<&str> = c.split(':').collect();
+            (v[0].parse().unwrap(), v[1].parse().unwrap(), v[2].parse().unwrap())
+        })
+        .collect();
+    let op: meshlap::operator::OperatorKind = std::env::var("WM_OP").unwrap_or("kirchhoff".into()).parse().unwrap();
+    for name in &meshes {
+        let m = load(&shared(name)).mesh;
+        for &(patch_size, band, strength) in &configs {
+            let layout = LayoutParams {
+                operator: op,
+                patch_size,
+                band,
+                chip_rate: None,
+            };
+            let t = std::time::Instant::now();
+            let ep = EmbedParams {
+                layout,
+                strength,
+                ..EmbedParams::new(7, Message::from_hex(MSG).unwrap())
+            };
+            let (marked, rep) = embed(&m, &ep).unwrap();
+            let det = Detector::new(&m, &params(layout)).unwrap();
+            let mut row = format!(
+                "{name} {op} P={patch_size} band={band} s={strength:.1e} c={} embed {:.1}s",
+                rep.coefficients_per_bit,
+                t.elapsed().as_secs_f64()
+            );
+            let attacks: Vec<(&str, TriMesh)> = vec![
+                ("none", marked.clone()),
+                ("noise0.3", noise(&marked, 0.3, 2)),
+                ("noise0.5", noise(&marked, 0.5, 2)),
+                ("smooth30", smooth(&marked, 30, 0.1)),
+                ("smooth50", smooth(&marked, 50, 0.1)),
+                ("quant8", quantize(&marked, 8)),
+                ("quant7", quantize(&marked, 7)),
+                ("midpoint", builtin::subdivide_midpoint(&marked).unwrap()),
+                ("crop10", crop(&marked, 10.0)),
+                ("crop50", crop(&marked, 50.0)),
+            ];
+            for (what, s) in attacks {
+                let d = det.detect(&s).unwrap();
+                row += &format!(
+                    " | {what} {} {:.0}",
+                    d.bit_errors.unwrap(),
+                    d.false_positive_log10
+                );
+            }
+            row += &format!(" | wrongkey {:.1}", det.with_key(99).detect(&marked).unwrap().false_positive_log10);
+            println!("{row}");
+        }
+    }
+}
