@@ -55,6 +55,9 @@ pub enum Error {
     #[cfg(feature = "experiments")]
     #[error(transparent)]
     Experiment(#[from] crate::experiment::ExperimentError),
+    /// A watermarking attack could not run.
+    #[error(transparent)]
+    Attack(#[from] crate::watermark::attack::AttackError),
     /// A user-supplied argument is invalid.
     #[error("{0}")]
     InvalidArgument(String),

@@ -30,6 +30,8 @@
 //!   the patch-wise transforms, the codec and watermarking).
 //! - [`spectral`]: eigenvalue-decomposition (ED) transforms, partial spectra, patch-wise
 //!   reconstruction.
+//! - [`watermark`]: spectral mesh watermarking (Ohbuchi et al. 2001/2002) and the
+//!   attacks of the watermarking benchmark (Wang et al. 2010).
 //!
 //! ## Features
 //! - `pictures`: [`raster`], [`plot`] and [`render`] (dependencies plotters, png,

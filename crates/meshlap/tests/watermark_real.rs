@@ -78,9 +78,12 @@ fn crop(m: &TriMesh, percent: f64) -> TriMesh {
         .copied()
         .filter(|f| f.iter().all(|&v| m.positions[v as usize][0] <= cut))
         .collect();
-    meshlap::mesh::clean::clean(&TriMesh::new(m.positions.clone(), faces), &Default::default())
-        .unwrap()
-        .0
+    meshlap::mesh::clean::clean(
+        &TriMesh::new(m.positions.clone(), faces),
+        &Default::default(),
+    )
+    .unwrap()
+    .0
 }
 
 fn params(layout: LayoutParams) -> DetectParams {
@@ -142,10 +145,17 @@ fn sweep() {
         .split(',')
         .map(|c| {
             let v: Vec<&str> = c.split(':').collect();
-            (v[0].parse().unwrap(), v[1].parse().unwrap(), v[2].parse().unwrap())
+            (
+                v[0].parse().unwrap(),
+                v[1].parse().unwrap(),
+                v[2].parse().unwrap(),
+            )
         })
         .collect();
-    let op: meshlap::operator::OperatorKind = std::env::var("WM_OP").unwrap_or("kirchhoff".into()).parse().unwrap();
+    let op: meshlap::operator::OperatorKind = std::env::var("WM_OP")
+        .unwrap_or("kirchhoff".into())
+        .parse()
+        .unwrap();
     for name in &meshes {
         let m = load(&shared(name)).mesh;
         for &(patch_size, band, strength) in &configs {
@@ -181,14 +191,22 @@ fn sweep() {
                 ("crop50", crop(&marked, 50.0)),
             ];
             for (what, s) in attacks {
-                let d = det.detect(&s).unwrap();
-                row += &format!(
-                    " | {what} {} {:.0}",
-                    d.bit_errors.unwrap(),
-                    d.false_positive_log10
-                );
+                row += &match det.detect(&s) {
+                    Ok(d) => format!(
+                        " | {what} {} {:.0}",
+                        d.bit_errors.unwrap(),
+                        d.false_positive_log10
+                    ),
+                    Err(e) => format!(" | {what} error: {e}"),
+                };
             }
-            row += &format!(" | wrongkey {:.1}", det.with_key(99).detect(&marked).unwrap().false_positive_log10);
+            row += &format!(
+                " | wrongkey {:.1}",
+                det.with_key(99)
+                    .detect(&marked)
+                    .unwrap()
+                    .false_positive_log10
+            );
             println!("{row}");
         }
     }

@@ -8,7 +8,8 @@ use std::path::PathBuf;
 /// vertex counts match; `--map` gives B's vertex order), Metro-style symmetric surface
 /// distance by area-uniform sampling and a BVH (works for any vertex order), Zhang's
 /// scale-dependent-Laplacian measure (§4.9) and Karni–Gotsman's geometric-Laplacian
-/// error. Distances are divided by A's bounding-box diagonal. Reports whether the
+/// error, and the MSDM2 perceptual distance (Lavoué 2011; any connectivity).
+/// Distances are divided by A's bounding-box diagonal. Reports whether the
 /// connectivity is identical.
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -73,5 +74,6 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
     println!("Hausdorff            {:.6e}", c.hausdorff);
     println!("Zhang SDL measure    {}", o(c.zhang_sdl));
     println!("Karni–Gotsman error  {}", o(c.karni_gotsman));
+    println!("MSDM2                {:.6e}", c.msdm2);
     Ok(())
 }

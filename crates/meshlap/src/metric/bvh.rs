@@ -162,9 +162,18 @@ impl Bvh {
     /// The closest point of the mesh to `p` and its squared distance (infinite for
     /// a mesh without triangles).
     pub fn closest(&self, p: &[f64; 3]) -> ([f64; 3], f64) {
+        let (_, q, d) = self.closest_face(p);
+        (q, d)
+    }
+
+    /// Like [`Bvh::closest`], also returning the index of the face (in the mesh's face
+    /// order) the closest point lies on: `(face, point, squared distance)`; face 0 and
+    /// an infinite distance for a mesh without triangles.
+    pub fn closest_face(&self, p: &[f64; 3]) -> (usize, [f64; 3], f64) {
         let mut best = ([0.0; 3], f64::INFINITY);
+        let mut face = 0;
         if self.tris.is_empty() {
-            return best;
+            return (face, best.0, best.1);
         }
         let mut stack = vec![0u32];
         while let Some(ni) = stack.pop() {
@@ -179,6 +188,7 @@ impl Bvh {
                     let d = dot(sub(*p, q), sub(*p, q));
                     if d < best.1 {
                         best = (q, d);
+                        face = t as usize;
                     }
                 }
             } else {
@@ -194,7 +204,7 @@ impl Bvh {
                 }
             }
         }
-        best
+        (face, best.0, best.1)
     }
 }
 

@@ -14,8 +14,12 @@
 //!   `½(‖a − b‖ + ‖GL(a) − GL(b)‖)/‖a − ā‖` (Frobenius norms over all vertices,
 //!   `GL(v)_i = v_i − Σ_j l_ij⁻¹ v_j / Σ_j l_ij⁻¹`, `ā` the centroid; KG normalise by
 //!   the model size in a similar way).
+//! * MSDM2 (Lavoué, SGP 2011): a multiscale perceptual distance from local curvature
+//!   statistics, for meshes of any connectivity ([`msdm2`]).
 
 pub mod bvh;
+pub mod msdm2;
+pub mod sym3;
 
 use crate::mesh::topology::Topology;
 use crate::mesh::TriMesh;
@@ -66,6 +70,9 @@ pub struct Comparison {
     pub karni_gotsman: Option<f64>,
     /// Samples per surface.
     pub samples: usize,
+    /// MSDM2 perceptual distance (Lavoué 2011, [`msdm2`]; published parameters;
+    /// works across connectivities).
+    pub msdm2: f64,
 }
 
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
@@ -204,6 +211,7 @@ pub fn compare(
         zhang_sdl: None,
         karni_gotsman: None,
         samples,
+        msdm2: msdm2::msdm2(a, b, &msdm2::Msdm2Params::default())?,
     };
     let n = a.n_vertices();
     if b.n_vertices() != n {
@@ -287,6 +295,7 @@ mod tests {
         assert!(c.same_connectivity);
         assert!(c.hausdorff < 1e-12 && c.vertex_max.unwrap() == 0.0);
         assert!(c.zhang_sdl.unwrap() < 1e-20 && c.karni_gotsman.unwrap() < 1e-12);
+        assert_eq!(c.msdm2, 0.0);
     }
 
     #[test]

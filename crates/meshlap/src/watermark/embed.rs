@@ -35,6 +35,8 @@ pub struct EmbedParams {
     pub strength: f64,
     /// Operator, patches, band and chip rate (detection must use the same).
     pub layout: LayoutParams,
+    /// Measure MSDM2 between the original and the marked mesh (the report's `msdm2`).
+    pub measure_msdm2: bool,
 }
 
 /// Default strength: MRMS 1.2e-4 of the diagonal (below the goal 1.5e-4; chosen
@@ -49,6 +51,7 @@ impl EmbedParams {
             message,
             strength: DEFAULT_STRENGTH,
             layout: LayoutParams::default(),
+            measure_msdm2: true,
         }
     }
 }
@@ -70,7 +73,8 @@ pub struct EmbedReport {
     pub mrms: f64,
     /// Largest vertex displacement (mesh units).
     pub max_displacement: f64,
-    /// MSDM2 between the original and the marked mesh (Lavoué 2011), when computed.
+    /// MSDM2 between the original and the marked mesh (Lavoué 2011,
+    /// [`crate::metric::msdm2`] with its published parameters), when measured.
     pub msdm2: Option<f64>,
     /// The layout used.
     pub layout: LayoutParams,
@@ -132,6 +136,15 @@ pub fn embed(
         max_d2 = max_d2.max(d2);
         sum_d2 += d2;
     }
+    let msdm2 = if params.measure_msdm2 {
+        Some(crate::metric::msdm2::msdm2(
+            mesh,
+            &marked,
+            &crate::metric::msdm2::Msdm2Params::default(),
+        )?)
+    } else {
+        None
+    };
     let report = EmbedReport {
         bits: bits.len(),
         patches: layout.patches.len(),
@@ -140,7 +153,7 @@ pub fn embed(
         alpha,
         mrms: (sum_d2 / n as f64).sqrt() / diag,
         max_displacement: max_d2.sqrt(),
-        msdm2: None,
+        msdm2,
         layout: params.layout,
         seconds: start.elapsed().as_secs_f64(),
     };

@@ -61,6 +61,9 @@ pub enum WatermarkError {
     /// with it (or a registration parameter is invalid).
     #[error("registration: {0}")]
     Registration(#[from] RegisterError),
+    /// MSDM2 of the marked mesh could not be measured.
+    #[error("msdm2: {0}")]
+    Metric(#[from] crate::metric::MetricError),
     /// The registered suspect could not be resampled onto the original.
     #[error("resampling: {0}")]
     Resample(#[from] ResampleError),

@@ -1,13 +1,24 @@
-//! Spectral mesh watermarking (Ohbuchi, Takahashi, Miyazawa, Mukaiyama, GI 2001;
-//! Ohbuchi, Mukaiyama, Takahashi, CGF 2002; Zhang 2004 §4.9): a bit string is spread
-//! by a keyed ±1 sequence over the low-frequency coefficients of the patch-wise
-//! ED-transform of a combinatorial Laplacian (`F = D − W`, positive semi-definite).
+//! Spectral mesh watermarking after Ohbuchi, Takahashi, Miyazawa and Mukaiyama (GI 2001)
+//! and Ohbuchi, Mukaiyama and Takahashi (CGF 2002), the application of the
+//! eigenvalue-decomposition transforms that Zhang (2004, §4.9) names beside spectral
+//! compression: a bit stream is spread over the low-frequency spectral coefficients of
+//! a mesh (per METIS patch, the eigenvectors of a combinatorial Laplacian `F = D − W`,
+//! positive semi-definite) so that it survives attacks such as smoothing; detection is
+//! non-blind (registration against the original, resampling, correlation).
 //!
-//! - [`embed()`] / [`detect()`]: embedding and non-blind detection with a rigorous
-//!   false-positive probability; [`layout`] (patches, bases, slots), [`key`] (chips and
-//!   permutation), [`message`] (hex ↔ bits), [`register`] (similarity registration),
-//!   [`resample`] (onto the original's connectivity).
+//! - [`attack`]: the attacks of the 3D mesh watermarking benchmark of Wang, Lavoué,
+//!   Denis and Baskurt (SMI 2010) — noise, smoothing, quantization, similarity,
+//!   simplification, subdivision, cropping — and the benchmark's strengths.
+//!
+//! - [`embed()`] / [`detect()`] ([`Detector`] for many suspects): embedding and
+//!   non-blind detection with a rigorous false-positive probability; [`layout`]
+//!   (patches, bases, slots), [`key`] (chips and permutation), [`message`] (hex ↔ bits),
+//!   [`register`] (similarity registration), [`resample`] (onto the original's
+//!   connectivity).
+//!
+//! The imperceptibility metric MSDM2 is [`crate::metric::msdm2`].
 
+pub mod attack;
 pub mod detect;
 pub mod embed;
 mod error;

@@ -14,7 +14,8 @@
 //!   area-weighted centroids and second moments of both surfaces, the scale
 //!   `√(tr C_original / tr C_suspect)` and the 24 proper rotations mapping the
 //!   suspect's axes to the original's (every sign and order of the axes, since
-//!   principal axes are defined only up to these). Each start runs a few ICP steps on
+//!   principal axes are defined only up to these), and the identity (most attacks do
+//!   not move the mesh; a cropped part has other axes than the whole). Each start runs a few ICP steps on
 //!   a small sample of suspect vertices; the best one continues to convergence on a
 //!   larger sample. Each step takes the closest point of the original's surface to
 //!   every transformed sample point ([`crate::metric::bvh::Bvh`]), drops the pairs
@@ -470,6 +471,18 @@ pub fn register(
             if best.as_ref().is_none_or(|b| rms < b.1) {
                 best = Some((t, rms));
             }
+        }
+        // The identity too: most attacks do not move the mesh, and a part of it
+        // (cropping) has other principal axes than the whole.
+        let (t, rms, _) = icp(
+            &few,
+            &bvh,
+            Similarity::identity(),
+            params.start_iterations,
+            params,
+        );
+        if best.as_ref().is_none_or(|b| rms < b.1) {
+            best = Some((t, rms));
         }
         let (start, _) = best.ok_or(RegisterError::Degenerate { which: "suspect" })?;
         let many = sample(suspect, params.samples, params.seed ^ 1);

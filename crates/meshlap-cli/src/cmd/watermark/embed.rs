@@ -83,6 +83,7 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         message,
         strength: args.strength,
         layout: args.layout.params(),
+        measure_msdm2: true,
     };
     let (marked, report) = embed(&input.mesh, &params)?;
     write_mesh(&args.output, &marked, &WriteOptions::default())?;
