@@ -101,12 +101,16 @@ fn cow_round_trip_wrong_key_unmarked_and_perturbations() {
         patch_size: 500,
         ..Default::default()
     };
+    // cow.obj has 2,903 vertices, too few for 64 bits at the default strength (the
+    // detection's SNR grows as √n at a fixed MRMS): test its robustness at 3e-4.
     let ep = EmbedParams {
         layout,
+        strength: 3e-4,
         ..EmbedParams::new(7, Message::from_hex(MSG).unwrap())
     };
     let (marked, rep) = embed(&cow, &ep).unwrap();
-    assert!(rep.mrms <= 1.5e-4);
+    assert!((rep.mrms - 3e-4).abs() < 1e-12);
+    assert!(rep.msdm2.is_some_and(|m| m > 0.0 && m < 0.1));
     let det = Detector::new(&cow, &params(layout)).unwrap();
     let d = det.detect(&marked).unwrap();
     assert!(d.found);
