@@ -1,89 +1,31 @@
 //! Watermark embedding and detection on real meshes: the cow round trip (zero errors,
-//! wrong key and unmarked mesh rejected) and robustness to simple perturbations
-//! written here (noise, umbrella smoothing, quantization, midpoint subdivision,
-//! cropping). The benchmark attacks themselves are run by `meshlap experiment
-//! watermark`. `WM_SWEEP=1 cargo test -p meshlap --test watermark_real sweep -- --ignored
+//! wrong key and unmarked mesh rejected) and robustness to the benchmark's attacks
+//! ([`meshlap::watermark::attack`]; all of them at every level are run by `meshlap
+//! experiment watermark`). `WM_SWEEP=1 cargo test -p meshlap --test watermark_real sweep -- --ignored
 //! --nocapture` prints the parameter sweep recorded in BENCHMARKS.md.
 
 mod common;
 use common::{data, load, shared};
 use meshlap::mesh::{builtin, TriMesh};
-use meshlap::rng::SplitMix64;
+use meshlap::watermark::attack::{attack, AttackKind, AttackOptions};
 use meshlap::watermark::{embed, DetectParams, Detector, EmbedParams, LayoutParams, Message};
 
 const MSG: &str = "c0ffee15deadbeef";
 
-fn noise(m: &TriMesh, percent: f64, seed: u64) -> TriMesh {
-    let n = m.positions.len() as f64;
-    let c: [f64; 3] = std::array::from_fn(|k| m.positions.iter().map(|p| p[k]).sum::<f64>() / n);
-    let mean = m
-        .positions
-        .iter()
-        .map(|p| (0..3).map(|k| (p[k] - c[k]).powi(2)).sum::<f64>().sqrt())
-        .sum::<f64>()
-        / n;
-    let a = percent / 100.0 * mean;
-    let mut g = SplitMix64::new(seed);
-    let mut out = m.clone();
-    for p in &mut out.positions {
-        for v in p.iter_mut() {
-            *v += a * g.next_signed();
-        }
-    }
-    out
+fn attacked(m: &TriMesh, kind: AttackKind, amount: f64) -> TriMesh {
+    attack(m, &AttackOptions::new(kind, amount)).unwrap()
 }
-
-fn smooth(m: &TriMesh, iterations: usize, lambda: f64) -> TriMesh {
-    let topo = meshlap::mesh::topology::Topology::new(m).unwrap();
-    let mut x = m.positions.clone();
-    for _ in 0..iterations {
-        let prev = x.clone();
-        for (i, p) in x.iter_mut().enumerate() {
-            let nb = topo.neighbors(meshlap::VertexId(i as u32));
-            let mut c = [0.0; 3];
-            for &j in nb {
-                for k in 0..3 {
-                    c[k] += prev[j as usize][k] / nb.len() as f64;
-                }
-            }
-            for k in 0..3 {
-                p[k] += lambda * (c[k] - prev[i][k]);
-            }
-        }
-    }
-    TriMesh::new(x, m.faces.clone())
+fn noise(m: &TriMesh, percent: f64, _seed: u64) -> TriMesh {
+    attacked(m, AttackKind::Noise, percent)
 }
-
+fn smooth(m: &TriMesh, iterations: usize, _lambda: f64) -> TriMesh {
+    attacked(m, AttackKind::Smooth, iterations as f64)
+}
 fn quantize(m: &TriMesh, bits: u32) -> TriMesh {
-    let (lo, hi) = m.bounding_box().unwrap();
-    let steps = (1u64 << bits) as f64 - 1.0;
-    let mut out = m.clone();
-    for p in &mut out.positions {
-        for k in 0..3 {
-            let s = (hi[k] - lo[k]) / steps;
-            p[k] = lo[k] + ((p[k] - lo[k]) / s).round() * s;
-        }
-    }
-    out
+    attacked(m, AttackKind::Quantize, bits as f64)
 }
-
-/// Drops the `percent` % of vertices with the largest x (and their faces).
 fn crop(m: &TriMesh, percent: f64) -> TriMesh {
-    let mut xs: Vec<f64> = m.positions.iter().map(|p| p[0]).collect();
-    xs.sort_by(f64::total_cmp);
-    let cut = xs[((1.0 - percent / 100.0) * (xs.len() - 1) as f64) as usize];
-    let faces = m
-        .faces
-        .iter()
-        .copied()
-        .filter(|f| f.iter().all(|&v| m.positions[v as usize][0] <= cut))
-        .collect();
-    meshlap::mesh::clean::clean(
-        &TriMesh::new(m.positions.clone(), faces),
-        &Default::default(),
-    )
-    .unwrap()
-    .0
+    attacked(m, AttackKind::Crop, percent)
 }
 
 fn params(layout: LayoutParams) -> DetectParams {
