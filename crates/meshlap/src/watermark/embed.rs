@@ -39,8 +39,8 @@ pub struct EmbedParams {
     pub measure_msdm2: bool,
 }
 
-/// Default strength: MRMS 1.2e-4 of the diagonal (below the goal 1.5e-4; chosen
-/// from the sweep in BENCHMARKS.md).
+/// Default strength: MRMS 1.2e-4 of the diagonal (20 % below the goal of 1.5e-4;
+/// measured in BENCHMARKS.md).
 pub const DEFAULT_STRENGTH: f64 = 1.2e-4;
 
 impl EmbedParams {
