@@ -31,6 +31,9 @@ pub enum Error {
     /// Compression or decompression failed.
     #[error(transparent)]
     Codec(#[from] crate::codec::CodecError),
+    /// Watermark embedding or detection failed.
+    #[error(transparent)]
+    Watermark(#[from] crate::watermark::WatermarkError),
     /// A distortion metric could not be computed.
     #[error(transparent)]
     Metric(#[from] crate::metric::MetricError),

@@ -89,8 +89,9 @@ impl Plan {
     }
 }
 
-/// Runs claims, figures, eigen-cost, fairing and compression into
-/// `opts.out/{claims,figures,eigen-cost,fairing,compression}` and writes
+/// Runs claims, figures, eigen-cost, fairing, compression and watermark (always its
+/// quick settings) into
+/// `opts.out/{claims,figures,eigen-cost,fairing,compression,watermark}` and writes
 /// `opts.out/README.md`; a [`Progress::Experiment`] precedes each.
 pub fn run(opts: &AllOptions, progress: &mut ProgressFn) -> Result<Vec<Done>, ExperimentError> {
     let plan = Plan::new(opts);
@@ -137,6 +138,15 @@ pub fn run(opts: &AllOptions, progress: &mut ProgressFn) -> Result<Vec<Done>, Ex
         "§4.9: spectral compression per operator",
         "compression",
         &mut |out, p| super::compression::run(&plan.compression, out, p).map(drop),
+    )?;
+    step(
+        "§4.9: spectral watermarking under the benchmark attacks (quick settings)",
+        "watermark",
+        &mut |out, p| {
+            // Always the quick settings: the full run (bunny, horse, Igea, four
+            // operators) is `meshlap experiment watermark`.
+            super::watermark::run(&super::watermark::WatermarkOptions::quick(), out, p).map(drop)
+        },
     )?;
     write_index(opts, &done)?;
     Ok(done)

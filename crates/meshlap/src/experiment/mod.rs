@@ -15,6 +15,8 @@
 //! - [`eigen_cost`]: §4.9 — the cost of the ED-transform per operator (Fig. 3) and the
 //!   energy compaction of SSTL, SQL, TL, KL on smooth and sharp models.
 //! - [`fairing`]: §4.10, Table 1 — CG on the SQL vs BiCG on the TL for implicit fairing.
+//! - [`watermark`]: spectral watermarking (Ohbuchi et al. 2001/2002) under the
+//!   benchmark attacks, per operator.
 //! - [`all`]: every experiment into one directory, with an index.
 //!
 //! Only built with the `experiments` feature. Every operator uses the paper's sign
@@ -30,6 +32,7 @@ pub mod meshes;
 mod outputs;
 mod progress;
 mod table;
+pub mod watermark;
 
 pub use meshes::{short_name, DEFAULT_MESH_DIR};
 pub use outputs::Outputs;

@@ -10,6 +10,29 @@
 //!   Denis and Baskurt (SMI 2010) — noise, smoothing, quantization, similarity,
 //!   simplification, subdivision, cropping — and the benchmark's strengths.
 //!
+//! - [`embed()`] / [`detect()`] ([`Detector`] for many suspects): embedding and
+//!   non-blind detection with a rigorous false-positive probability; [`layout`]
+//!   (patches, bases, slots), [`key`] (chips and permutation), [`message`] (hex ↔ bits),
+//!   [`register`] (similarity registration), [`resample`] (onto the original's
+//!   connectivity).
+//!
 //! The imperceptibility metric MSDM2 is [`crate::metric::msdm2`].
 
 pub mod attack;
+pub mod detect;
+pub mod embed;
+mod error;
+pub mod key;
+pub mod layout;
+pub mod message;
+pub mod register;
+pub mod resample;
+
+pub use detect::{detect, DetectParams, DetectReport, Detector};
+pub use embed::{embed, EmbedParams, EmbedReport};
+pub use error::WatermarkError;
+pub use layout::LayoutParams;
+pub use message::{Message, MessageError};
+
+#[cfg(test)]
+mod tests;

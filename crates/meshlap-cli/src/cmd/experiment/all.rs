@@ -9,7 +9,8 @@ use std::path::PathBuf;
 /// DIR/claims (§2–3 properties, SQL erratum, repair, smoothing limits), DIR/figures
 /// (Figs. 1 and 4), DIR/eigen-cost (Fig. 3 and §4.9 energy compaction), DIR/fairing
 /// (Table 1 on cow, horse, bunny, Igea), DIR/compression (§4.9 rate–distortion per
-/// operator), and DIR/README.md indexing the results. The paper's meshes are read from
+/// operator), DIR/watermark (spectral watermarking under the benchmark attacks, always
+/// its quick settings), and DIR/README.md indexing the results. The paper's meshes are read from
 /// --meshes (default ../shared/data/meshes, i.e. run from the repository root).
 /// --quick uses small meshes and sizes (a few minutes on 2 cores).
 #[derive(clap::Args, Debug)]

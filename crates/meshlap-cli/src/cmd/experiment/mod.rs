@@ -9,6 +9,7 @@ pub mod compression;
 pub mod eigen_cost;
 pub mod fairing;
 pub mod figures;
+pub mod watermark;
 
 use clap::Subcommand;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -31,6 +32,7 @@ pub enum Experiment {
     EigenCost(eigen_cost::Args),
     Figures(figures::Args),
     Fairing(fairing::Args),
+    Watermark(watermark::Args),
 }
 
 pub fn run(args: &Args) -> meshlap::Result<()> {
@@ -41,6 +43,7 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         Experiment::EigenCost(a) => eigen_cost::run(a),
         Experiment::Figures(a) => figures::run(a),
         Experiment::Fairing(a) => fairing::run(a),
+        Experiment::Watermark(a) => watermark::run(a),
     }
 }
 

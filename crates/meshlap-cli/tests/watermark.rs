@@ -1,0 +1,181 @@
+//! End-to-end tests of `meshlap watermark embed` and `meshlap watermark detect`.
+
+mod common;
+use common::*;
+
+const MSG: &str = "0123456789abcdef";
+
+fn tmp(name: &str) -> String {
+    let dir = std::env::temp_dir().join(format!("meshlap-wm-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name).display().to_string()
+}
+
+#[test]
+fn embed_then_detect_recovers_the_message_with_the_documented_keys() {
+    let cow = data("cow.obj");
+    let out = tmp("cow-marked.obj");
+    let e = json(&meshlap(&[
+        "watermark",
+        "embed",
+        &cow,
+        "-o",
+        &out,
+        "--key",
+        "0x2a",
+        "--message",
+        MSG,
+        "--json",
+    ]));
+    for key in [
+        "bits",
+        "patches",
+        "coefficients_per_bit",
+        "mrms",
+        "max_displacement",
+        "msdm2",
+        "seconds",
+    ] {
+        assert!(e.get(key).is_some(), "embed JSON lacks {key}");
+    }
+    assert_eq!(e["bits"], 64);
+    assert!(e["mrms"].as_f64().unwrap() <= 1.5e-4);
+    let d = json(&meshlap(&[
+        "watermark",
+        "detect",
+        &out,
+        "--original",
+        &cow,
+        "--key",
+        "42",
+        "--expect",
+        MSG,
+        "--json",
+    ]));
+    for key in [
+        "message",
+        "bits",
+        "correlations",
+        "false_positive_probability",
+        "registration",
+        "resampled",
+        "bit_errors",
+        "ber",
+        "seconds",
+    ] {
+        assert!(d.get(key).is_some(), "detect JSON lacks {key}");
+    }
+    for key in ["scale", "rotation_degrees", "translation", "rms_residual"] {
+        assert!(
+            d["registration"].get(key).is_some(),
+            "registration lacks {key}"
+        );
+    }
+    assert_eq!(d["message"], MSG);
+    assert_eq!(d["bit_errors"], 0);
+    assert_eq!(d["bits"].as_array().unwrap().len(), 64);
+    assert_eq!(d["resampled"], false);
+    assert!(d["false_positive_probability"].as_f64().unwrap() <= 1e-6);
+    // A wrong key: no message, a probability above the threshold.
+    let w = json(&meshlap(&[
+        "watermark",
+        "detect",
+        &out,
+        "--original",
+        &cow,
+        "--key",
+        "43",
+        "--json",
+    ]));
+    assert!(w["message"].is_null());
+    assert!(w["false_positive_probability"].as_f64().unwrap() > 1e-6);
+    let text = meshlap(&[
+        "watermark",
+        "detect",
+        &out,
+        "--original",
+        &cow,
+        "--key",
+        "43",
+    ]);
+    assert!(String::from_utf8_lossy(&text.stdout).contains("no watermark found"));
+}
+
+#[test]
+fn bad_input_gives_one_line_errors() {
+    let out = tmp("bad.obj");
+    assert_one_line_error(
+        &meshlap(&[
+            "watermark",
+            "embed",
+            "builtin:icosphere:3",
+            "-o",
+            &out,
+            "--key",
+            "1",
+            "--message",
+            "12xz",
+        ]),
+        "non-hex",
+    );
+    assert_one_line_error(
+        &meshlap(&[
+            "watermark",
+            "embed",
+            "builtin:tetrahedron",
+            "-o",
+            &out,
+            "--key",
+            "1",
+            "--message",
+            MSG,
+        ]),
+        "coefficient slots",
+    );
+    assert_one_line_error(
+        &meshlap(&[
+            "watermark",
+            "detect",
+            "builtin:torus:30:15",
+            "--original",
+            "builtin:icosphere:3",
+            "--key",
+            "1",
+        ]),
+        "does not match",
+    );
+    assert_eq!(
+        meshlap(&[
+            "watermark",
+            "embed",
+            "builtin:icosphere:3",
+            "-o",
+            &out,
+            "--key",
+            "x",
+            "--message",
+            MSG
+        ])
+        .status
+        .code(),
+        Some(2)
+    );
+    assert_eq!(
+        meshlap(&[
+            "watermark",
+            "embed",
+            "builtin:icosphere:3",
+            "-o",
+            &out,
+            "--key",
+            "1",
+            "--message",
+            MSG,
+            "--operator",
+            "cotan",
+        ])
+        .status
+        .code(),
+        Some(2)
+    );
+}
