@@ -18,6 +18,9 @@
 //!
 //! The imperceptibility metric MSDM2 is [`crate::metric::msdm2`].
 
+// `!(x > 0.0)` and friends reject NaN along with the out-of-range values, on purpose.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod attack;
 pub mod detect;
 pub mod embed;

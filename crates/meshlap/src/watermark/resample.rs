@@ -53,13 +53,16 @@ pub struct ResampleReport {
     pub max_distance: f64,
 }
 
+/// Resampled positions (one per original vertex), the `missing` flags and the report.
+pub type Resampled = (Vec<[f64; 3]>, Vec<bool>, ResampleReport);
+
 /// Positions for the original's vertices from the (registered) suspect's surface;
 /// `missing[i]` is true where vertex i kept its original position.
 pub fn resample(
     suspect: &TriMesh,
     original: &TriMesh,
     params: &ResampleParams,
-) -> Result<(Vec<[f64; 3]>, Vec<bool>, ResampleReport), ResampleError> {
+) -> Result<Resampled, ResampleError> {
     if !(params.far > 0.0) {
         return Err(ResampleError::InvalidFar(params.far));
     }
