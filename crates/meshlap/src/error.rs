@@ -40,6 +40,9 @@ pub enum Error {
     /// A partial (shift-invert) eigensolve failed.
     #[error(transparent)]
     PartialSpectrum(#[from] crate::spectral::partial::PartialError),
+    /// Heat or wave kernel signatures could not be computed.
+    #[error(transparent)]
+    Descriptor(#[from] crate::spectral::descriptors::DescriptorError),
     /// Rendering a chart failed.
     #[cfg(feature = "pictures")]
     #[error(transparent)]
