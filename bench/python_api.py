@@ -55,9 +55,9 @@ def ensure_venv():
     # (Re)install meshlap from this checkout, optimised.
     subprocess.run(
         [str(py), "-m", "pip", "install", "--quiet", "--force-reinstall", "--no-deps",
-         "--config-settings=build-args=--profile=release", str(ROOT)],
+         str(ROOT)],
         check=True,
-        env={**os.environ, "CARGO_TARGET_DIR": str(ROOT / "target")},
+        env={**os.environ, "CARGO_TARGET_DIR": str(ROOT / "target"), "MATURIN_PEP517_ARGS": "--profile release"},
     )
     os.execv(str(py), [str(py), *sys.argv])
 

@@ -277,8 +277,8 @@ def _diagonal_mass(M: Any, n: int) -> np.ndarray:
             )
         return np.ascontiguousarray(M.diagonal(), dtype=np.float64)
     a = np.asarray(M)
-    if a.ndim == 1:
-        return _vector(a, "M", n)
+    if a.ndim == 1 and a.shape[0] == n and a.dtype.kind in "fiu":
+        return np.ascontiguousarray(a, dtype=np.float64)
     if a.ndim == 2 and a.shape == (n, n):
         off = a - np.diag(np.diag(a))
         if np.any(off != 0):

@@ -215,7 +215,9 @@ def run(
         if scheduler:
             client = own_client = Client(scheduler)
         else:
-            own_cluster = LocalCluster(n_workers=workers or 2, threads_per_worker=1, processes=True, dashboard_address=None)
+            own_cluster = LocalCluster(
+                n_workers=workers or 2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None
+            )
             client = own_client = Client(own_cluster)
     try:
         futures = [

@@ -111,6 +111,32 @@ pub(crate) fn mesh_of(
     f: &PyReadonlyArray2<'_, u32>,
 ) -> PyResult<meshlap::input::Input> {
     let raw = raw_mesh(py, v, f)?;
+    // The library's operators assume what cleaning guarantees; refuse (never drop
+    // silently) faces with a repeated corner and duplicate faces.
+    if let Some((i, t)) = raw
+        .faces
+        .iter()
+        .enumerate()
+        .find(|(_, t)| t[0] == t[1] || t[1] == t[2] || t[0] == t[2])
+    {
+        return Err(raise_as(
+            py,
+            "MeshError",
+            format!("F[{i}] = {t:?} repeats a vertex; clean the mesh first (meshlap.clean)"),
+        ));
+    }
+    let mut seen = std::collections::HashMap::with_capacity(raw.faces.len());
+    for (i, t) in raw.faces.iter().enumerate() {
+        let mut key = *t;
+        key.sort_unstable();
+        if let Some(j) = seen.insert(key, i) {
+            return Err(raise_as(
+                py,
+                "MeshError",
+                format!("F[{i}] = {t:?} repeats face F[{j}]; clean the mesh first (meshlap.clean)"),
+            ));
+        }
+    }
     let keep = meshlap::mesh::clean::CleanOptions {
         drop_degenerate_faces: false,
         drop_duplicate_faces: false,
