@@ -36,6 +36,9 @@ ROOT = Path(__file__).resolve().parent.parent
 VENV = ROOT / "bench" / ".venv-python"
 MESHES = ROOT.parent / "shared" / "data" / "meshes"
 THREADS = int(os.environ.get("BENCH_THREADS", "2"))
+# Cargo profile of the meshlap build in the venv (release for figures; `dev` reuses
+# the test build's artifacts for a quick check that the script runs).
+PROFILE = os.environ.get("MESHLAP_BENCH_PROFILE", "release")
 for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "RAYON_NUM_THREADS"):
     os.environ[var] = str(THREADS)
 
@@ -57,7 +60,7 @@ def ensure_venv():
         [str(py), "-m", "pip", "install", "--quiet", "--force-reinstall", "--no-deps",
          str(ROOT)],
         check=True,
-        env={**os.environ, "CARGO_TARGET_DIR": str(ROOT / "target"), "MATURIN_PEP517_ARGS": "--profile release"},
+        env={**os.environ, "CARGO_TARGET_DIR": str(ROOT / "target"), "MATURIN_PEP517_ARGS": "--profile " + PROFILE},
     )
     os.execv(str(py), [str(py), *sys.argv])
 
