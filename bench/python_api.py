@@ -18,6 +18,8 @@ Comparisons (the issue's benchmark):
 - the binding overhead on a 1k-vertex mesh: meshlap.operator (argument checks,
   conversions, csr_array) against the raw extension call on prepared arrays.
 
+MESHLAP_BENCH_PROFILE=dev builds meshlap with the dev profile instead of release
+(reusing `cargo test`'s artifacts): for checking the script, not for figures.
 --small runs on builtin:icosphere:3 (642 vertices) with k = 20 and 3 rounds, to check
 that the script works; the figures of a loaded machine are not benchmarks.
 """

@@ -159,11 +159,11 @@ pub(crate) fn raw_mesh(
     ))
 }
 
+/// A mesh as numpy arrays: V float64 (n, 3), F int64 (m, 3).
+pub(crate) type MeshOut<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<i64>>);
+
 /// `(V, F)` numpy arrays of a mesh: float64 (n, 3) and int64 (m, 3).
-pub(crate) fn mesh_arrays<'py>(
-    py: Python<'py>,
-    m: &meshlap::TriMesh,
-) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<i64>>)> {
+pub(crate) fn mesh_arrays<'py>(py: Python<'py>, m: &meshlap::TriMesh) -> PyResult<MeshOut<'py>> {
     let v: Vec<f64> = m.positions.iter().flatten().copied().collect();
     let f: Vec<i64> = m.faces.iter().flatten().map(|&i| i64::from(i)).collect();
     Ok((

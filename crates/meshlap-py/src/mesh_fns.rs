@@ -8,7 +8,10 @@ use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArra
 use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 
-type Mesh<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<i64>>);
+use crate::MeshOut as Mesh;
+
+/// A mesh and a JSON report.
+type MeshReport<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<i64>>, String);
 
 /// Parses a library option name, raising the library's error as `class`.
 fn parse<T: std::str::FromStr>(py: Python<'_>, s: &str, what: &str, class: &str) -> PyResult<T>
@@ -112,7 +115,7 @@ fn clean<'py>(
     v: PyReadonlyArray2<'_, f64>,
     f: PyReadonlyArray2<'_, u32>,
     split_nonmanifold: bool,
-) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<i64>>, String)> {
+) -> PyResult<MeshReport<'py>> {
     let raw = raw_mesh(py, &v, &f)?;
     let (mesh, report, split) = compute(py, || -> meshlap::Result<_> {
         let (m, r) = meshlap::mesh::clean::clean(&raw, &Default::default())?;
@@ -145,7 +148,7 @@ fn repair_sql<'py>(
     f: PyReadonlyArray2<'_, u32>,
     method: &str,
     max_dihedral: Option<f64>,
-) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<i64>>, String)> {
+) -> PyResult<MeshReport<'py>> {
     use meshlap::analysis::repair::{repair_sql, RepairMethod, RepairOptions};
     let input = mesh_of(py, &v, &f)?;
     let opts = RepairOptions {

@@ -17,6 +17,12 @@ type Eigen<'py> = (
     Bound<'py, PyArray1<f64>>,
 );
 
+/// A descriptor (n, T) and its samples (T,).
+type Samples<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<f64>>);
+
+/// The WKS (n, E), its energies (E,) and σ.
+type WksOut<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<f64>>, f64);
+
 fn kind_of(py: Python<'_>, kind: &str) -> PyResult<OperatorKind> {
     kind.parse::<OperatorKind>().or_raise(py)
 }
@@ -419,7 +425,7 @@ fn hks<'py>(
     evecs: PyReadonlyArray2<'_, f64>,
     times: Option<PyReadonlyArray1<'_, f64>>,
     count: usize,
-) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<f64>>)> {
+) -> PyResult<Samples<'py>> {
     let l = slice1(py, &evals, "evals")?;
     let phi = evecs_in(py, &evecs)?;
     let times = match &times {
@@ -441,7 +447,7 @@ fn wks<'py>(
     energies: Option<PyReadonlyArray1<'_, f64>>,
     sigma: Option<f64>,
     count: usize,
-) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<f64>>, f64)> {
+) -> PyResult<WksOut<'py>> {
     let l = slice1(py, &evals, "evals")?;
     let phi = evecs_in(py, &evecs)?;
     let (energies, default_sigma) = match &energies {
