@@ -18,7 +18,8 @@ pub struct Args {
     #[command(flatten)]
     pub mesh: MeshArgs,
     /// Operator kind (cotan, kirchhoff, sql, …; see `meshlap operator --help`).
-    #[arg(long, short)]
+    /// (`-k` is the number of eigenpairs here.)
+    #[arg(long)]
     pub kind: OperatorKind,
     /// HKS columns (times).
     #[arg(long, default_value_t = DescriptorParams::default().hks)]
