@@ -68,6 +68,7 @@ enum Command {
     Project(cmd::project::Args),
     Compaction(cmd::compaction::Args),
     Render(cmd::render::Args),
+    Descriptors(cmd::descriptors::Args),
     Experiment(cmd::experiment::Args),
     Watermark(cmd::watermark::Args),
 }
@@ -96,6 +97,7 @@ fn main() {
         Command::Project(a) => cmd::project::run(a),
         Command::Compaction(a) => cmd::compaction::run(a),
         Command::Render(a) => cmd::render::run(a),
+        Command::Descriptors(a) => cmd::descriptors::run(a),
         Command::Experiment(a) => cmd::experiment::run(a),
         Command::Watermark(a) => cmd::watermark::run(a),
     };

@@ -278,3 +278,46 @@ fn project_patch_by_patch() {
     assert!(e > 1e-4 && e < 0.1, "{e}");
     assert!(out.is_file());
 }
+
+#[test]
+fn descriptors_write_hks_and_wks_columns() {
+    let dir = tempfile::tempdir().unwrap();
+    let npy = dir.path().join("d.npy");
+    let v = json(&meshlap(&[
+        "descriptors",
+        "builtin:icosphere:2",
+        "--kind",
+        "cotan",
+        "--hks",
+        "4",
+        "--wks",
+        "3",
+        "-k",
+        "30",
+        "-o",
+        npy.to_str().unwrap(),
+        "--json",
+    ]));
+    assert_eq!(v["vertices"], 162);
+    assert_eq!(v["columns"], 7);
+    assert_eq!(v["eigenvalues"].as_array().unwrap().len(), 30);
+    let m = meshlap::io::read_npy(&npy).unwrap();
+    assert_eq!((m.nrows(), m.ncols()), (162, 7));
+    // The HKS decreases with t at every vertex (heat flows away).
+    for i in 0..162 {
+        for t in 1..4 {
+            assert!(m[(i, t)] < m[(i, t - 1)]);
+        }
+    }
+    let out = meshlap(&[
+        "descriptors",
+        "builtin:icosphere:2",
+        "--kind",
+        "cotan",
+        "--hks",
+        "0",
+        "-o",
+        npy.to_str().unwrap(),
+    ]);
+    assert_one_line_error(&out, "hks + wks columns");
+}

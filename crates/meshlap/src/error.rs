@@ -40,6 +40,9 @@ pub enum Error {
     /// Partitioning a mesh into patches failed.
     #[error(transparent)]
     Partition(#[from] crate::partition::PartitionError),
+    /// Heat or wave kernel signatures could not be computed.
+    #[error(transparent)]
+    Descriptor(#[from] crate::spectral::descriptors::DescriptorError),
     /// Rendering a chart failed.
     #[cfg(feature = "pictures")]
     #[error(transparent)]

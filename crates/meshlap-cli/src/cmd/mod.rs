@@ -6,6 +6,7 @@ pub mod compare;
 pub mod compress;
 pub mod convert;
 pub mod decompress;
+pub mod descriptors;
 pub mod experiment;
 pub mod info;
 pub mod iterate;

@@ -31,6 +31,15 @@ pub enum MassKind {
     Barycentric,
 }
 
+crate::names::option_names!(MassKind, OperatorError, |s| OperatorError::UnknownOption {
+    what: "mass matrix",
+    name: s.to_string(),
+    choices: "voronoi, barycentric",
+}, {
+    Voronoi => "voronoi",
+    Barycentric => "barycentric",
+});
+
 /// Assembles the cotangent stiffness matrix and the lumped mass diagonal.
 pub fn cotan(
     mesh: &TriMesh,

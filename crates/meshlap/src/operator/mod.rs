@@ -77,6 +77,16 @@ pub enum OperatorError {
     /// Unknown operator name.
     #[error("unknown operator `{0}`; choose one of kirchhoff (kl), tutte (tl), graph (gl), sql, sstl, tutte2 (t2), sdl, cotan, mean-value (mv)")]
     UnknownKind(String),
+    /// Unknown name of an assembly option (`--sql-diagonal`, `--mass`).
+    #[error("unknown {what} `{name}`; choose one of {choices}")]
+    UnknownOption {
+        /// The option.
+        what: &'static str,
+        /// The name given.
+        name: String,
+        /// The accepted names.
+        choices: &'static str,
+    },
 }
 
 /// The operators meshlap assembles.

@@ -44,6 +44,15 @@ pub enum BoundaryDiagonal {
     AsPrinted,
 }
 
+crate::names::option_names!(BoundaryDiagonal, OperatorError, |s| OperatorError::UnknownOption {
+    what: "SQL boundary diagonal",
+    name: s.to_string(),
+    choices: "zero-row-sum, printed",
+}, {
+    ZeroRowSum => "zero-row-sum",
+    AsPrinted => "printed",
+});
+
 /// The SQL weight `W_e` of every undirected edge (in [`Topology::edges`] order), given
 /// degrees `d`. Errors on a non-manifold edge, naming it.
 pub fn sql_edge_weights(topo: &Topology, d: &[f64]) -> Result<Vec<f64>, OperatorError> {

@@ -13,10 +13,13 @@
 //! - [`transform`]: the forward ED-transform `X = E⁻¹x`, its inverse and the truncated
 //!   reconstruction `x⁽ᵐ⁾` from the first m coefficients.
 //! - [`compaction`]: the transform efficiency (energy compaction) for every m.
+//! - [`descriptors`]: heat and wave kernel signatures (Sun et al. 2009; Aubry et al.
+//!   2011) from the smallest eigenpairs.
 
 pub mod basis;
 pub mod compaction;
 pub mod dense_evd;
+pub mod descriptors;
 pub mod transform;
 
 pub use basis::{BasisOptions, DenseSolver, EigenBasis, EigenPath, Normalization, DENSE_LIMIT};

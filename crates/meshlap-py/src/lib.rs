@@ -1,0 +1,256 @@
+//! `meshlap._meshlap`: the Python extension module of meshlap (PyO3, stable ABI 3.9+).
+//!
+//! As thin as the command-line front end: each function converts its arguments, calls
+//! one library function with the library's defaults, and converts the result. The
+//! Python package `meshlap` (python/meshlap) wraps these functions: it checks shapes
+//! and dtypes (naming the argument), converts array-likes, and builds
+//! `scipy.sparse.csr_array` results and dicts. Every compute call releases the GIL
+//! ([`compute`]) and runs on the pool set by `set_threads`.
+//!
+//! Sign convention: every operator is positive semi-definite, `F = D − W` (Zhang
+//! 2004); libigl's `cotmatrix` is the negative.
+
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+use std::sync::{Arc, RwLock};
+
+mod mesh_fns;
+mod spectral_fns;
+
+/// The thread pool of `set_threads` (`None`: rayon's global pool, all cores).
+static POOL: RwLock<Option<Arc<rayon::ThreadPool>>> = RwLock::new(None);
+
+/// Runs `f` without the GIL, on the pool chosen by `set_threads`.
+pub(crate) fn compute<T: Send, F: FnOnce() -> T + Send>(py: Python<'_>, f: F) -> T {
+    let pool = POOL.read().map(|p| p.clone()).unwrap_or(None);
+    py.detach(move || match pool {
+        Some(p) => p.install(f),
+        None => f(),
+    })
+}
+
+/// The Python exception class (in `meshlap.errors`) of a library error.
+fn class_of(e: &meshlap::Error) -> &'static str {
+    use meshlap::Error as E;
+    match e {
+        E::Io(_) => "MeshIOError",
+        E::Mesh(_) => "MeshError",
+        E::Operator(_) => "OperatorError",
+        E::Solve(_) | E::Filter(_) | E::Smoothing(_) => "SolveError",
+        E::Repair(_) => "RepairError",
+        E::Spectral(_) | E::PartialSpectrum(_) | E::Descriptor(_) => "SpectralError",
+        E::Codec(_) => "CodecError",
+        E::Metric(_) => "MetricError",
+        E::Partition(_) => "PartitionError",
+        E::Render(_) | E::Plot(_) => "RenderError",
+        _ => "Error",
+    }
+}
+
+/// A library error as the matching `meshlap.errors` exception (its message is the
+/// library's).
+pub(crate) fn raise(py: Python<'_>, e: impl Into<meshlap::Error>) -> PyErr {
+    let e: meshlap::Error = e.into();
+    raise_as(py, class_of(&e), e.to_string())
+}
+
+/// An exception of class `name` of `meshlap.errors` with message `msg`.
+pub(crate) fn raise_as(py: Python<'_>, name: &str, msg: String) -> PyErr {
+    let made = py
+        .import("meshlap.errors")
+        .and_then(|m| m.getattr(name))
+        .and_then(|cls| cls.call1((msg.clone(),)));
+    match made {
+        Ok(exc) => PyErr::from_value(exc),
+        Err(_) => pyo3::exceptions::PyValueError::new_err(msg),
+    }
+}
+
+/// Shorthand: map a library result to a Python one.
+pub(crate) trait OrRaise<T> {
+    fn or_raise(self, py: Python<'_>) -> PyResult<T>;
+}
+
+impl<T, E: Into<meshlap::Error>> OrRaise<T> for Result<T, E> {
+    fn or_raise(self, py: Python<'_>) -> PyResult<T> {
+        self.map_err(|e| raise(py, e))
+    }
+}
+
+/// A contiguous (rows, cols) view of a 2-D array, with the argument named in the
+/// error (the Python layer has already converted dtype and layout).
+pub(crate) fn slice2<'a, T: numpy::Element>(
+    py: Python<'_>,
+    a: &'a PyReadonlyArray2<'_, T>,
+    name: &str,
+    cols: Option<usize>,
+) -> PyResult<(&'a [T], usize, usize)> {
+    let (r, c) = (a.shape()[0], a.shape()[1]);
+    if cols.is_some_and(|k| k != c) {
+        return Err(raise_as(
+            py,
+            "MeshError",
+            format!(
+                "{name} must have shape (n, {}), got ({r}, {c})",
+                cols.unwrap_or(0)
+            ),
+        ));
+    }
+    let s = a
+        .as_slice()
+        .map_err(|_| raise_as(py, "Error", format!("{name} must be C-contiguous")))?;
+    Ok((s, r, c))
+}
+
+/// The mesh of `(V, F)`: V float64 (n, 3), F uint32 (m, 3), as given (validated,
+/// not cleaned: NaN/inf coordinates, out-of-range indices, repeated corners and an
+/// empty mesh are errors), with its connectivity.
+pub(crate) fn mesh_of(
+    py: Python<'_>,
+    v: &PyReadonlyArray2<'_, f64>,
+    f: &PyReadonlyArray2<'_, u32>,
+) -> PyResult<meshlap::input::Input> {
+    let raw = raw_mesh(py, v, f)?;
+    // The library's operators assume what cleaning guarantees; refuse (never drop
+    // silently) faces with a repeated corner and duplicate faces.
+    if let Some((i, t)) = raw
+        .faces
+        .iter()
+        .enumerate()
+        .find(|(_, t)| t[0] == t[1] || t[1] == t[2] || t[0] == t[2])
+    {
+        return Err(raise_as(
+            py,
+            "MeshError",
+            format!("F[{i}] = {t:?} repeats a vertex; clean the mesh first (meshlap.clean)"),
+        ));
+    }
+    let mut seen = std::collections::HashMap::with_capacity(raw.faces.len());
+    for (i, t) in raw.faces.iter().enumerate() {
+        let mut key = *t;
+        key.sort_unstable();
+        if let Some(j) = seen.insert(key, i) {
+            return Err(raise_as(
+                py,
+                "MeshError",
+                format!("F[{i}] = {t:?} repeats face F[{j}]; clean the mesh first (meshlap.clean)"),
+            ));
+        }
+    }
+    let keep = meshlap::mesh::clean::CleanOptions {
+        drop_degenerate_faces: false,
+        drop_duplicate_faces: false,
+        drop_unreferenced_vertices: false,
+    };
+    compute(py, || meshlap::input::from_mesh("array", raw, None, &keep)).or_raise(py)
+}
+
+/// The mesh of `(V, F)` exactly as given (no check, no connectivity).
+pub(crate) fn raw_mesh(
+    py: Python<'_>,
+    v: &PyReadonlyArray2<'_, f64>,
+    f: &PyReadonlyArray2<'_, u32>,
+) -> PyResult<meshlap::TriMesh> {
+    let (vs, _, _) = slice2(py, v, "V", Some(3))?;
+    let (fs, _, _) = slice2(py, f, "F", Some(3))?;
+    Ok(meshlap::TriMesh::new(
+        vs.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+        fs.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+    ))
+}
+
+/// A mesh as numpy arrays: V float64 (n, 3), F int64 (m, 3).
+pub(crate) type MeshOut<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<i64>>);
+
+/// `(V, F)` numpy arrays of a mesh: float64 (n, 3) and int64 (m, 3).
+pub(crate) fn mesh_arrays<'py>(py: Python<'py>, m: &meshlap::TriMesh) -> PyResult<MeshOut<'py>> {
+    let v: Vec<f64> = m.positions.iter().flatten().copied().collect();
+    let f: Vec<i64> = m.faces.iter().flatten().map(|&i| i64::from(i)).collect();
+    Ok((
+        PyArray1::from_vec(py, v).reshape([m.n_vertices(), 3])?,
+        PyArray1::from_vec(py, f).reshape([m.n_faces(), 3])?,
+    ))
+}
+
+/// A faer matrix as a float64 numpy array of the same shape.
+pub(crate) fn mat_out<'py>(
+    py: Python<'py>,
+    m: faer::MatRef<'_, f64>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let (r, c) = (m.nrows(), m.ncols());
+    let mut flat = Vec::with_capacity(r * c);
+    for i in 0..r {
+        flat.extend((0..c).map(|j| m[(i, j)]));
+    }
+    PyArray1::from_vec(py, flat).reshape([r, c])
+}
+
+/// A sparse matrix as `(indptr, indices, data, shape)` of its compressed columns
+/// (the Python layer builds a `csc_array` and converts it to CSR).
+pub(crate) type CscParts<'py> = (
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray1<f64>>,
+    (usize, usize),
+);
+
+pub(crate) fn csc_out<'py>(py: Python<'py>, m: &meshlap::SparseMatrix) -> CscParts<'py> {
+    let mut ptr = Vec::with_capacity(m.ncols() + 1);
+    let mut idx = Vec::new();
+    let mut val = Vec::new();
+    ptr.push(0i64);
+    for j in 0..m.ncols() {
+        idx.extend(m.row_idx_of_col_raw(j).iter().map(|&i| i as i64));
+        val.extend_from_slice(m.val_of_col(j));
+        ptr.push(idx.len() as i64);
+    }
+    (
+        PyArray1::from_vec(py, ptr),
+        PyArray1::from_vec(py, idx),
+        PyArray1::from_vec(py, val),
+        (m.nrows(), m.ncols()),
+    )
+}
+
+/// A report as JSON text (the Python layer parses it into a dict).
+pub(crate) fn json<T: serde::Serialize>(py: Python<'_>, value: &T) -> PyResult<String> {
+    serde_json::to_string(value)
+        .map_err(|e| raise_as(py, "Error", format!("cannot serialise: {e}")))
+}
+
+/// Use `n` threads (n ≥ 1) for every later call; `0` goes back to all cores.
+#[pyfunction]
+fn set_threads(py: Python<'_>, n: usize) -> PyResult<()> {
+    let pool = if n == 0 {
+        None
+    } else {
+        Some(Arc::new(
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build()
+                .map_err(|e| raise_as(py, "Error", format!("cannot start {n} threads: {e}")))?,
+        ))
+    };
+    *POOL
+        .write()
+        .map_err(|_| raise_as(py, "Error", "thread pool lock poisoned".into()))? = pool;
+    Ok(())
+}
+
+/// The number of threads calls run on.
+#[pyfunction]
+fn get_threads() -> usize {
+    match POOL.read().ok().and_then(|p| p.clone()) {
+        Some(p) => p.current_num_threads(),
+        None => rayon::current_num_threads(),
+    }
+}
+
+#[pymodule]
+fn _meshlap(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(set_threads, m)?)?;
+    m.add_function(wrap_pyfunction!(get_threads, m)?)?;
+    mesh_fns::register(m)?;
+    spectral_fns::register(m)?;
+    Ok(())
+}

@@ -1,0 +1,352 @@
+//! Mesh-level functions: reading, writing, info, cleaning, SQL repair, partitioning,
+//! compression, comparison and rendering. Each mirrors one CLI command and calls the
+//! same library function with the same defaults.
+
+use crate::{compute, json, mesh_arrays, mesh_of, raise_as, raw_mesh, slice2, OrRaise};
+use meshlap::codec::{CompressOptions, GeometryMode, Keep, Quantization};
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::prelude::*;
+use pyo3::types::PyBytes;
+
+use crate::MeshOut as Mesh;
+
+/// A mesh and a JSON report.
+type MeshReport<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<i64>>, String);
+
+/// Parses a library option name, raising the library's error as `class`.
+fn parse<T: std::str::FromStr>(py: Python<'_>, s: &str, what: &str, class: &str) -> PyResult<T>
+where
+    T::Err: std::fmt::Display,
+{
+    s.parse::<T>()
+        .map_err(|e| raise_as(py, class, format!("{what}: {e}")))
+}
+
+/// `read_mesh(path, format=None)` → `(V, F)`: read (or generate `builtin:…`) and clean
+/// exactly as the CLI does (`meshlap::input::open`).
+#[pyfunction]
+#[pyo3(signature = (path, format=None))]
+fn read_mesh<'py>(py: Python<'py>, path: &str, format: Option<&str>) -> PyResult<Mesh<'py>> {
+    let format = format
+        .map(|f| parse::<meshlap::io::Format>(py, f, "format", "MeshIOError"))
+        .transpose()?;
+    let opts = meshlap::input::OpenOptions {
+        format,
+        ..Default::default()
+    };
+    let input = compute(py, || meshlap::input::open(path, &opts)).or_raise(py)?;
+    mesh_arrays(py, &input.mesh)
+}
+
+/// `write_mesh(path, V, F, scalars, scalar_name, colors, format, ascii)`: atomic.
+#[pyfunction]
+#[pyo3(signature = (path, v, f, scalars=None, scalar_name="scalar", colors=None, format=None, ascii=false))]
+#[allow(clippy::too_many_arguments)]
+fn write_mesh(
+    py: Python<'_>,
+    path: &str,
+    v: PyReadonlyArray2<'_, f64>,
+    f: PyReadonlyArray2<'_, u32>,
+    scalars: Option<PyReadonlyArray1<'_, f64>>,
+    scalar_name: &str,
+    colors: Option<PyReadonlyArray2<'_, u8>>,
+    format: Option<&str>,
+    ascii: bool,
+) -> PyResult<()> {
+    let input = mesh_of(py, &v, &f)?;
+    let format = format
+        .map(|s| parse::<meshlap::io::Format>(py, s, "format", "MeshIOError"))
+        .transpose()?;
+    let scalars = scalars
+        .as_ref()
+        .map(|s| {
+            s.as_slice()
+                .map_err(|_| raise_as(py, "Error", "scalars must be contiguous".into()))
+        })
+        .transpose()?;
+    let colors: Option<Vec<[u8; 3]>> = match &colors {
+        Some(c) => {
+            let (s, _, _) = slice2(py, c, "colors", Some(3))?;
+            Some(s.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
+        }
+        None => None,
+    };
+    let opts = meshlap::io::WriteOptions {
+        format,
+        vertex_scalar: scalars.map(|s| (scalar_name, s)),
+        vertex_colors: colors.as_deref(),
+        ply_ascii: ascii,
+    };
+    let p = std::path::Path::new(path);
+    compute(py, || meshlap::io::write_mesh(p, &input.mesh, &opts)).or_raise(py)
+}
+
+/// `info(V, F)` → JSON of `meshlap info --json`'s mesh report (the mesh is cleaned
+/// first, as the CLI does, and the dropped counts reported).
+#[pyfunction]
+fn info(
+    py: Python<'_>,
+    v: PyReadonlyArray2<'_, f64>,
+    f: PyReadonlyArray2<'_, u32>,
+) -> PyResult<String> {
+    let raw = raw_mesh(py, &v, &f)?;
+    let input = compute(py, || {
+        meshlap::input::from_mesh("array", raw, None, &Default::default())
+    })
+    .or_raise(py)?;
+    json(py, &input.report())
+}
+
+#[derive(serde::Serialize)]
+struct CleanJson {
+    dropped_unreferenced_vertices: usize,
+    dropped_degenerate_faces: usize,
+    dropped_duplicate_faces: usize,
+    split: Option<meshlap::mesh::clean::SplitReport>,
+    vertices: usize,
+    faces: usize,
+}
+
+/// `clean(V, F, split_nonmanifold=False)` → `(V, F, report JSON)`.
+#[pyfunction]
+#[pyo3(signature = (v, f, split_nonmanifold=false))]
+fn clean<'py>(
+    py: Python<'py>,
+    v: PyReadonlyArray2<'_, f64>,
+    f: PyReadonlyArray2<'_, u32>,
+    split_nonmanifold: bool,
+) -> PyResult<MeshReport<'py>> {
+    let raw = raw_mesh(py, &v, &f)?;
+    let (mesh, report, split) = compute(py, || -> meshlap::Result<_> {
+        let (m, r) = meshlap::mesh::clean::clean(&raw, &Default::default())?;
+        if split_nonmanifold {
+            let (m, s) = meshlap::mesh::clean::split_non_manifold(&m)?;
+            Ok((m, r, Some(s)))
+        } else {
+            Ok((m, r, None))
+        }
+    })
+    .or_raise(py)?;
+    let out = CleanJson {
+        dropped_unreferenced_vertices: report.dropped_unreferenced_vertices,
+        dropped_degenerate_faces: report.dropped_degenerate_faces,
+        dropped_duplicate_faces: report.dropped_duplicate_faces,
+        split,
+        vertices: mesh.n_vertices(),
+        faces: mesh.n_faces(),
+    };
+    let (va, fa) = mesh_arrays(py, &mesh)?;
+    Ok((va, fa, json(py, &out)?))
+}
+
+/// `repair_sql(V, F, method, max_dihedral)` → `(V, F, report JSON)`.
+#[pyfunction]
+#[pyo3(signature = (v, f, method="swap", max_dihedral=None))]
+fn repair_sql<'py>(
+    py: Python<'py>,
+    v: PyReadonlyArray2<'_, f64>,
+    f: PyReadonlyArray2<'_, u32>,
+    method: &str,
+    max_dihedral: Option<f64>,
+) -> PyResult<MeshReport<'py>> {
+    use meshlap::analysis::repair::{repair_sql, RepairMethod, RepairOptions};
+    let input = mesh_of(py, &v, &f)?;
+    let opts = RepairOptions {
+        method: parse::<RepairMethod>(py, method, "method", "RepairError")?,
+        max_dihedral_degrees: max_dihedral,
+        ..Default::default()
+    };
+    let (mesh, report) = compute(py, || repair_sql(&input.mesh, &opts)).or_raise(py)?;
+    let (va, fa) = mesh_arrays(py, &mesh)?;
+    Ok((va, fa, json(py, &report)?))
+}
+
+/// `partition(V, F, patch_size, seed=0)` → `(labels int32 (n,), stats JSON)`.
+#[pyfunction]
+#[pyo3(signature = (v, f, patch_size, seed=0))]
+fn partition<'py>(
+    py: Python<'py>,
+    v: PyReadonlyArray2<'_, f64>,
+    f: PyReadonlyArray2<'_, u32>,
+    patch_size: usize,
+    seed: i32,
+) -> PyResult<(Bound<'py, PyArray1<i32>>, String)> {
+    use meshlap::partition::{partition_mesh, PartitionOptions};
+    let input = mesh_of(py, &v, &f)?;
+    let opts = PartitionOptions {
+        seed,
+        ..PartitionOptions::new(patch_size)
+    };
+    let part = compute(py, || partition_mesh(&input.mesh, &input.topology, &opts)).or_raise(py)?;
+    let labels: Vec<i32> = part.patch_of().iter().map(|&p| p as i32).collect();
+    Ok((PyArray1::from_vec(py, labels), json(py, part.stats())?))
+}
+
+/// `compress(V, F, …)` → `(bytes, report JSON)`; every option `None` takes the
+/// codec's default (`CompressOptions::default()`).
+#[pyfunction]
+#[pyo3(signature = (v, f, bits=None, target_bpv=None, mode=None, operator=None, patch_size=None,
+    keep_ratio=None, coefficients=None, band_slope=None, dead_zone=None, prediction=true,
+    border_residuals=false, rdo_lambda=None, select=true, preserve_order=false))]
+#[allow(clippy::too_many_arguments)]
+fn compress<'py>(
+    py: Python<'py>,
+    v: PyReadonlyArray2<'_, f64>,
+    f: PyReadonlyArray2<'_, u32>,
+    bits: Option<f64>,
+    target_bpv: Option<f64>,
+    mode: Option<&str>,
+    operator: Option<&str>,
+    patch_size: Option<usize>,
+    keep_ratio: Option<f64>,
+    coefficients: Option<u32>,
+    band_slope: Option<f64>,
+    dead_zone: Option<f64>,
+    prediction: bool,
+    border_residuals: bool,
+    rdo_lambda: Option<f64>,
+    select: bool,
+    preserve_order: bool,
+) -> PyResult<(Bound<'py, PyBytes>, String)> {
+    let input = mesh_of(py, &v, &f)?;
+    let d = CompressOptions::default();
+    let mut opts = d;
+    if let Some(m) = mode {
+        opts.mode = parse::<GeometryMode>(py, m, "mode", "CodecError")?;
+    }
+    if let Some(o) = operator {
+        opts.spectral.operator = parse(py, o, "operator", "OperatorError")?;
+    }
+    opts.spectral.patch_size = patch_size.unwrap_or(d.spectral.patch_size);
+    if keep_ratio.is_some() || coefficients.is_some() {
+        opts.spectral.keep = Keep::from_options(keep_ratio, coefficients);
+    }
+    opts.spectral.band_slope = band_slope.unwrap_or(d.spectral.band_slope);
+    opts.spectral.dead_zone = dead_zone.unwrap_or(d.spectral.dead_zone);
+    opts.spectral.predicted = prediction;
+    opts.spectral.border_residuals = border_residuals;
+    opts.spatial.lambda = rdo_lambda.unwrap_or(d.spatial.lambda);
+    opts.spatial.select = select;
+    if bits.is_some() || target_bpv.is_some() {
+        opts.quantization = Quantization::from_options(bits, target_bpv);
+    }
+    opts.preserve_order = preserve_order;
+    let c = compute(py, || {
+        meshlap::codec::compress(&input.mesh, &input.topology, &opts)
+    })
+    .or_raise(py)?;
+    Ok((PyBytes::new(py, &c.bytes), json(py, &c.report)?))
+}
+
+/// `decompress(data)` → `(V, F)`.
+#[pyfunction]
+fn decompress<'py>(py: Python<'py>, data: &[u8]) -> PyResult<Mesh<'py>> {
+    let mesh = compute(py, || meshlap::codec::decompress(data)).or_raise(py)?;
+    mesh_arrays(py, &mesh)
+}
+
+/// `compare(Va, Fa, Vb, Fb, map=None, samples=200000)` → JSON of `meshlap compare`.
+#[pyfunction]
+#[pyo3(signature = (va, fa, vb, fb, map=None, samples=200_000))]
+fn compare(
+    py: Python<'_>,
+    va: PyReadonlyArray2<'_, f64>,
+    fa: PyReadonlyArray2<'_, u32>,
+    vb: PyReadonlyArray2<'_, f64>,
+    fb: PyReadonlyArray2<'_, u32>,
+    map: Option<PyReadonlyArray1<'_, u32>>,
+    samples: usize,
+) -> PyResult<String> {
+    let a = mesh_of(py, &va, &fa)?;
+    let b = mesh_of(py, &vb, &fb)?;
+    let map = map
+        .as_ref()
+        .map(|m| {
+            m.as_slice()
+                .map_err(|_| raise_as(py, "Error", "map must be contiguous".into()))
+        })
+        .transpose()?;
+    let c = compute(py, || {
+        meshlap::metric::compare(&a.mesh, &b.mesh, map, samples)
+    })
+    .or_raise(py)?;
+    json(py, &c)
+}
+
+/// `render(V, F, scalars, colormap, azimuth, elevation, width, height, smooth,
+/// wireframe, legend)` → `(H, W, 3)` uint8.
+#[pyfunction]
+#[pyo3(signature = (v, f, scalars=None, colormap=None, azimuth=0.0, elevation=0.0,
+    width=800, height=800, smooth=false, wireframe=false, legend=true))]
+#[allow(clippy::too_many_arguments)]
+fn render<'py>(
+    py: Python<'py>,
+    v: PyReadonlyArray2<'_, f64>,
+    f: PyReadonlyArray2<'_, u32>,
+    scalars: Option<PyReadonlyArray1<'_, f64>>,
+    colormap: Option<&str>,
+    azimuth: f64,
+    elevation: f64,
+    width: u32,
+    height: u32,
+    smooth: bool,
+    wireframe: bool,
+    legend: bool,
+) -> PyResult<Bound<'py, numpy::PyArray3<u8>>> {
+    use meshlap::render::{render, Coloring, Colormap, RenderOptions, Scalars};
+    let input = mesh_of(py, &v, &f)?;
+    let cmap = colormap
+        .map(|c| parse::<Colormap>(py, c, "colormap", "RenderError"))
+        .transpose()?;
+    let coloring = match &scalars {
+        Some(s) => {
+            let values = s
+                .as_slice()
+                .map_err(|_| raise_as(py, "Error", "scalars must be contiguous".into()))?;
+            if values.len() != input.mesh.n_vertices() {
+                return Err(raise_as(
+                    py,
+                    "RenderError",
+                    format!(
+                        "scalars must have shape (n,) = ({},), got ({},)",
+                        input.mesh.n_vertices(),
+                        values.len()
+                    ),
+                ));
+            }
+            Coloring::Scalar(Scalars::new(
+                values.to_vec(),
+                cmap.unwrap_or(Colormap::Viridis),
+            ))
+        }
+        None => Coloring::Clay,
+    };
+    let opts = RenderOptions {
+        width,
+        height,
+        azimuth,
+        elevation,
+        smooth,
+        wireframe,
+        coloring,
+        legend,
+        ..Default::default()
+    };
+    let img = compute(py, || render(&input.mesh, &opts)).or_raise(py)?;
+    let (w, h) = (img.width as usize, img.height as usize);
+    PyArray1::from_vec(py, img.rgb).reshape([h, w, 3])
+}
+
+pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(read_mesh, m)?)?;
+    m.add_function(wrap_pyfunction!(write_mesh, m)?)?;
+    m.add_function(wrap_pyfunction!(info, m)?)?;
+    m.add_function(wrap_pyfunction!(clean, m)?)?;
+    m.add_function(wrap_pyfunction!(repair_sql, m)?)?;
+    m.add_function(wrap_pyfunction!(partition, m)?)?;
+    m.add_function(wrap_pyfunction!(compress, m)?)?;
+    m.add_function(wrap_pyfunction!(decompress, m)?)?;
+    m.add_function(wrap_pyfunction!(compare, m)?)?;
+    m.add_function(wrap_pyfunction!(render, m)?)?;
+    Ok(())
+}

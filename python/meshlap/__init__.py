@@ -1,0 +1,609 @@
+"""meshlap: discrete mesh Laplacians for digital geometry processing.
+
+Python bindings of the meshlap Rust library, after H. Zhang, *Discrete combinatorial
+Laplacian operators for digital geometry processing* (2004): the combinatorial and
+geometric operators, their property reports, partial spectra (a drop-in for scipy's
+shift-invert ``eigsh``), spectral projection and compaction, fairing filters,
+SQL repair, METIS partitions, compression, distortion metrics, rendering, and the
+heat / wave kernel signatures.
+
+Conventions
+-----------
+- **Sign.** Every operator is positive semi-definite, ``F = D - W`` as in the paper
+  (libigl's ``cotmatrix`` and pmp use the negative). Eigenvalues are ascending from 0.
+- **Meshes** are ``V`` float64 ``(n, 3)`` and ``F`` int64 ``(m, 3)`` (0-based).
+  Inputs may be any array-like: float32 (or integer) coordinates and int32 / uint32 /
+  int64 face indices are accepted; they are converted (one copy) to float64 and
+  uint32 before the call, as is any non-C-contiguous array. Functions that take
+  ``(V, F)`` use the mesh as given (validated, not cleaned: use :func:`clean` or
+  :func:`read_mesh`, which cleans as the CLI does).
+- **Errors** are :class:`meshlap.Error` (a ``ValueError``) subclasses naming the
+  argument and the expected shape; nothing crashes the interpreter.
+- **Threads.** Every call releases the GIL while it computes, on all cores unless
+  :func:`set_threads` says otherwise.
+"""
+
+from __future__ import annotations
+
+import json as _json
+from typing import Any, Dict, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from . import _meshlap
+from .errors import (
+    CodecError,
+    Error,
+    MeshError,
+    MeshIOError,
+    MetricError,
+    OperatorError,
+    PartitionError,
+    RenderError,
+    RepairError,
+    SolveError,
+    SpectralError,
+)
+
+__version__ = "0.1.0"
+
+#: Operator kinds accepted by ``kind=`` (aliases: kl, tl, gl, t2, mv, cot).
+OPERATOR_KINDS = (
+    "kirchhoff",
+    "tutte",
+    "graph",
+    "sql",
+    "sstl",
+    "tutte2",
+    "sdl",
+    "cotan",
+    "mean-value",
+)
+
+# ----------------------------------------------------------------------------------
+# Argument conversion (shapes and dtypes checked here, naming the argument)
+
+
+def _vertices(V: Any, name: str = "V") -> np.ndarray:
+    a = np.asarray(V)
+    if a.dtype.kind not in "fiu" or a.dtype.kind == "b":
+        raise MeshError(f"{name} must be a real (n, 3) array, got dtype {a.dtype}")
+    if a.ndim != 2 or a.shape[1] != 3:
+        raise MeshError(f"{name} must have shape (n, 3), got {a.shape}")
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    bad = ~np.isfinite(a).all(axis=1)
+    if bad.any():
+        raise MeshError(
+            f"{name} has a NaN or infinite coordinate at vertex {int(np.argmax(bad))}"
+        )
+    return a
+
+
+def _faces(F: Any, n: int, name: str = "F", vname: str = "V") -> np.ndarray:
+    a = np.asarray(F)
+    if a.dtype.kind not in "iu":
+        raise MeshError(f"{name} must be an integer (m, 3) array, got dtype {a.dtype}")
+    if a.ndim != 2 or a.shape[1] != 3:
+        raise MeshError(f"{name} must have shape (m, 3), got {a.shape}")
+    if a.shape[0] == 0:
+        raise MeshError(f"{name} is empty (shape (0, 3)): the mesh has no faces")
+    if a.dtype.kind == "i" and (a < 0).any():
+        f = int(np.argmax((a < 0).any(axis=1)))
+        raise MeshError(f"{name}[{f}] = {a[f].tolist()} has a negative vertex index")
+    if (a >= n).any():
+        f = int(np.argmax((a >= n).any(axis=1)))
+        raise MeshError(
+            f"{name}[{f}] = {a[f].tolist()} refers to a vertex >= {n}, "
+            f"but {vname} has {n} vertices"
+        )
+    return np.ascontiguousarray(a, dtype=np.uint32)
+
+
+def _mesh(V: Any, F: Any, vname: str = "V", fname: str = "F") -> Tuple[np.ndarray, np.ndarray]:
+    v = _vertices(V, vname)
+    return v, _faces(F, v.shape[0], fname, vname)
+
+
+def _vector(x: Any, name: str, n: Optional[int] = None) -> np.ndarray:
+    a = np.asarray(x)
+    if a.dtype.kind not in "fiu":
+        raise Error(f"{name} must be a real array, got dtype {a.dtype}")
+    if a.ndim == 2 and 1 in a.shape:
+        a = a.reshape(-1)
+    if a.ndim != 1 or (n is not None and a.shape[0] != n):
+        want = f"({n},)" if n is not None else "(k,)"
+        raise Error(f"{name} must have shape {want}, got {a.shape}")
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
+def _csr(parts: Tuple[np.ndarray, np.ndarray, np.ndarray, Tuple[int, int]]):
+    import scipy.sparse as sp
+
+    indptr, indices, data, shape = parts
+    return sp.csc_array((data, indices, indptr), shape=shape).tocsr()
+
+
+# ----------------------------------------------------------------------------------
+# Meshes
+
+
+def read_mesh(path_or_builtin: Union[str, "os.PathLike[str]"], format: Optional[str] = None):
+    """Read a mesh file (OBJ, OFF, PLY, STL; format from the extension or ``format``)
+    or generate ``builtin:NAME[:ARGS]`` (``icosphere:3``, ``torus:16:8``, ``grid:8``,
+    ``cube:4``, ...), cleaned as the CLI cleans (faces with a repeated vertex,
+    duplicate faces and unreferenced vertices dropped).
+
+    Returns ``(V, F)``: float64 ``(n, 3)`` and int64 ``(m, 3)``.
+    """
+    return _meshlap.read_mesh(str(path_or_builtin), format)
+
+
+def write_mesh(
+    path: Union[str, "os.PathLike[str]"],
+    V: Any,
+    F: Any,
+    scalars: Any = None,
+    colors: Any = None,
+    *,
+    scalar_name: str = "scalar",
+    format: Optional[str] = None,
+    ascii: bool = False,
+) -> None:
+    """Write ``(V, F)`` to ``path`` atomically (a temporary file renamed; never a
+    partial file). ``scalars`` (n,) float and ``colors`` (n, 3) uint8 are PLY vertex
+    properties (PLY only)."""
+    v, f = _mesh(V, F)
+    s = None if scalars is None else _vector(scalars, "scalars", v.shape[0])
+    c = None
+    if colors is not None:
+        c = np.asarray(colors)
+        if c.ndim != 2 or c.shape != (v.shape[0], 3):
+            raise MeshError(f"colors must have shape ({v.shape[0]}, 3), got {c.shape}")
+        c = np.ascontiguousarray(c, dtype=np.uint8)
+    _meshlap.write_mesh(str(path), v, f, s, scalar_name, c, format, ascii)
+
+
+def info(V: Any, F: Any) -> Dict[str, Any]:
+    """The report of ``meshlap info --json`` (after cleaning, with the dropped
+    counts): vertices, faces, edges, boundary_edges, boundary_loops, components,
+    euler_characteristic, genus, non_manifold_edges, non_manifold_vertices,
+    inconsistently_oriented_edges, zero_area_faces, degree, bbox_min, bbox_max,
+    bbox_diagonal, dropped_* counts."""
+    v, f = _mesh(V, F)
+    return _json.loads(_meshlap.info(v, f))
+
+
+def clean(V: Any, F: Any, split_nonmanifold: bool = False):
+    """Clean a mesh as the CLI does; ``split_nonmanifold`` also duplicates vertices
+    along non-manifold edges and at non-manifold vertices.
+
+    Returns ``(V, F, report)``: float64 ``(n', 3)``, int64 ``(m', 3)`` and a dict
+    (dropped_unreferenced_vertices, dropped_degenerate_faces, dropped_duplicate_faces,
+    split, vertices, faces).
+    """
+    v, f = _mesh(V, F)
+    v2, f2, rep = _meshlap.clean(v, f, bool(split_nonmanifold))
+    return v2, f2, _json.loads(rep)
+
+
+# ----------------------------------------------------------------------------------
+# Operators and spectra
+
+
+def operator(
+    V: Any,
+    F: Any,
+    kind: str = "sql",
+    *,
+    sql_diagonal: str = "zero-row-sum",
+    mass: str = "voronoi",
+):
+    """The n×n operator ``kind`` as a ``scipy.sparse.csr_array`` of float64, sign
+    ``F = D - W`` (positive semi-definite; libigl's cotmatrix is ``-operator(V, F,
+    "cotan")``). Kinds: kirchhoff (kl), tutte (tl), graph (gl), sql, sstl, tutte2
+    (t2), sdl, cotan, mean-value (mv). ``sql_diagonal="printed"`` reproduces the
+    paper's printed (erroneous) SQL boundary diagonal (Zhang 2004 §3.7)."""
+    v, f = _mesh(V, F)
+    return _csr(_meshlap.operator(v, f, kind, sql_diagonal, mass))
+
+
+def mass_matrix(V: Any, F: Any, kind: str = "voronoi"):
+    """The lumped mass matrix of the cotangent operator as a diagonal n×n
+    ``scipy.sparse.csr_array``: ``voronoi`` (mixed Voronoi areas, Meyer et al. 2003)
+    or ``barycentric`` (a third of the incident triangle areas)."""
+    import scipy.sparse as sp
+
+    v, f = _mesh(V, F)
+    m = _meshlap.mass_matrix(v, f, kind)
+    return sp.diags_array(m, format="csr") if hasattr(sp, "diags_array") else sp.csr_array(sp.diags(m))
+
+
+def properties(
+    V: Any,
+    F: Any,
+    kind: str,
+    *,
+    dense_limit: Optional[int] = None,
+    sql_diagonal: str = "zero-row-sum",
+    mass: str = "voronoi",
+) -> Dict[str, Any]:
+    """The matrix-theoretic property report of ``meshlap operator --json`` (every
+    property measured on the matrix: symmetry, negative weights, row sums, the
+    smoothing matrix, spectrum bounds, GSML status)."""
+    v, f = _mesh(V, F)
+    return _json.loads(_meshlap.properties(v, f, kind, dense_limit, sql_diagonal, mass))
+
+
+def eigs(
+    V: Any,
+    F: Any,
+    k: int,
+    kind: str = "sql",
+    *,
+    tol: Optional[float] = None,
+    sql_diagonal: str = "zero-row-sum",
+    mass: str = "voronoi",
+    return_residuals: bool = False,
+):
+    """The k smallest eigenpairs of a mesh operator, ascending: ``evals`` (k,) and
+    ``evecs`` (n, k) float64. The cotangent operator is solved with its lumped mass,
+    ``L v = λ M v`` (``evecs`` M-orthonormal); the TL (and T², SDL) through its
+    positive diagonal symmetrizer S (S-orthonormal); the others are orthonormal.
+    Shift-invert block Krylov–Schur with a Sylvester-inertia completeness check (dense
+    below 600 vertices). Each vector's largest-magnitude entry is positive."""
+    v, f = _mesh(V, F)
+    evals, evecs, res = _meshlap.eigs(v, f, _count(k), kind, tol, sql_diagonal, mass)
+    return (evals, evecs, res) if return_residuals else (evals, evecs)
+
+
+def _count(k: Any) -> int:
+    if isinstance(k, (bool, np.bool_)) or not isinstance(k, (int, np.integer)) or k < 1:
+        raise SpectralError(f"k must be a positive integer, got {k!r}")
+    return int(k)
+
+
+def _diagonal_mass(M: Any, n: int) -> np.ndarray:
+    import scipy.sparse as sp
+
+    if sp.issparse(M):
+        if M.shape != (n, n):
+            raise SpectralError(f"M must have shape ({n}, {n}), got {M.shape}")
+        coo = sp.coo_array(M)
+        if (coo.row != coo.col).any() and np.any(coo.data[coo.row != coo.col] != 0):
+            raise SpectralError(
+                "M must be diagonal (a lumped mass matrix): meshlap's partial eigensolver "
+                "takes K v = λ M v with a positive diagonal M; a consistent (non-diagonal) "
+                "mass matrix is not supported yet"
+            )
+        return np.ascontiguousarray(M.diagonal(), dtype=np.float64)
+    a = np.asarray(M)
+    if a.ndim == 1 and a.shape[0] == n and a.dtype.kind in "fiu":
+        return np.ascontiguousarray(a, dtype=np.float64)
+    if a.ndim == 2 and a.shape == (n, n):
+        off = a - np.diag(np.diag(a))
+        if np.any(off != 0):
+            raise SpectralError("M must be diagonal (a lumped mass matrix); a consistent mass matrix is not supported yet")
+        return np.ascontiguousarray(np.diag(a), dtype=np.float64)
+    raise SpectralError(f"M must have shape ({n},) or ({n}, {n}), got {a.shape}")
+
+
+def eigsh(A: Any, k: int, M: Any = None, tol: float = 1e-10, *, return_residuals: bool = False):
+    """The k smallest eigenpairs of ANY symmetric positive semi-definite matrix ``A``
+    (scipy sparse, or dense), optionally of ``A v = λ M v`` with a positive diagonal
+    ``M`` (sparse diagonal matrix, dense diagonal matrix or the (n,) diagonal).
+
+    Returns ``evals`` (k,) ascending and ``evecs`` (n, k) float64, M-orthonormal
+    (``evecs.T @ M @ evecs = I``). Complete: Sylvester's law of inertia on the LDLᵀ
+    factors of ``A − σM`` proves no eigenvalue inside the returned range is skipped.
+    Robust on singular A (the shifts never sit on an eigenvalue, unlike scipy's
+    ``sigma=0``); dense below 600 rows. ``tol`` is the relative Ritz residual of the
+    shift-inverted operator. A non-symmetric A raises :class:`SpectralError` (a
+    ``ValueError``); so does a non-diagonal M (not supported yet).
+
+    A drop-in for ``scipy.sparse.linalg.eigsh(A, k, M, sigma=-small, which="LM")``.
+    """
+    import scipy.sparse as sp
+
+    if sp.issparse(A):
+        a = sp.csc_array(A, dtype=np.float64)
+    else:
+        d = np.asarray(A)
+        if d.dtype.kind not in "fiu":
+            raise SpectralError(f"A must be a real matrix, got dtype {d.dtype}")
+        if d.ndim != 2:
+            raise SpectralError(f"A must be a square 2-D matrix, got shape {d.shape}")
+        a = sp.csc_array(d.astype(np.float64))
+    if a.ndim != 2 or a.shape[0] != a.shape[1]:
+        raise SpectralError(f"A must be square (n, n), got shape {a.shape}")
+    n = a.shape[0]
+    k = _count(k)
+    if k > n:
+        raise SpectralError(f"k must be at most n = {n}, got {k}")
+    a.sum_duplicates()
+    a.sort_indices()
+    mass = None if M is None else _diagonal_mass(M, n)
+    evals, evecs, res = _meshlap.eigsh(
+        np.ascontiguousarray(a.indptr, dtype=np.int64),
+        np.ascontiguousarray(a.indices, dtype=np.int64),
+        np.ascontiguousarray(a.data, dtype=np.float64),
+        n,
+        k,
+        mass,
+        float(tol),
+    )
+    return (evals, evecs, res) if return_residuals else (evals, evecs)
+
+
+def project(V: Any, F: Any, kind: str, keep: Union[int, str], patch_size: Optional[int] = None) -> np.ndarray:
+    """Spectral projection (Zhang 2004 Fig. 1; Karni & Gotsman 2000): the positions
+    rebuilt from the ``keep`` lowest-frequency coefficients of the operator's
+    ED-transform, ``x⁽ᵐ⁾ = e₁X₁ + … + e_mX_m``. ``keep`` is a count m (1 ≤ m ≤ n) or a
+    percentage string like ``"10%"``. With ``patch_size`` the mesh is split into METIS
+    patches of about that many vertices and each keeps the fraction m/n. Dense basis
+    (n ≤ 5000 without patches). Returns V′ float64 (n, 3)."""
+    v, f = _mesh(V, F)
+    n = v.shape[0]
+    if isinstance(keep, str) and keep.strip().endswith("%"):
+        try:
+            p = float(keep.strip()[:-1])
+        except ValueError:
+            raise SpectralError(f"keep must be a count or a percentage like '10%', got {keep!r}") from None
+        if not 0 < p <= 100:
+            raise SpectralError(f"keep percentage must be in (0, 100], got {keep!r}")
+        m = max(1, int(round(p / 100.0 * n)))
+    else:
+        m = _count(keep)
+    return _meshlap.project(v, f, kind, m, patch_size)
+
+
+def compaction(V: Any, F: Any, kind: str, *, centre: bool = False) -> np.ndarray:
+    """Energy compaction (transform efficiency, Zhang 2004 §4.9) of the geometry in
+    the operator's ED-transform: an (n, 4) float64 array whose row m−1 holds the
+    fraction of the coefficient energy of x, y, z and in total in the first m
+    (lowest-frequency) coefficients."""
+    v, f = _mesh(V, F)
+    return _meshlap.compaction(v, f, kind, bool(centre))
+
+
+def smooth(
+    V: Any,
+    F: Any,
+    filter: str = "implicit",
+    operator: str = "sql",
+    lam: Optional[float] = None,
+    steps: Optional[int] = None,
+    solver: Optional[str] = None,
+    *,
+    stop: Optional[str] = None,
+    tol: Optional[float] = None,
+    max_iterations: Optional[int] = None,
+    kpb: Optional[float] = None,
+    order: Optional[int] = None,
+    passband: Optional[float] = None,
+    preserve: str = "none",
+    dense_limit: Optional[int] = None,
+):
+    """Low-pass filter the positions with operator F (``F = D − W``): ``implicit``
+    ((I + λF)x′ = x, Desbrun 1999; Zhang 2004 §4.10; λ = 30, 1 step by default),
+    ``explicit``, ``taubin``, ``butterworth``, ``ideal`` (see ``meshlap smooth``).
+    ``None`` takes the library's default; the solver ``auto`` is CG for a symmetric F
+    and BiCG otherwise.
+
+    Returns ``(V′, info)``: float64 (n, 3) and a dict with ``iterations`` per
+    coordinate column, ``residuals``, ``solves`` (each with ``history``: the relative
+    residual per iteration and column), ``solver``, timings and volumes.
+    """
+    v, f = _mesh(V, F)
+    out, rep = _meshlap.smooth(
+        v, f, filter, operator, lam, steps, solver, stop, tol, max_iterations, kpb, order,
+        passband, preserve, dense_limit,
+    )
+    return out, _json.loads(rep)
+
+
+def repair_sql(V: Any, F: Any, method: str = "swap", *, max_dihedral: Optional[float] = None):
+    """Remove the SQL's negative weights (Zhang 2004 §3.7) by greedy edge swapping
+    (``swap``), vertex splits (``split``) or both (``swap-split``).
+
+    Returns ``(V, F, report)`` (new vertices are appended; report keys as
+    ``meshlap repair-sql --json``)."""
+    v, f = _mesh(V, F)
+    v2, f2, rep = _meshlap.repair_sql(v, f, method, max_dihedral)
+    return v2, f2, _json.loads(rep)
+
+
+def partition(V: Any, F: Any, patch_size: int, *, seed: int = 0, return_stats: bool = False):
+    """Connected METIS patches of about ``patch_size`` vertices: int32 labels (n,)
+    (with ``return_stats``, also the dict of ``meshlap partition --json``)."""
+    v, f = _mesh(V, F)
+    labels, stats = _meshlap.partition(v, f, int(patch_size), int(seed))
+    return (labels, _json.loads(stats)) if return_stats else labels
+
+
+# ----------------------------------------------------------------------------------
+# Compression, metrics, pictures
+
+
+def compress(
+    V: Any,
+    F: Any,
+    bits: Optional[float] = None,
+    target_bpv: Optional[float] = None,
+    mode: Optional[str] = None,
+    *,
+    operator: Optional[str] = None,
+    patch_size: Optional[int] = None,
+    keep_ratio: Optional[float] = None,
+    coefficients: Optional[int] = None,
+    band_slope: Optional[float] = None,
+    dead_zone: Optional[float] = None,
+    prediction: bool = True,
+    border_residuals: bool = False,
+    rdo_lambda: Optional[float] = None,
+    select: bool = True,
+    preserve_order: bool = False,
+    return_report: bool = False,
+):
+    """Compress a manifold, consistently oriented mesh to ``.mlz`` bytes (options and
+    defaults of ``meshlap compress``: 10 bits, ``mode="auto"``). With
+    ``return_report`` also the dict of ``meshlap compress --json``. The vertex order
+    of :func:`decompress` is the coder's unless ``preserve_order``."""
+    v, f = _mesh(V, F)
+    data, rep = _meshlap.compress(
+        v, f, bits, target_bpv, mode, operator, patch_size, keep_ratio, coefficients,
+        band_slope, dead_zone, prediction, border_residuals, rdo_lambda, select, preserve_order,
+    )
+    return (data, _json.loads(rep)) if return_report else data
+
+
+def decompress(data: Union[bytes, bytearray, memoryview]):
+    """Decode ``.mlz`` bytes: ``(V, F)`` float64 (n, 3) and int64 (m, 3)."""
+    if not isinstance(data, (bytes, bytearray, memoryview)):
+        raise CodecError(f"data must be bytes, got {type(data).__name__}")
+    return _meshlap.decompress(bytes(data))
+
+
+def compare(Va: Any, Fa: Any, Vb: Any, Fb: Any, *, map: Any = None, samples: int = 200_000) -> Dict[str, Any]:
+    """Distortion of mesh B against A (÷ A's bounding-box diagonal): vertex RMS/max
+    (same vertex count, or through ``map``: per vertex of B its vertex of A), Metro
+    surface distances both ways and Hausdorff, Zhang's SDL measure and
+    Karni–Gotsman's error when the connectivity is identical. Keys of
+    ``meshlap compare --json``."""
+    va, fa = _mesh(Va, Fa, "Va", "Fa")
+    vb, fb = _mesh(Vb, Fb, "Vb", "Fb")
+    m = None
+    if map is not None:
+        m = np.asarray(map)
+        if m.ndim != 1 or m.shape[0] != vb.shape[0] or m.dtype.kind not in "iu":
+            raise MetricError(f"map must be an integer array of shape ({vb.shape[0]},), got {m.dtype} {m.shape}")
+        if (m < 0).any() or (m >= va.shape[0]).any():
+            raise MetricError(f"map entries must be vertices of A (0..{va.shape[0] - 1})")
+        m = np.ascontiguousarray(m, dtype=np.uint32)
+    return _json.loads(_meshlap.compare(va, fa, vb, fb, m, int(samples)))
+
+
+def render(
+    V: Any,
+    F: Any,
+    scalars: Any = None,
+    colormap: str = "viridis",
+    azimuth: float = 0.0,
+    elevation: float = 0.0,
+    size: Tuple[int, int] = (800, 800),
+    *,
+    smooth: bool = False,
+    wireframe: bool = False,
+    legend: bool = True,
+) -> np.ndarray:
+    """A picture of the mesh by meshlap's software rasterizer (orthographic, framed
+    to fill the picture, two-sided Lambert shading). ``scalars``: one value per
+    vertex (e.g. an eigenvector) through ``colormap`` (``viridis`` or ``coolwarm``),
+    with a color bar unless ``legend=False``. ``size`` is (width, height).
+
+    Returns an (H, W, 3) uint8 RGB array."""
+    v, f = _mesh(V, F)
+    s = None if scalars is None else _vector(scalars, "scalars", v.shape[0])
+    w, h = size
+    return _meshlap.render(v, f, s, colormap, float(azimuth), float(elevation), int(w), int(h), smooth, wireframe, legend)
+
+
+# ----------------------------------------------------------------------------------
+# Descriptors
+
+
+def _eigenpairs(evals: Any, evecs: Any) -> Tuple[np.ndarray, np.ndarray]:
+    lam = _vector(evals, "evals")
+    phi = np.asarray(evecs)
+    if phi.ndim != 2 or phi.shape[1] != lam.shape[0] or phi.dtype.kind not in "fiu":
+        raise SpectralError(
+            f"evecs must be a real (n, {lam.shape[0]}) array (one column per eigenvalue), got {phi.shape}"
+        )
+    return lam, np.ascontiguousarray(phi, dtype=np.float64)
+
+
+def hks(evals: Any, evecs: Any, times: Any = None, *, count: int = 100, return_times: bool = False):
+    """Heat kernel signature (Sun, Ovsjanikov & Guibas 2009):
+    ``HKS(x, t) = Σ_i exp(−λ_i t) φ_i(x)²``, an (n, T) float64 array, from
+    eigenpairs of a PSD operator (``F = D − W``; e.g. :func:`eigs` with the cotangent
+    kind). Default ``times``: ``count`` values log-spaced over
+    ``[4 ln10/λ_max, 4 ln10/λ_1]`` (λ_1 the smallest non-zero eigenvalue), as the
+    paper samples them."""
+    lam, phi = _eigenpairs(evals, evecs)
+    t = None if times is None else _vector(times, "times")
+    out, used = _meshlap.hks(lam, phi, t, int(count))
+    return (out, used) if return_times else out
+
+
+def wks(
+    evals: Any,
+    evecs: Any,
+    energies: Any = None,
+    *,
+    sigma: Optional[float] = None,
+    count: int = 100,
+    return_energies: bool = False,
+):
+    """Wave kernel signature (Aubry, Schlickewei & Cremers 2011):
+    ``WKS(x, e) = Σ_i φ_i(x)² exp(−(e − log λ_i)²/2σ²) / Σ_i exp(−(e − log λ_i)²/2σ²)``
+    over the non-zero eigenvalues, an (n, E) float64 array. Default: ``count``
+    log-energies from ``log λ_1 + 2σ`` to ``log λ_max − 2σ`` with ``σ = 7δ`` (δ the
+    increment), the paper's choice; for given ``energies`` σ defaults to 7 × their
+    mean increment. With ``return_energies``: ``(WKS, energies, sigma)``."""
+    lam, phi = _eigenpairs(evals, evecs)
+    e = None if energies is None else _vector(energies, "energies")
+    out, used, s = _meshlap.wks(lam, phi, e, None if sigma is None else float(sigma), int(count))
+    return (out, used, s) if return_energies else out
+
+
+# ----------------------------------------------------------------------------------
+# Threads
+
+
+def set_threads(n: int) -> None:
+    """Run every later call on ``n`` threads (``0``: all cores, the default)."""
+    if not isinstance(n, (int, np.integer)) or n < 0:
+        raise Error(f"n must be a non-negative integer, got {n!r}")
+    _meshlap.set_threads(int(n))
+
+
+def get_threads() -> int:
+    """The number of threads calls run on."""
+    return _meshlap.get_threads()
+
+
+__all__ = [
+    "read_mesh",
+    "write_mesh",
+    "info",
+    "clean",
+    "operator",
+    "mass_matrix",
+    "properties",
+    "eigs",
+    "eigsh",
+    "project",
+    "compaction",
+    "smooth",
+    "repair_sql",
+    "partition",
+    "compress",
+    "decompress",
+    "compare",
+    "render",
+    "hks",
+    "wks",
+    "set_threads",
+    "get_threads",
+    "OPERATOR_KINDS",
+    "Error",
+    "MeshError",
+    "MeshIOError",
+    "OperatorError",
+    "SpectralError",
+    "SolveError",
+    "RepairError",
+    "PartitionError",
+    "CodecError",
+    "MetricError",
+    "RenderError",
+]

@@ -1,0 +1,147 @@
+"""Every bad input is a ValueError subclass naming the argument: never a crash,
+never a silent result."""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+import meshlap
+
+
+@pytest.fixture
+def tet():
+    return meshlap.read_mesh("builtin:tetrahedron")
+
+
+def test_error_classes_are_value_errors():
+    for cls in [meshlap.MeshError, meshlap.MeshIOError, meshlap.OperatorError, meshlap.SpectralError,
+                meshlap.SolveError, meshlap.CodecError, meshlap.RenderError, meshlap.MetricError]:
+        assert issubclass(cls, meshlap.Error) and issubclass(cls, ValueError)
+    assert issubclass(meshlap.MeshIOError, OSError)
+
+
+@pytest.mark.parametrize(
+    "V, F, match",
+    [
+        (np.zeros((4, 2)), [[0, 1, 2]], r"V must have shape \(n, 3\), got \(4, 2\)"),
+        (np.zeros(12), [[0, 1, 2]], r"V must have shape \(n, 3\)"),
+        (np.zeros((4, 3)), [[0, 1]], r"F must have shape \(m, 3\), got \(1, 2\)"),
+        (np.zeros((4, 3)), [[0, 1, 4]], r"F\[0\] = \[0, 1, 4\] refers to a vertex >= 4, but V has 4 vertices"),
+        (np.zeros((4, 3)), [[0, -1, 2]], r"negative vertex index"),
+        (np.zeros((4, 3)), np.zeros((0, 3), int), r"F is empty"),
+        (np.zeros((4, 3)), [[0.0, 1.0, 2.0]], r"F must be an integer"),
+        (np.array([[0, 0, 0], [1, 0, 0], [0, np.nan, 0], [0, 0, 1]]), [[0, 1, 2]], r"V has a NaN or infinite coordinate at vertex 2"),
+        (np.array([[0, 0, 0], [1, 0, 0], [0, np.inf, 0], [0, 0, 1]]), [[0, 1, 2]], r"vertex 2"),
+        ([["a", "b", "c"]], [[0, 0, 0]], r"V must be a real"),
+    ],
+)
+def test_bad_meshes(V, F, match):
+    for fn in [lambda: meshlap.operator(V, F, "kirchhoff"), lambda: meshlap.info(V, F),
+               lambda: meshlap.compress(V, F), lambda: meshlap.render(V, F)]:
+        with pytest.raises(meshlap.MeshError, match=match):
+            fn()
+
+
+def test_library_checks_reach_python(tet):
+    V, F = tet
+    # A face with a repeated corner is refused by the library (not cleaned silently).
+    with pytest.raises(meshlap.Error):
+        meshlap.operator(V, np.vstack([F, [[0, 0, 1]]]), "kirchhoff")
+    with pytest.raises(meshlap.OperatorError, match="unknown operator `nope`"):
+        meshlap.operator(V, F, "nope")
+    with pytest.raises(meshlap.OperatorError, match="unknown SQL boundary diagonal"):
+        meshlap.operator(V, F, "sql", sql_diagonal="upside-down")
+    with pytest.raises(meshlap.OperatorError, match="unknown mass matrix"):
+        meshlap.mass_matrix(V, F, "lumpy")
+    # Degenerate geometry for the cotangent operator.
+    flat = V.copy()
+    flat[:] = 0
+    with pytest.raises(meshlap.OperatorError, match="degenerate"):
+        meshlap.operator(flat, F, "cotan")
+
+
+def test_eigsh_bad_input():
+    n = 30
+    A = sp.random_array((n, n), density=0.2, random_state=1) if hasattr(sp, "random_array") else sp.random(n, n, 0.2, random_state=1)
+    with pytest.raises(ValueError, match="A must be symmetric"):
+        meshlap.eigsh(A + sp.eye_array(n), 3)
+    S = sp.csr_array(A @ A.T + sp.eye_array(n))
+    with pytest.raises(meshlap.SpectralError, match="square"):
+        meshlap.eigsh(sp.csr_array(np.ones((3, 4))), 1)
+    with pytest.raises(meshlap.SpectralError, match="k must be at most n = 30"):
+        meshlap.eigsh(S, 31)
+    with pytest.raises(meshlap.SpectralError, match="positive integer"):
+        meshlap.eigsh(S, 0)
+    with pytest.raises(meshlap.SpectralError, match=r"M must have shape \(30,\)"):
+        meshlap.eigsh(S, 2, np.ones(29))
+    with pytest.raises(meshlap.SpectralError, match="M must be diagonal"):
+        meshlap.eigsh(S, 2, S)
+    with pytest.raises(meshlap.SpectralError, match="mass matrix entry 3"):
+        m = np.ones(n)
+        m[3] = -1
+        meshlap.eigsh(S, 2, m)
+    bad = S.copy()
+    bad.data[0] = np.nan
+    with pytest.raises(meshlap.SpectralError, match="non-finite"):
+        meshlap.eigsh(bad, 2)
+
+
+def test_descriptor_bad_input():
+    lam = np.array([0.0, 1.0, 2.0])
+    phi = np.eye(3)
+    with pytest.raises(meshlap.SpectralError, match=r"evecs must be a real \(n, 3\)"):
+        meshlap.hks(lam, phi[:, :2])
+    with pytest.raises(meshlap.SpectralError, match="time 0 is -1"):
+        meshlap.hks(lam, phi, [-1.0])
+    with pytest.raises(meshlap.SpectralError, match="non-negative"):
+        meshlap.wks(-lam - 1, phi, [0.0])
+    with pytest.raises(meshlap.SpectralError, match="two distinct non-zero"):
+        meshlap.hks(np.zeros(3), phi)
+
+
+def test_io_codec_render_errors(tmp_path, tet):
+    V, F = tet
+    with pytest.raises(meshlap.MeshIOError) as e:
+        meshlap.read_mesh(tmp_path / "missing.obj")
+    assert isinstance(e.value, OSError)
+    bad = tmp_path / "bad.obj"
+    bad.write_text("v 0 0 0\nf 1 2 3\n")
+    with pytest.raises(meshlap.Error):
+        meshlap.read_mesh(bad)
+    with pytest.raises(meshlap.MeshIOError):
+        meshlap.write_mesh(tmp_path / "x.unknown", V, F)
+    with pytest.raises(meshlap.CodecError):
+        meshlap.decompress(b"MLZ\x1a garbage")
+    data = meshlap.compress(V, F)
+    with pytest.raises(meshlap.CodecError):
+        meshlap.decompress(data[: len(data) // 2])
+    with pytest.raises(meshlap.CodecError):
+        meshlap.compress(V, F, bits=99)
+    with pytest.raises(meshlap.CodecError):
+        meshlap.decompress("not bytes")
+    with pytest.raises(meshlap.Error, match=r"scalars must have shape \(4,\)"):
+        meshlap.render(V, F, scalars=np.ones(5))
+    with pytest.raises(meshlap.RenderError, match="colormap"):
+        meshlap.render(V, F, colormap="rainbow")
+    with pytest.raises(meshlap.RenderError):
+        meshlap.render(V, F, size=(2, 2))
+    with pytest.raises(meshlap.MetricError, match="map must be"):
+        meshlap.compare(V, F, V, F, map=[0, 1])
+
+
+def test_filter_errors(tet):
+    V, F = tet
+    with pytest.raises(meshlap.SolveError, match="pass-band|passband"):
+        meshlap.smooth(V, F, "butterworth")
+    with pytest.raises(meshlap.SolveError):
+        meshlap.smooth(V, F, lam=-1.0)
+    with pytest.raises(meshlap.SolveError):
+        meshlap.smooth(V, F, steps=0)
+    with pytest.raises(meshlap.SolveError, match="needs a symmetric operator"):
+        meshlap.smooth(*meshlap.read_mesh("builtin:grid:4"), "implicit", "tutte", solver="cg")
+    with pytest.raises(meshlap.SolveError):
+        meshlap.smooth(V, F, solver="magic")
+    with pytest.raises(meshlap.Error):
+        meshlap.project(V, F, "kirchhoff", 5)
+    with pytest.raises(meshlap.PartitionError):
+        meshlap.partition(V, F, 0)

@@ -1,0 +1,121 @@
+"""Operators against their scipy construction in the test, sign F = D − W."""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+import meshlap
+from conftest import adjacency
+
+
+def dense(a):
+    return a.toarray() if sp.issparse(a) else np.asarray(a)
+
+
+@pytest.mark.parametrize("mesh", ["sphere", "grid"])
+def test_combinatorial_operators_equal_scipy_construction(mesh, request):
+    V, F = request.getfixturevalue(mesh)
+    n = len(V)
+    A = adjacency(F, n)
+    d = np.asarray(A.sum(axis=1)).ravel()
+    K = sp.diags_array(d) - A
+    T = sp.eye_array(n) - sp.diags_array(1.0 / d) @ A
+    G = sp.eye_array(n) - sp.diags_array(d ** -0.5) @ A @ sp.diags_array(d ** -0.5)
+    for kind, ref in [("kirchhoff", K), ("tutte", T), ("graph", G), ("kl", K)]:
+        L = meshlap.operator(V, F, kind)
+        assert isinstance(L, sp.csr_array)
+        assert L.dtype == np.float64 and L.shape == (n, n)
+        np.testing.assert_allclose(dense(L), dense(ref), atol=1e-14, err_msg=kind)
+
+
+def test_sql_closed_mesh_weights_and_unit_diagonal(sphere):
+    V, F = sphere
+    n = len(V)
+    A = adjacency(F, n)
+    d = np.asarray(A.sum(axis=1)).ravel()
+    # W_ij = 1/d_i + 1/d_j − (1/d_k + 1/d_l)/2 with k, l the vertices opposite edge ij.
+    W = np.zeros((n, n))
+    for a, b, c in np.asarray(F):
+        for i, j, k in [(a, b, c), (b, c, a), (c, a, b)]:
+            W[i, j] += 0.5 * (1 / d[i] + 1 / d[j]) - 0.5 / d[k]
+            W[j, i] += 0.5 * (1 / d[i] + 1 / d[j]) - 0.5 / d[k]
+    S = dense(meshlap.operator(V, F, "sql"))
+    np.testing.assert_allclose(S - np.diag(np.diag(S)), -W, atol=1e-14)
+    np.testing.assert_allclose(np.diag(S), 1.0, atol=1e-14)
+    np.testing.assert_allclose(S.sum(axis=1), 0.0, atol=1e-13)
+
+
+def cotan_reference(V, F):
+    """Cotangent stiffness (Pinkall–Polthier) assembled in numpy: positive
+    semi-definite, L_ij = −(cot α + cot β)/2."""
+    n = len(V)
+    rows, cols, vals = [], [], []
+    for tri in np.asarray(F):
+        for c in range(3):
+            o, i, j = tri[c], tri[(c + 1) % 3], tri[(c + 2) % 3]
+            u, w = V[i] - V[o], V[j] - V[o]
+            cot = np.dot(u, w) / np.linalg.norm(np.cross(u, w))
+            rows += [i, j, i, j]
+            cols += [j, i, i, j]
+            vals += [-0.5 * cot, -0.5 * cot, 0.5 * cot, 0.5 * cot]
+    return sp.coo_array((vals, (rows, cols)), shape=(n, n)).toarray()
+
+
+@pytest.mark.parametrize("mesh", ["sphere", "grid"])
+def test_cotan_equals_numpy_construction_and_is_minus_libigl(mesh, request):
+    V, F = request.getfixturevalue(mesh)
+    L = dense(meshlap.operator(V, F, "cotan"))
+    np.testing.assert_allclose(L, cotan_reference(V, F), atol=1e-12)
+    assert np.linalg.eigvalsh(L).min() > -1e-10  # PSD: F = D − W
+
+
+def test_barycentric_mass_is_a_third_of_the_incident_areas(sphere):
+    V, F = sphere
+    F = np.asarray(F)
+    area = 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1)
+    ref = np.zeros(len(V))
+    for c in range(3):
+        np.add.at(ref, F[:, c], area / 3)
+    M = meshlap.mass_matrix(V, F, "barycentric")
+    assert sp.issparse(M) and M.shape == (len(V), len(V))
+    np.testing.assert_allclose(M.diagonal(), ref, rtol=1e-13)
+    # Voronoi areas tile the surface too.
+    np.testing.assert_allclose(meshlap.mass_matrix(V, F).diagonal().sum(), area.sum(), rtol=1e-12)
+
+
+def test_float32_and_int32_inputs_give_the_same_operator(sphere):
+    V, F = sphere
+    a = meshlap.operator(V.astype(np.float32).astype(np.float64), F, "cotan")
+    b = meshlap.operator(V.astype(np.float32), F.astype(np.int32), "cotan")
+    c = meshlap.operator(V.astype(np.float32).tolist(), F.astype(np.uint32), "cotan")
+    assert abs(a - b).max() == 0 and abs(a - c).max() == 0
+
+
+def test_properties_report_measured_on_the_matrix(sphere, grid):
+    V, F = sphere
+    r = meshlap.properties(V, F, "sql")
+    assert r["symmetric"] is True and r["gsml"]["is_gsml"] is True
+    assert r["n"] == len(V)
+    ev = np.linalg.eigvalsh(dense(meshlap.operator(V, F, "sql")))
+    assert abs(r["lambda_max"] - ev.max()) < 1e-9
+    r = meshlap.properties(*grid, "sql", sql_diagonal="printed")
+    assert r["max_abs_row_sum"] > 1e-3  # the paper's printed boundary diagonal
+
+
+def test_info_and_clean(sphere):
+    V, F = sphere
+    r = meshlap.info(V, F)
+    for key in ["vertices", "faces", "edges", "boundary_edges", "boundary_loops", "components",
+                "euler_characteristic", "non_manifold_edges", "non_manifold_vertices",
+                "dropped_unreferenced_vertices", "dropped_degenerate_faces", "dropped_duplicate_faces"]:
+        assert key in r
+    assert r["euler_characteristic"] == 2 and r["genus"] == 0
+    # An unreferenced vertex, a duplicate face and a degenerate one are dropped.
+    V2 = np.vstack([V, [[9.0, 9.0, 9.0]]])
+    F2 = np.vstack([F, F[:1], [[0, 0, 1]]])
+    Vc, Fc, rep = meshlap.clean(V2, F2)
+    assert (rep["dropped_unreferenced_vertices"], rep["dropped_duplicate_faces"], rep["dropped_degenerate_faces"]) == (1, 1, 1)
+    np.testing.assert_array_equal(Vc, V)
+    np.testing.assert_array_equal(Fc, F)
+    assert Fc.dtype == np.int64
+    assert meshlap.info(V2, F2)["dropped_unreferenced_vertices"] == 1

@@ -1,0 +1,171 @@
+"""eigsh / eigs against scipy and numpy, HKS / WKS against their closed forms,
+projection and compaction against a dense numpy construction."""
+
+import numpy as np
+import pytest
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+import meshlap
+
+
+def check_pairs(A, M, evals, evecs, tol=1e-8):
+    """Residuals ‖Av − λMv‖ small, VᵀMV = I, ascending."""
+    Md = sp.eye_array(A.shape[0]) if M is None else M
+    R = A @ evecs - (Md @ evecs) * evals
+    scale = max(1.0, abs(evals).max())
+    assert np.abs(R).max() < tol * scale
+    np.testing.assert_allclose(evecs.T @ (Md @ evecs), np.eye(len(evals)), atol=1e-9)
+    assert np.all(np.diff(evals) >= -1e-12)
+
+
+def compare_to_scipy(evals, ref):
+    scale = max(abs(ref).max(), 1.0)
+    for a, b in zip(evals, ref):
+        assert abs(a - b) <= 1e-9 * max(abs(b), 1e-3 * scale), (a, b)
+
+
+def test_eigsh_matches_scipy_shift_invert_on_the_sql(big_sphere):
+    V, F = big_sphere
+    S = meshlap.operator(V, F, "sql")
+    k = 30
+    evals, evecs, res = meshlap.eigsh(S, k, return_residuals=True)
+    ref = spla.eigsh(S.tocsc(), k, sigma=-1e-3, which="LM", return_eigenvectors=False)
+    compare_to_scipy(evals, np.sort(ref))
+    check_pairs(S, None, evals, evecs)
+    assert res.shape == (k,) and res.max() < 1e-8
+    assert evecs.shape == (len(V), k) and evecs.dtype == np.float64
+
+
+def test_eigsh_generalized_cotan_with_lumped_mass(big_sphere):
+    V, F = big_sphere
+    L = meshlap.operator(V, F, "cotan")
+    M = meshlap.mass_matrix(V, F)
+    k = 25
+    evals, evecs = meshlap.eigsh(L, k, M)
+    ref = spla.eigsh(L.tocsc(), k, M.tocsc(), sigma=-1e-3, which="LM", return_eigenvectors=False)
+    compare_to_scipy(evals, np.sort(ref))
+    check_pairs(L, M, evals, evecs)
+    # The mass may also be given as its diagonal, dense or sparse.
+    e2, _ = meshlap.eigsh(L, k, M.diagonal())
+    e3, _ = meshlap.eigsh(L.toarray(), k, M.toarray())
+    np.testing.assert_allclose(e2, evals, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(e3, evals, rtol=1e-10, atol=1e-10)
+    # eigs on the mesh uses the same mass automatically.
+    e4, v4 = meshlap.eigs(V, F, k, "cotan")
+    np.testing.assert_allclose(e4, evals, rtol=1e-10, atol=1e-10)
+
+
+def test_eigsh_singular_matrix_at_sigma_zero_works(big_sphere):
+    """The Kirchhoff operator is singular (constant null vector): shift-invert at
+    σ = 0 factors a singular matrix; meshlap's shifts never sit on an eigenvalue."""
+    V, F = big_sphere
+    K = meshlap.operator(V, F, "kirchhoff")
+    evals, evecs = meshlap.eigsh(K, 12)
+    assert abs(evals[0]) < 1e-9
+    c = evecs[:, 0]
+    np.testing.assert_allclose(c, np.full(len(V), 1 / np.sqrt(len(V))), atol=1e-9)
+    ref = np.linalg.eigvalsh(K.toarray())[:12]
+    compare_to_scipy(evals, ref)
+    check_pairs(K, None, evals, evecs)
+
+
+def test_eigsh_dense_path_and_multiplicities(sphere):
+    """Below 600 rows the dense solver runs; the icosphere's multiple eigenvalues
+    come with all their copies (completeness)."""
+    V, F = sphere
+    K = meshlap.operator(V, F, "kirchhoff")
+    k = 16  # 1 + 3 + 5 + 7: the first four clusters exactly
+    evals, evecs = meshlap.eigsh(K, k)
+    ref = np.linalg.eigvalsh(K.toarray())[:k]
+    compare_to_scipy(evals, ref)
+    check_pairs(K, None, evals, evecs)
+
+
+def test_eigsh_random_spd_matrix_not_from_a_mesh():
+    rng = np.random.default_rng(7)
+    n = 700
+    B = sp.random_array((n, n), density=0.01, random_state=rng) if hasattr(sp, "random_array") else sp.random(n, n, 0.01, random_state=7)
+    A = sp.csr_array(B @ B.T + sp.eye_array(n) * 1e-3)
+    evals, evecs = meshlap.eigsh(A, 10)
+    ref = np.linalg.eigvalsh(A.toarray())[:10]
+    compare_to_scipy(evals, ref)
+    check_pairs(A, None, evals, evecs)
+
+
+def test_eigs_tutte_through_its_symmetrizer(sphere):
+    V, F = sphere
+    T = meshlap.operator(V, F, "tutte").toarray()
+    evals, evecs = meshlap.eigs(V, F, 10, "tutte")
+    ref = np.sort(np.linalg.eigvals(T).real)[:10]
+    np.testing.assert_allclose(evals, ref, atol=1e-10)
+    np.testing.assert_allclose(T @ evecs, evecs * evals, atol=1e-9)
+
+
+def heat_diag(K, t):
+    return np.diag(sla.expm(-t * K))
+
+
+def test_hks_equals_heat_kernel_diagonal_from_dense_spectrum(sphere):
+    V, F = sphere
+    K = meshlap.operator(V, F, "kirchhoff").toarray()
+    lam, phi = np.linalg.eigh(K)
+    times = np.array([0.01, 0.1, 1.0])
+    H = meshlap.hks(lam, phi, times)
+    assert H.shape == (len(V), 3)
+    for j, t in enumerate(times):
+        np.testing.assert_allclose(H[:, j], heat_diag(K, t), rtol=1e-10, atol=1e-12)
+    # Default times: Sun et al.'s log-spaced [4 ln10/λ_max, 4 ln10/λ_1].
+    H2, t2 = meshlap.hks(lam, phi, count=7, return_times=True)
+    c = 4 * np.log(10)
+    np.testing.assert_allclose([t2[0], t2[-1]], [c / lam[-1], c / lam[1]], rtol=1e-12)
+    np.testing.assert_allclose(np.diff(np.log(t2)), np.log(t2[1] / t2[0]), rtol=1e-9)
+    np.testing.assert_allclose(H2[:, 0], (phi**2) @ np.exp(-lam * t2[0]), rtol=1e-12)
+
+
+def test_wks_closed_form_and_default_energies(sphere):
+    V, F = sphere
+    lam, phi = meshlap.eigs(V, F, 40, "cotan")
+    e = np.linspace(np.log(lam[1]) + 0.5, np.log(lam[-1]) - 0.5, 5)
+    s = 0.3
+    W = meshlap.wks(lam, phi, e, sigma=s)
+    pos = lam > 1e-9 * lam[-1]
+    g = np.exp(-((e[None, :] - np.log(lam[pos])[:, None]) ** 2) / (2 * s * s))
+    ref = (phi[:, pos] ** 2) @ g / g.sum(axis=0)
+    np.testing.assert_allclose(W, ref, rtol=1e-12)
+    W2, e2, s2 = meshlap.wks(lam, phi, count=10, return_energies=True)
+    delta = e2[1] - e2[0]
+    np.testing.assert_allclose(s2, 7 * delta, rtol=1e-12)
+    np.testing.assert_allclose(e2[0], np.log(lam[1]) + 2 * s2, rtol=1e-12)
+    np.testing.assert_allclose(e2[-1], np.log(lam[-1]) - 2 * s2, rtol=1e-9)
+    # M-weighted columns of the WKS sum to 1 (convex combinations of M-normalised φ²).
+    m = meshlap.mass_matrix(V, F).diagonal()
+    np.testing.assert_allclose(m @ W2, 1.0, rtol=1e-9)
+
+
+def test_project_equals_dense_truncated_projection(sphere):
+    V, F = sphere
+    K = meshlap.operator(V, F, "kirchhoff").toarray()
+    lam, E = np.linalg.eigh(K)
+    keep = 16  # at a gap between clusters (1 + 3 + 5 + 7)
+    assert lam[keep] - lam[keep - 1] > 1e-3
+    ref = E[:, :keep] @ (E[:, :keep].T @ V)
+    np.testing.assert_allclose(meshlap.project(V, F, "kirchhoff", keep), ref, atol=1e-10)
+    np.testing.assert_allclose(meshlap.project(V, F, "sql", len(V)), V, atol=1e-10)
+    Vp = meshlap.project(V, F, "kirchhoff", "10%", patch_size=40)
+    assert Vp.shape == V.shape and np.isfinite(Vp).all()
+
+
+def test_compaction_is_the_cumulative_coefficient_energy(sphere):
+    V, F = sphere
+    K = meshlap.operator(V, F, "kirchhoff").toarray()
+    _, E = np.linalg.eigh(K)
+    X = E.T @ V
+    ref = np.cumsum(X**2, axis=0) / (X**2).sum(axis=0)
+    c = meshlap.compaction(V, F, "kirchhoff")
+    assert c.shape == (len(V), 4)
+    # Per coordinate: equal where the eigenbasis is unique (cluster boundaries).
+    np.testing.assert_allclose(c[15, :3], ref[15], atol=1e-10)
+    np.testing.assert_allclose(c[-1], 1.0, atol=1e-12)
+    assert np.all(np.diff(c[:, 3]) >= -1e-15)
