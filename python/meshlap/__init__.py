@@ -43,6 +43,7 @@ from .errors import (
     RepairError,
     SolveError,
     SpectralError,
+    WatermarkError,
 )
 
 __version__ = "0.1.0"
@@ -571,6 +572,67 @@ def get_threads() -> int:
     return _meshlap.get_threads()
 
 
+def watermark_embed(
+    V: Any,
+    F: Any,
+    key: int,
+    message: str,
+    *,
+    operator: Optional[str] = None,
+    strength: Optional[float] = None,
+    chip_rate: Optional[int] = None,
+    patch_size: Optional[int] = None,
+    band: Optional[int] = None,
+) -> Tuple[np.ndarray, Dict[str, Any]]:
+    """Embed a watermark (Ohbuchi, Takahashi, Miyazawa, Mukaiyama 2001; Ohbuchi,
+    Mukaiyama, Takahashi 2002; Zhang 2004 §4.9): the hex ``message`` (16 digits = 64
+    bits) spread with the 64-bit ``key``'s ±1 chips over the low-frequency spectral
+    coefficients of METIS patches, in the ED basis of a combinatorial operator
+    (``operator``: kirchhoff (default), sql, sstl, tutte; PSD, F = D − W).
+
+    V: float (n, 3), F: int (m, 3). Returns ``(V′, report)``: V′ float64 (n, 3) with the
+    input's connectivity and vertex order; the report has the keys of
+    ``meshlap watermark embed --json`` (bits, patches, coefficients_per_bit, mrms,
+    max_displacement, msdm2, seconds). ``strength`` is the target RMS displacement ÷
+    bounding-box diagonal. Options left at None take the library's defaults; detection
+    must use the same operator, patch size, band and chip rate."""
+    v, f = _mesh(V, F)
+    if not (0 <= int(key) < 2**64):
+        raise WatermarkError(f"key must be an integer in [0, 2**64), got {key}")
+    out, report = _meshlap.watermark_embed(v, f, int(key), str(message), operator, strength, chip_rate, patch_size, band)
+    return out, _json.loads(report)
+
+
+def watermark_detect(
+    Vs: Any,
+    Fs: Any,
+    Vo: Any,
+    Fo: Any,
+    key: int,
+    bits: int = 64,
+    *,
+    expect: Optional[str] = None,
+    operator: Optional[str] = None,
+    patch_size: Optional[int] = None,
+    band: Optional[int] = None,
+    chip_rate: Optional[int] = None,
+) -> Dict[str, Any]:
+    """Non-blind detection of a watermark in the suspect ``(Vs, Fs)`` against the
+    original ``(Vo, Fo)``: similarity registration (principal axes + ICP with scale),
+    resampling onto the original's connectivity when it differs, the original's patch
+    bases, correlation with the key's chips. Returns the keys of
+    ``meshlap watermark detect --json``: message (hex, or None when no watermark is
+    found), bits, correlations, false_positive_probability, registration, resampled,
+    bit_errors and ber (with ``expect``), seconds."""
+    vs, fs = _mesh(Vs, Fs, "Vs", "Fs")
+    vo, fo = _mesh(Vo, Fo, "Vo", "Fo")
+    if not (0 <= int(key) < 2**64):
+        raise WatermarkError(f"key must be an integer in [0, 2**64), got {key}")
+    return _json.loads(
+        _meshlap.watermark_detect(vs, fs, vo, fo, int(key), int(bits), expect, operator, patch_size, band, chip_rate)
+    )
+
+
 __all__ = [
     "read_mesh",
     "write_mesh",
@@ -594,6 +656,9 @@ __all__ = [
     "wks",
     "set_threads",
     "get_threads",
+    "watermark_embed",
+    "watermark_detect",
+    "WatermarkError",
     "OPERATOR_KINDS",
     "Error",
     "MeshError",

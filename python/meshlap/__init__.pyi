@@ -21,6 +21,7 @@ from .errors import (
     RepairError as RepairError,
     SolveError as SolveError,
     SpectralError as SpectralError,
+    WatermarkError as WatermarkError,
 )
 
 __version__: str
@@ -78,3 +79,34 @@ def hks(evals: _ArrayLike, evecs: _ArrayLike, times: Optional[_ArrayLike] = ...,
 def wks(evals: _ArrayLike, evecs: _ArrayLike, energies: Optional[_ArrayLike] = ..., *, sigma: Optional[float] = ..., count: int = ..., return_energies: bool = ...) -> Any: ...
 def set_threads(n: int) -> None: ...
 def get_threads() -> int: ...
+
+def watermark_embed(
+    V: _ArrayLike,
+    F: _ArrayLike,
+    key: int,
+    message: str,
+    *,
+    operator: Optional[str] = ...,
+    strength: Optional[float] = ...,
+    chip_rate: Optional[int] = ...,
+    patch_size: Optional[int] = ...,
+    band: Optional[int] = ...,
+) -> Tuple[_F64, Dict[str, Any]]:
+    """(V′ float64 (n, 3), report); V float (n, 3), F int (m, 3); message hex."""
+    ...
+def watermark_detect(
+    Vs: _ArrayLike,
+    Fs: _ArrayLike,
+    Vo: _ArrayLike,
+    Fo: _ArrayLike,
+    key: int,
+    bits: int = ...,
+    *,
+    expect: Optional[str] = ...,
+    operator: Optional[str] = ...,
+    patch_size: Optional[int] = ...,
+    band: Optional[int] = ...,
+    chip_rate: Optional[int] = ...,
+) -> Dict[str, Any]:
+    """Detection report (keys of `meshlap watermark detect --json`)."""
+    ...

@@ -75,3 +75,9 @@ __all__ = [
     "MetricError",
     "RenderError",
 ]
+
+
+class WatermarkError(Error):
+    """Watermark embedding or detection failed: a bad message or key, a mesh too small
+    for the message, a suspect that cannot be registered to the original, or an
+    attack's invalid parameter."""

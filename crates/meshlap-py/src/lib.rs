@@ -16,6 +16,7 @@ use std::sync::{Arc, RwLock};
 
 mod mesh_fns;
 mod spectral_fns;
+mod watermark_fns;
 
 /// The thread pool of `set_threads` (`None`: rayon's global pool, all cores).
 static POOL: RwLock<Option<Arc<rayon::ThreadPool>>> = RwLock::new(None);
@@ -38,7 +39,8 @@ fn class_of(e: &meshlap::Error) -> &'static str {
         E::Operator(_) => "OperatorError",
         E::Solve(_) | E::Filter(_) | E::Smoothing(_) => "SolveError",
         E::Repair(_) => "RepairError",
-        E::Spectral(_) | E::PartialSpectrum(_) | E::Descriptor(_) => "SpectralError",
+        E::Spectral(_) | E::Descriptor(_) => "SpectralError",
+        E::Watermark(_) | E::Attack(_) => "WatermarkError",
         E::Codec(_) => "CodecError",
         E::Metric(_) => "MetricError",
         E::Partition(_) => "PartitionError",
@@ -252,5 +254,6 @@ fn _meshlap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(get_threads, m)?)?;
     mesh_fns::register(m)?;
     spectral_fns::register(m)?;
+    watermark_fns::register(m)?;
     Ok(())
 }

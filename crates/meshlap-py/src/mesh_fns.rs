@@ -267,7 +267,11 @@ fn compare(
         })
         .transpose()?;
     let c = compute(py, || {
-        meshlap::metric::compare(&a.mesh, &b.mesh, map, samples)
+        let opts = meshlap::metric::CompareOptions {
+            samples,
+            ..Default::default()
+        };
+        meshlap::metric::compare(&a.mesh, &b.mesh, map, &opts)
     })
     .or_raise(py)?;
     json(py, &c)
