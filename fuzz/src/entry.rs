@@ -13,8 +13,11 @@ use meshlap::codec::container::{self, SectionKind};
 use meshlap::io::{read_mesh_from_bytes, Format};
 use meshlap::TriMesh;
 
+/// A fuzz target's entry point.
+pub type Target = fn(&[u8]);
+
 /// Every target, by name (the names of the `[[bin]]`s and of the corpus folders).
-pub const TARGETS: [(&str, fn(&[u8])); 9] = [
+pub const TARGETS: [(&str, Target); 9] = [
     ("obj", obj),
     ("off", off),
     ("ply_ascii", ply_ascii),
