@@ -132,6 +132,16 @@ pub enum IoError {
         #[source]
         source: faer::sparse::CreationError,
     },
+    /// A mesh to write has a NaN or infinite coordinate (an upstream computation
+    /// diverged), or for STL one beyond the `f32` range: nothing is written. Fix: the step that produced the mesh (a
+    /// degenerate face, too large a smoothing step) — the vertex is named.
+    #[error("{path}: refusing to write vertex {vertex}, which has a NaN or infinite coordinate (for STL: beyond the f32 range)")]
+    NonFiniteOutput {
+        /// The file that was not written.
+        path: PathBuf,
+        /// 0-based vertex index.
+        vertex: usize,
+    },
     /// Data to write is inconsistent (e.g. a per-vertex property of the wrong length).
     #[error("{0}")]
     InvalidData(String),
@@ -315,12 +325,29 @@ pub struct WriteOptions<'a> {
 }
 
 /// Writes `mesh` to `path` atomically. OBJ and PLY keep every `f64` exactly; OFF too;
-/// STL stores `f32` (a documented loss) and no shared vertices.
+/// STL stores `f32` (a documented loss) and no shared vertices. A NaN or infinite
+/// coordinate is refused ([`IoError::NonFiniteOutput`], naming the vertex) before
+/// anything is written.
 pub fn write_mesh(path: &Path, mesh: &TriMesh, opts: &WriteOptions) -> Result<(), IoError> {
     let format = match opts.format {
         Some(f) => f,
         None => Format::from_path(path)?,
     };
+    // STL stores f32: a finite f64 beyond f32's range would be written as infinity.
+    let finite = |c: f64| match format {
+        Format::Stl => (c as f32).is_finite(),
+        _ => c.is_finite(),
+    };
+    if let Some(vertex) = mesh
+        .positions
+        .iter()
+        .position(|p| !p.iter().all(|&c| finite(c)))
+    {
+        return Err(IoError::NonFiniteOutput {
+            path: path.to_path_buf(),
+            vertex,
+        });
+    }
     let n = mesh.n_vertices();
     if let Some((name, s)) = opts.vertex_scalar {
         if s.len() != n {

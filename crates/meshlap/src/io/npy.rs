@@ -48,6 +48,18 @@ pub fn read_npy(path: &Path) -> Result<Mat<f64>, IoError> {
         file: file.clone(),
         message,
     };
+    // npyz allocates the header length the file announces (up to 4 GiB in versions 2
+    // and 3) before reading it: check it against the bytes present first (found by
+    // the `npy` fuzz target).
+    if bytes.starts_with(b"\x93NUMPY") && bytes.len() >= 12 {
+        let header_end = data_offset(&bytes);
+        if header_end > bytes.len() as u64 {
+            return Err(IoError::Truncated {
+                file,
+                what: format!("a header of {header_end} bytes"),
+            });
+        }
+    }
     let npy = NpyFile::new(&bytes[..]).map_err(|e| header_error(e.to_string()))?;
     let (n, k) = match *npy.shape() {
         [n] => (n, 1),
@@ -109,8 +121,8 @@ pub fn read_npy(path: &Path) -> Result<Mat<f64>, IoError> {
 }
 
 /// Byte offset of the array data: magic (6) + version (2) + header length (2 bytes for
-/// version 1, 4 for versions 2 and 3) + the header text. Only called after `npyz` has
-/// parsed the header, so the fields exist.
+/// version 1, 4 for versions 2 and 3) + the header text. Only called on at least 12
+/// bytes that start with the magic, so the fields exist.
 fn data_offset(bytes: &[u8]) -> u64 {
     match bytes.get(6) {
         Some(1) => 10 + u16::from_le_bytes([bytes[8], bytes[9]]) as u64,
@@ -231,6 +243,15 @@ mod tests {
         assert!(matches!(
             read_bytes(&complex),
             Err(IoError::Unsupported { .. })
+        ));
+        // A version-2 header announcing 1.6 GB in a 24-byte file: refused before
+        // anything is allocated (the fuzz target's out-of-memory finding).
+        let mut hostile = b"\x93NUMPY\x02\x00".to_vec();
+        hostile.extend_from_slice(&1_694_498_932u32.to_le_bytes());
+        hostile.extend_from_slice(b"{'descr': '|u1'");
+        assert!(matches!(
+            read_bytes(&hostile),
+            Err(IoError::Truncated { .. })
         ));
         let rank3 = handmade("<f8", false, "(1, 1, 1)", &[0; 8]);
         assert!(matches!(read_bytes(&rank3), Err(IoError::Header { .. })));

@@ -602,6 +602,9 @@ pub(crate) fn read(bytes: &[u8], file: &str, info: &mut ReadInfo) -> Result<TriM
                     }
                 }
             }
+            // An element without properties holds no data, whatever its count (a
+            // hostile count of 10^18 would otherwise spin here).
+            _ if el.props.is_empty() => {}
             _ => {
                 for _ in 0..el.count {
                     for prop in &el.props {
@@ -725,6 +728,13 @@ mod tests {
             }
         }
         b
+    }
+
+    #[test]
+    fn huge_count_of_an_element_without_properties_is_read_at_once() {
+        // Found while writing the fuzz harness: 10^18 empty entries spun the reader.
+        let b = b"ply\nformat ascii 1.0\nelement nothing 1000000000000000000\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+        assert_eq!(parse(b).unwrap().0.faces, vec![[0, 1, 2]]);
     }
 
     #[test]

@@ -8,6 +8,7 @@
 //! geometry types and more dependencies than this needs.
 
 use crate::mesh::TriMesh;
+use crate::operator::geometry::cross;
 
 #[derive(Clone, Copy, Debug)]
 struct Node {
@@ -37,10 +38,31 @@ fn add_s(a: [f64; 3], b: [f64; 3], s: f64) -> [f64; 3] {
     [a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2]]
 }
 
-/// Closest point of triangle `(a, b, c)` to `p`.
+/// Closest point of segment `(a, b)` to `p` (`a` when the segment has zero length).
+fn closest_on_segment(p: [f64; 3], a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    let ab = sub(b, a);
+    let len2 = dot(ab, ab);
+    if len2 <= 0.0 {
+        return a;
+    }
+    add_s(a, ab, (dot(sub(p, a), ab) / len2).clamp(0.0, 1.0))
+}
+
+/// Closest point of triangle `(a, b, c)` to `p`. A triangle that is zero-area to
+/// rounding (`‖ab × ac‖ ≤ ε·ℓ²`, ℓ its longest edge: collinear or coincident corners)
+/// is treated as its three edges, so degenerate faces give finite distances.
 pub fn closest_on_triangle(p: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> [f64; 3] {
     let ab = sub(b, a);
     let ac = sub(c, a);
+    let n = cross(ab, ac);
+    let longest2 = dot(ab, ab).max(dot(ac, ac)).max(dot(sub(c, b), sub(c, b)));
+    if dot(n, n).sqrt() <= f64::EPSILON * longest2 {
+        return [(a, b), (b, c), (c, a)]
+            .map(|(u, v)| closest_on_segment(p, u, v))
+            .into_iter()
+            .min_by(|x, y| dot(sub(p, *x), sub(p, *x)).total_cmp(&dot(sub(p, *y), sub(p, *y))))
+            .unwrap_or(a);
+    }
     let ap = sub(p, a);
     let d1 = dot(ab, ap);
     let d2 = dot(ac, ap);
@@ -73,11 +95,8 @@ pub fn closest_on_triangle(p: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -
     }
     let denom = va + vb + vc;
     if denom.abs() < 1e-300 {
-        // Degenerate triangle: nearest of its vertices.
-        return [a, b, c]
-            .into_iter()
-            .min_by(|x, y| dot(sub(p, *x), sub(p, *x)).total_cmp(&dot(sub(p, *y), sub(p, *y))))
-            .unwrap_or(a);
+        // Unreachable for a proper triangle (checked above); keep the result finite.
+        return a;
     }
     let v = vb / denom;
     let w = vc / denom;

@@ -16,6 +16,13 @@
 //!   the model size in a similar way).
 //! * MSDM2 (Lavoué, SGP 2011): a multiscale perceptual distance from local curvature
 //!   statistics, for meshes of any connectivity ([`msdm2`]).
+//!
+//! **Degenerate input.** Zero-area faces get no samples and are measured as their
+//! edges (see [`bvh::closest_on_triangle`]); coincident vertices get the Karni–Gotsman
+//! inverse lengths of edges clamped at `ε·diag`; the Zhang measure is omitted (`None`)
+//! when the SDL is undefined (a zero-length edge). A reference mesh A without faces
+//! or with a zero bounding box is [`MetricError::Empty`]. Every reported figure is
+//! finite.
 
 pub mod bvh;
 pub mod msdm2;
@@ -33,8 +40,9 @@ use serde::Serialize;
 /// Errors of the metrics.
 #[derive(Debug, thiserror::Error)]
 pub enum MetricError {
-    /// A mesh has no faces or no area.
-    #[error("mesh {0} has no faces or zero area")]
+    /// A mesh has no faces, or the reference mesh's bounding box is zero (every
+    /// vertex at one point) or too large for `f64`: nothing to normalise by.
+    #[error("mesh {0} has no faces or a zero (or overflowing) bounding box")]
     Empty(&'static str),
     /// The vertex map does not fit.
     #[error("vertex map has {got} entries, the meshes have {n}")]
@@ -163,15 +171,16 @@ fn sdl_vectors(m: &TriMesh) -> Option<Vec<[f64; 3]>> {
     Some(out)
 }
 
-/// Karni–Gotsman geometric Laplacian `GL(v)_i = v_i − Σ l_ij⁻¹ v_j / Σ l_ij⁻¹`.
-fn kg_laplacian(m: &TriMesh, topo: &Topology) -> Vec<[f64; 3]> {
+/// Karni–Gotsman geometric Laplacian `GL(v)_i = v_i − Σ l_ij⁻¹ v_j / Σ l_ij⁻¹`, edge
+/// lengths clamped below at `min_len` (> 0) so that coincident vertices stay finite.
+fn kg_laplacian(m: &TriMesh, topo: &Topology, min_len: f64) -> Vec<[f64; 3]> {
     (0..m.n_vertices())
         .map(|i| {
             let p = m.positions[i];
             let (mut s, mut w) = ([0.0; 3], 0.0);
             for &j in topo.neighbors(crate::mesh::VertexId(i as u32)) {
                 let q = m.positions[j as usize];
-                let l = norm(sub(p, q)).max(1e-300);
+                let l = norm(sub(p, q)).max(min_len);
                 for k in 0..3 {
                     s[k] += q[k] / l;
                 }
@@ -231,7 +240,10 @@ pub fn compare(
     if b.faces.is_empty() {
         return Err(MetricError::Empty("B"));
     }
-    let diag = a.bbox_diagonal().max(f64::MIN_POSITIVE);
+    let diag = a.bbox_diagonal();
+    if !diag.is_finite() || diag < f64::MIN_POSITIVE {
+        return Err(MetricError::Empty("A"));
+    }
     let (ab_rms, ab_max) = one_sided(a, b, samples, 1);
     let (ba_rms, ba_max) = one_sided(b, a, samples, 2);
     let mut c = Comparison {
@@ -292,11 +304,12 @@ pub fn compare(
                 };
                 s += dl[0] * dl[0] + dl[1] * dl[1] + dl[2] * dl[2] + along * along;
             }
-            c.zhang_sdl = Some(s / n as f64 / (diag * diag));
+            c.zhang_sdl = Some(s / n as f64 / diag / diag);
         }
         if let Ok(topo) = Topology::new(a) {
-            let ga = kg_laplacian(a, &topo);
-            let gb = kg_laplacian(&bb, &topo);
+            let min_len = f64::EPSILON * diag;
+            let ga = kg_laplacian(a, &topo, min_len);
+            let gb = kg_laplacian(&bb, &topo, min_len);
             let mut cen = [0.0; 3];
             for p in &a.positions {
                 for k in 0..3 {

@@ -13,7 +13,15 @@
 //!   vertex, a quarter to each other);
 //! - [`MassKind::Barycentric`]: one third of each incident triangle's area.
 //!
-//! A degenerate (zero-area) triangle is an error: its cotangents are infinite.
+//! **Degenerate input.** A triangle whose doubled area `‖(b − a) × (c − a)‖` is not
+//! above `ε·ℓ²` (ε the `f64` machine epsilon, ℓ its longest edge) is zero-area to
+//! rounding — collinear or coincident corners, or a needle thinner than the rounding
+//! of its edges — and its cotangents are meaningless (infinite, or as large as
+//! `1/ε`): such a face is an error, [`OperatorError::DegenerateFace`], naming the face.
+//! Above the threshold every cotangent is bounded by about `1/ε`, so the weights are
+//! finite; an overflow of extremely scaled coordinates is
+//! [`OperatorError::NonFinite`]. An isolated vertex (no faces) gets an empty row and
+//! zero mass. The result is never NaN or infinite.
 
 use super::geometry::{cross, dot, norm, sub};
 use super::OperatorError;
@@ -52,8 +60,9 @@ pub fn cotan(
     for (f, t) in topo.faces().iter().enumerate() {
         let [a, b, c] = t.map(p);
         let area2 = norm(cross(sub(b, a), sub(c, a)));
-        if area2.is_nan() || area2 <= 0.0 || !area2.is_finite() {
+        if !is_proper_triangle(area2, [a, b, c]) {
             return Err(OperatorError::DegenerateFace {
+                face: f as u32,
                 a: t[0],
                 b: t[1],
                 c: t[2],
@@ -105,7 +114,22 @@ pub fn cotan(
         })
         .collect();
     let l = super::assemble::one_ring_matrix(topo, |i| diag[i], |_, _, e| -w[e]);
+    super::check_finite(&l, Some(&mass), "cotan")?;
     Ok((l, mass))
+}
+
+/// True when a triangle with doubled area `area2` and corners `p` has an area above
+/// the rounding of its edge lengths: `area2 > ε·ℓ²` (ℓ the longest edge), both finite.
+/// Below that the corners are collinear to rounding and angles, cotangents and
+/// half-angle tangents are meaningless. Shared by the geometric operators.
+pub(crate) fn is_proper_triangle(area2: f64, p: [[f64; 3]; 3]) -> bool {
+    let longest2 = (0..3)
+        .map(|k| {
+            let e = sub(p[(k + 1) % 3], p[k]);
+            dot(e, e)
+        })
+        .fold(0.0f64, f64::max);
+    area2.is_finite() && longest2.is_finite() && area2 > f64::EPSILON * longest2
 }
 
 #[cfg(test)]
@@ -165,6 +189,27 @@ mod tests {
                 let total: f64 = mass.iter().sum();
                 assert!((total - area).abs() < 1e-12 * area, "{name} {kind:?}");
                 assert!(mass.iter().all(|&x| x > 0.0));
+            }
+        }
+    }
+
+    #[test]
+    fn needle_below_rounding_is_an_error_above_it_finite() {
+        for (h, ok) in [(1e-17, false), (1e-13, true), (1e-6, true)] {
+            let m = TriMesh::new(
+                vec![[0.0; 3], [1.0, 0.0, 0.0], [0.5, h, 0.0]],
+                vec![[0, 1, 2]],
+            );
+            let r = cotan(&m, &topo(&m), MassKind::Voronoi);
+            match r {
+                Ok((l, mass)) => {
+                    assert!(ok, "height {h}");
+                    assert!(l.val().iter().chain(&mass).all(|v| v.is_finite()));
+                }
+                Err(e) => {
+                    assert!(!ok, "height {h}: {e}");
+                    assert!(e.to_string().contains("face 0 (0, 1, 2)"), "{e}");
+                }
             }
         }
     }

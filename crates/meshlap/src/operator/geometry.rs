@@ -22,3 +22,11 @@ pub(crate) fn cross(a: V3, b: V3) -> V3 {
 pub(crate) fn norm(a: V3) -> f64 {
     dot(a, a).sqrt()
 }
+#[inline]
+pub(crate) fn add(a: V3, b: V3) -> V3 {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+#[inline]
+pub(crate) fn scale(a: V3, s: f64) -> V3 {
+    [a[0] * s, a[1] * s, a[2] * s]
+}

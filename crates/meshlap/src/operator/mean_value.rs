@@ -6,8 +6,15 @@
 //! per row, `F = I − W̃` with `W̃_ij = w_ij / Σ_k w_ik`: n×n, non-symmetric, zero row
 //! sums, sign convention `F = D − W`. Mean-value coordinates reproduce linear
 //! functions, so `F·x = 0` at interior vertices of a planar mesh.
+//!
+//! **Degenerate input.** A zero-length edge is [`OperatorError::ZeroLengthEdge`]; a
+//! triangle that is zero-area to rounding (the cotangent operator's test, see
+//! [`super::cotan`]) is [`OperatorError::DegenerateFace`] naming the face, since its
+//! angles of 0 or π make the half-angle tangents 0 or infinite. An overflow of
+//! extremely scaled coordinates is [`OperatorError::NonFinite`]. An isolated vertex
+//! gets the identity row. The result is never NaN or infinite.
 
-use super::geometry::{cross, dot, norm, sub};
+use super::geometry::{add, cross, norm, scale, sub};
 use super::OperatorError;
 use crate::mesh::{topology::Topology, TriMesh};
 use crate::SparseMatrix;
@@ -18,6 +25,19 @@ pub fn mean_value(mesh: &TriMesh, topo: &Topology) -> Result<SparseMatrix, Opera
     let mut w = vec![[0.0f64; 2]; topo.n_edges()];
     let p = |v: u32| mesh.positions[v as usize];
     for (f, t) in topo.faces().iter().enumerate() {
+        let degenerate = || OperatorError::DegenerateFace {
+            face: f as u32,
+            a: t[0],
+            b: t[1],
+            c: t[2],
+            kind: "mean-value",
+        };
+        let corners = t.map(p);
+        let area2 = norm(cross(
+            sub(corners[1], corners[0]),
+            sub(corners[2], corners[0]),
+        ));
+        let proper = super::cotan::is_proper_triangle(area2, corners);
         for k in 0..3 {
             let (i, j, l) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
             let (u, v) = (sub(p(j), p(i)), sub(p(l), p(i)));
@@ -30,17 +50,14 @@ pub fn mean_value(mesh: &TriMesh, topo: &Topology) -> Result<SparseMatrix, Opera
                     kind: "mean-value",
                 });
             }
-            // tan(θ/2) = sin θ / (1 + cos θ) = |u×v| / (|u||v| + u·v)
-            let denom = lu * lv + dot(u, v);
-            if denom.is_nan() || denom <= 0.0 {
-                return Err(OperatorError::DegenerateFace {
-                    a: t[0],
-                    b: t[1],
-                    c: t[2],
-                    kind: "mean-value",
-                });
+            // tan(θ/2) = ‖ |v|u − |u|v ‖ / ‖ |v|u + |u|v ‖ (Kahan's form: accurate for
+            // angles near 0 and π, where sin θ / (1 + cos θ) cancels).
+            let (du, dv) = (scale(u, lv), scale(v, lu));
+            let denom = norm(add(du, dv));
+            if !proper || denom.is_nan() || denom <= 0.0 {
+                return Err(degenerate());
             }
-            let half_tan = norm(cross(u, v)) / denom;
+            let half_tan = norm(sub(du, dv)) / denom;
             // The angle at i touches edges (i, j) (half-edge k) and (i, l) (half-edge k+2).
             for (h, other, len) in [(3 * f + k, j, lu), (3 * f + (k + 2) % 3, l, lv)] {
                 let e = topo.half_edge_edge(h as u32).idx();
@@ -61,14 +78,16 @@ pub fn mean_value(mesh: &TriMesh, topo: &Topology) -> Result<SparseMatrix, Opera
                 .sum()
         })
         .collect();
-    Ok(super::assemble::one_ring_matrix(
+    let f = super::assemble::one_ring_matrix(
         topo,
         |_| 1.0,
         |i, _, e| {
             let dir = usize::from(topo.edges()[e][0] != i as u32);
             -w[e][dir] / sums[i]
         },
-    ))
+    );
+    super::check_finite(&f, None, "mean-value")?;
+    Ok(f)
 }
 
 #[cfg(test)]

@@ -22,7 +22,7 @@
 
 pub(crate) mod assemble;
 pub mod cotan;
-mod geometry;
+pub(crate) mod geometry;
 pub mod graph;
 pub mod kirchhoff;
 pub mod mean_value;
@@ -60,17 +60,32 @@ pub enum OperatorError {
         /// Operator name.
         kind: &'static str,
     },
-    /// A geometric operator met a degenerate (zero-area) triangle.
+    /// A geometric operator met a degenerate triangle: zero area to rounding (collinear
+    /// or coincident corners, a needle thinner than the rounding of its edge lengths)
+    /// or an area that overflows. Fix: `meshlap clean` drops faces with a repeated
+    /// vertex; collapse or remove the named face (or use a combinatorial operator).
     #[error(
-        "face ({a}, {b}, {c}) is degenerate (zero area); the {kind} operator is undefined there"
+        "face {face} ({a}, {b}, {c}) is degenerate (zero area to rounding); the {kind} operator is undefined there"
     )]
     DegenerateFace {
+        /// Face index in the mesh.
+        face: u32,
         /// Face corners.
         a: u32,
         /// Face corners.
         b: u32,
         /// Face corners.
         c: u32,
+        /// Operator name.
+        kind: &'static str,
+    },
+    /// An assembled weight overflowed (coordinates so large or so small that the
+    /// weights around the named vertex leave the range of `f64`). Fix: rescale the
+    /// mesh (`meshlap` writes nothing in that case).
+    #[error("the {kind} weights around vertex {vertex} are not finite (coordinates too large or too small to represent them); rescale the mesh")]
+    NonFinite {
+        /// A vertex whose row has a non-finite entry.
+        vertex: u32,
         /// Operator name.
         kind: &'static str,
     },
@@ -233,6 +248,31 @@ impl Operator {
         };
         Ok(Operator { kind, matrix, mass })
     }
+}
+
+/// The last guard of the geometric operators: every entry of `matrix` (and of the
+/// mass diagonal) is finite, or [`OperatorError::NonFinite`] names a vertex (row) where
+/// one is not. The operators' own checks (degenerate faces, zero-length edges) come
+/// first; this catches overflow of well-shaped but extremely scaled meshes.
+pub(crate) fn check_finite(
+    matrix: &SparseMatrix,
+    mass: Option<&[f64]>,
+    kind: &'static str,
+) -> Result<(), OperatorError> {
+    for j in 0..matrix.ncols() {
+        let vals = matrix.val_of_col(j);
+        if let Some(k) = vals.iter().position(|v| !v.is_finite()) {
+            let vertex = matrix.row_idx_of_col_raw(j)[k] as u32;
+            return Err(OperatorError::NonFinite { vertex, kind });
+        }
+    }
+    if let Some(v) = mass.and_then(|m| m.iter().position(|x| !x.is_finite())) {
+        return Err(OperatorError::NonFinite {
+            vertex: v as u32,
+            kind,
+        });
+    }
+    Ok(())
 }
 
 /// Vertex degrees as `f64`, or an error naming an isolated vertex.

@@ -4,7 +4,14 @@
 //! Weights `w_ij = 1/‖x_i − x_j‖`, normalised per row: `F = I − W̃` with
 //! `W̃_ij = w_ij / Σ_k w_ik`. n×n, **not symmetric**, zero row sums, sign convention
 //! `F = D − W` (so `−F·x` is the SDL vector, pointing inwards on a convex surface).
-//! Boundary vertices use their one-ring as is. A zero-length edge is an error.
+//! Boundary vertices use their one-ring as is.
+//!
+//! **Degenerate input.** Only edge lengths enter, so zero-area faces and needles are
+//! fine; a zero-length edge (coincident endpoints) is
+//! [`OperatorError::ZeroLengthEdge`], and an edge so short that its inverse length
+//! overflows, or weights whose sum overflows, [`OperatorError::ZeroLengthEdge`] or
+//! [`OperatorError::NonFinite`]. An isolated vertex gets the identity row. The result
+//! is never NaN or infinite.
 
 use super::geometry::{norm, sub};
 use super::OperatorError;
@@ -17,7 +24,7 @@ fn inverse_lengths(mesh: &TriMesh, topo: &Topology) -> Result<Vec<f64>, Operator
         .iter()
         .map(|&[a, b]| {
             let l = norm(sub(mesh.positions[a as usize], mesh.positions[b as usize]));
-            if l > 0.0 && l.is_finite() {
+            if l > 0.0 && l.is_finite() && (1.0 / l).is_finite() {
                 Ok(1.0 / l)
             } else {
                 Err(OperatorError::ZeroLengthEdge { a, b, kind: "sdl" })
@@ -37,11 +44,9 @@ pub fn sdl(mesh: &TriMesh, topo: &Topology) -> Result<SparseMatrix, OperatorErro
                 .sum()
         })
         .collect();
-    Ok(super::assemble::one_ring_matrix(
-        topo,
-        |_| 1.0,
-        |i, _, e| -w[e] / sums[i],
-    ))
+    let f = super::assemble::one_ring_matrix(topo, |_| 1.0, |i, _, e| -w[e] / sums[i]);
+    super::check_finite(&f, None, "sdl")?;
+    Ok(f)
 }
 
 #[cfg(test)]

@@ -1,0 +1,228 @@
+//! One function per fuzz target: feed `data` to a meshlap reader or decoder through its
+//! public entry point. Errors are expected and ignored; a panic, an abort, a timeout or
+//! an allocation over the limit is a finding. A successful read must also satisfy the
+//! reader's contract (asserted here): every face index in range, every coordinate
+//! finite.
+//!
+//! Shared by the fuzz targets (`fuzz/fuzz_targets/*.rs`, nightly, libFuzzer) and the
+//! stable replay test `crates/meshlap/tests/fuzz_replay.rs` (through `#[path]`), so
+//! the corpora committed under `tests/data/fuzz/<target>/` replay through the same
+//! code on stable.
+
+use meshlap::codec::container::{self, SectionKind};
+use meshlap::io::{read_mesh_from_bytes, Format};
+use meshlap::TriMesh;
+
+/// A fuzz target's entry point.
+pub type Target = fn(&[u8]);
+
+/// Every target, by name (the names of the `[[bin]]`s and of the corpus folders).
+pub const TARGETS: [(&str, Target); 9] = [
+    ("obj", obj),
+    ("off", off),
+    ("ply_ascii", ply_ascii),
+    ("ply_binary", ply_binary),
+    ("stl_ascii", stl_ascii),
+    ("stl_binary", stl_binary),
+    ("mlz", mlz),
+    ("mtx", mtx),
+    ("npy", npy),
+];
+
+/// The contract of a mesh that a reader or the decoder returned.
+fn check_mesh(m: &TriMesh) {
+    let n = m.positions.len();
+    assert!(
+        m.faces.iter().flatten().all(|&v| (v as usize) < n),
+        "face index out of range"
+    );
+    assert!(
+        m.positions.iter().flatten().all(|c| c.is_finite()),
+        "non-finite coordinate"
+    );
+}
+
+fn read(data: &[u8], format: Format) {
+    if let Ok(loaded) = read_mesh_from_bytes(data, format) {
+        check_mesh(&loaded.mesh);
+        assert!(!loaded.mesh.faces.is_empty(), "a read mesh has faces");
+    }
+}
+
+/// Wavefront OBJ, raw bytes.
+pub fn obj(data: &[u8]) {
+    read(data, Format::Obj);
+}
+
+/// OFF, raw bytes.
+pub fn off(data: &[u8]) {
+    read(data, Format::Off);
+}
+
+/// PLY, raw bytes (the seeds and dictionary are ASCII PLY).
+pub fn ply_ascii(data: &[u8]) {
+    read(data, Format::Ply);
+}
+
+/// Scalar type names of PLY, indexed by 3 bits of the mode byte.
+const PLY_TYPES: [&str; 8] = [
+    "char", "uchar", "short", "ushort", "int", "uint", "float", "double",
+];
+
+/// Binary PLY. The first byte picks a mode: even, the rest is the whole file; odd, a
+/// well-formed binary header is generated from the mode byte (byte order, coordinate
+/// type) and the next 5 bytes (list count and index types, vertex and face counts),
+/// and the rest is the body, so mutations reach the binary decoding (including the
+/// fixed-size fast paths) instead of dying in the header.
+pub fn ply_binary(data: &[u8]) {
+    let Some((&mode, rest)) = data.split_first() else {
+        return;
+    };
+    if mode & 1 == 0 || rest.len() < 5 {
+        read(rest, Format::Ply);
+        return;
+    }
+    let order = if mode & 2 == 0 {
+        "binary_little_endian"
+    } else {
+        "binary_big_endian"
+    };
+    let coord = PLY_TYPES[usize::from((mode >> 2) & 7)];
+    // The list count type must be an integer type.
+    let count_ty = PLY_TYPES[usize::from(rest[0] & 7) % 6];
+    let index_ty = PLY_TYPES[usize::from((rest[0] >> 3) & 7)];
+    let extra = rest[0] & 0x40 != 0;
+    let nv = u16::from_le_bytes([rest[1], rest[2]]);
+    let nf = u16::from_le_bytes([rest[3], rest[4]]);
+    let mut file = format!(
+        "ply\nformat {order} 1.0\nelement vertex {nv}\nproperty {coord} x\n\
+         property {coord} y\nproperty {coord} z\n"
+    );
+    if extra {
+        file.push_str("property uchar red\n");
+    }
+    file.push_str(&format!(
+        "element face {nf}\nproperty list {count_ty} {index_ty} vertex_indices\n"
+    ));
+    if extra {
+        file.push_str("property float quality\n");
+    }
+    file.push_str("end_header\n");
+    let mut bytes = file.into_bytes();
+    bytes.extend_from_slice(&rest[5..]);
+    read(&bytes, Format::Ply);
+}
+
+/// ASCII STL, raw bytes (binary detection included: a file whose size matches its
+/// triangle count is binary).
+pub fn stl_ascii(data: &[u8]) {
+    read(data, Format::Stl);
+}
+
+/// Binary STL. The first byte picks a mode: 0 (mod 3), the rest is the whole file;
+/// 1, an 80-byte header and a triangle count matching the rest (truncated to whole
+/// 50-byte records) are prepended, so the body is always decoded; 2, an 80-byte header
+/// is prepended to the rest (whose first 4 bytes are then the count: usually a
+/// mismatch, which exercises the fallbacks).
+pub fn stl_binary(data: &[u8]) {
+    let Some((&mode, rest)) = data.split_first() else {
+        return;
+    };
+    match mode % 3 {
+        0 => read(rest, Format::Stl),
+        1 => {
+            let count = rest.len() / 50;
+            let mut bytes = vec![0u8; 80];
+            bytes.extend_from_slice(&(count as u32).to_le_bytes());
+            bytes.extend_from_slice(&rest[..count * 50]);
+            read(&bytes, Format::Stl);
+        }
+        _ => {
+            let mut bytes = vec![b' '; 80];
+            bytes.extend_from_slice(rest);
+            read(&bytes, Format::Stl);
+        }
+    }
+}
+
+/// The `.mlz` decoder, twice: on the raw bytes (container checks: magic, version,
+/// lengths, checksums), then on the same sections re-sealed with valid checksums, so
+/// mutations of the payloads reach the header, connectivity, geometry and
+/// permutation decoders instead of failing the crc32.
+pub fn mlz(data: &[u8]) {
+    if let Ok(m) = meshlap::codec::decompress(data) {
+        check_mesh(&m);
+    }
+    if let Some(resealed) = reseal(data) {
+        if let Ok(m) = meshlap::codec::decompress(&resealed) {
+            check_mesh(&m);
+        }
+    }
+}
+
+/// Parses `data` with the container's layout (see `codec::container`) but ignores the
+/// stored checksums, clamps lengths to the bytes present and maps unknown kinds into
+/// 1..=4; writes the sections back with valid checksums. `None` when `data` does not
+/// even hold the fixed file header.
+pub fn reseal(data: &[u8]) -> Option<Vec<u8>> {
+    if data.len() < 8 || data[..4] != container::MAGIC {
+        return None;
+    }
+    let count = usize::from(u16::from_le_bytes([data[6], data[7]])).min(8);
+    let mut pos = 8;
+    let mut sections: Vec<(SectionKind, &[u8])> = Vec::new();
+    for _ in 0..count {
+        if pos + 9 > data.len() {
+            break;
+        }
+        let kind = match data[pos] % 4 {
+            0 => SectionKind::Geometry,
+            1 => SectionKind::Header,
+            2 => SectionKind::Connectivity,
+            _ => SectionKind::Permutation,
+        };
+        let len = u32::from_le_bytes([data[pos + 1], data[pos + 2], data[pos + 3], data[pos + 4]])
+            as usize;
+        pos += 9;
+        let len = len.min(data.len() - pos);
+        sections.push((kind, &data[pos..pos + len]));
+        pos += len;
+    }
+    container::write(&sections).ok()
+}
+
+/// A per-process scratch file for the readers that take a path (Matrix Market and
+/// `.npy`): the input is written there, then read back.
+fn scratch(ext: &str, data: &[u8]) -> Option<std::path::PathBuf> {
+    let p = std::env::temp_dir().join(format!(
+        "meshlap-fuzz-{}-{:?}.{ext}",
+        std::process::id(),
+        std::thread::current().id()
+    ));
+    std::fs::write(&p, data).ok()?;
+    Some(p)
+}
+
+/// The Matrix Market reader (through a scratch file: it reads a path). A matrix it
+/// returns must have its entries in range.
+pub fn mtx(data: &[u8]) {
+    let Some(p) = scratch("mtx", data) else {
+        return;
+    };
+    if let Ok(m) = meshlap::io::read_matrix_market(&p) {
+        let (nr, nc) = (m.nrows(), m.ncols());
+        for j in 0..nc {
+            assert!(m.row_idx_of_col_raw(j).iter().all(|&i| i < nr));
+        }
+    }
+    let _ = std::fs::remove_file(&p);
+}
+
+/// The `.npy` reader (through a scratch file: it reads a path).
+pub fn npy(data: &[u8]) {
+    let Some(p) = scratch("npy", data) else {
+        return;
+    };
+    let _ = meshlap::io::read_npy(&p);
+    let _ = std::fs::remove_file(&p);
+}
