@@ -175,11 +175,13 @@ pub fn reseal(data: &[u8]) -> Option<Vec<u8>> {
         if pos + 9 > data.len() {
             break;
         }
-        let kind = match data[pos] % 4 {
-            0 => SectionKind::Geometry,
+        // Every byte names a kind (1–4 as written, 5 and 0 mod 5 the re-join section).
+        let kind = match data[pos] % 5 {
             1 => SectionKind::Header,
             2 => SectionKind::Connectivity,
-            _ => SectionKind::Permutation,
+            3 => SectionKind::Permutation,
+            4 => SectionKind::Geometry,
+            _ => SectionKind::Rejoin,
         };
         let len = u32::from_le_bytes([data[pos + 1], data[pos + 2], data[pos + 3], data[pos + 4]])
             as usize;
@@ -188,7 +190,11 @@ pub fn reseal(data: &[u8]) -> Option<Vec<u8>> {
         sections.push((kind, &data[pos..pos + len]));
         pos += len;
     }
-    container::write(&sections).ok()
+    // Keep the input's format version (4 and 5 are both read): the checksums cover
+    // the sections only.
+    let mut out = container::write(&sections).ok()?;
+    out[4..6].copy_from_slice(&data[4..6]);
+    Some(out)
 }
 
 /// A per-process scratch file for the readers that take a path (Matrix Market and

@@ -6,7 +6,7 @@
 
 use meshlap::io::{write_mesh, Format, IoError, WriteOptions};
 use meshlap::mesh::{builtin, topology::Topology};
-use meshlap::metric::compare;
+use meshlap::metric::{compare, CompareOptions};
 use meshlap::operator::{Operator, OperatorError, OperatorKind, OperatorOptions};
 use meshlap::TriMesh;
 use proptest::prelude::*;
@@ -198,7 +198,7 @@ fn metrics_are_finite_on_degenerate_meshes() {
     runner(17, 120)
         .run(&degenerate_mesh(), |(m, reference)| {
             for (a, b) in [(&m, &reference), (&reference, &m)] {
-                match compare(a, b, None, 200) {
+                match compare(a, b, None, &CompareOptions::without_msdm2(200)) {
                     Ok(c) => {
                         let v = serde_json::to_value(&c).unwrap();
                         for (k, x) in v.as_object().unwrap() {
@@ -219,7 +219,13 @@ fn metrics_are_finite_on_degenerate_meshes() {
             for p in &mut shifted.positions {
                 p[0] += 0.25 * d;
             }
-            let c = compare(&reference, &shifted, None, 200).unwrap();
+            let c = compare(
+                &reference,
+                &shifted,
+                None,
+                &CompareOptions::without_msdm2(200),
+            )
+            .unwrap();
             prop_assert!(c.hausdorff.is_finite() && c.hausdorff > 0.0);
             prop_assert!(c.karni_gotsman.is_none_or(f64::is_finite));
             prop_assert!(c.zhang_sdl.is_none_or(f64::is_finite));

@@ -82,7 +82,9 @@ fn mlz_harness_reseals_checksums() {
     let payload = &mut payloads.last_mut().unwrap().1;
     *payload.last_mut().unwrap() ^= 0x5a;
     let refs: Vec<_> = payloads.iter().map(|(k, p)| (*k, &p[..])).collect();
-    let expected = container::write(&refs).unwrap();
+    let mut expected = container::write(&refs).unwrap();
+    // The harness keeps the file's version (the golden file is version 4).
+    expected[4..6].copy_from_slice(&bytes[4..6]);
     assert_eq!(entry::reseal(&bad), Some(expected.clone()));
     assert!(!matches!(
         decompress(&expected),
