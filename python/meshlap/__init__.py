@@ -251,7 +251,8 @@ def eigs(
     ``L v = λ M v`` (``evecs`` M-orthonormal); the TL (and T², SDL) through its
     positive diagonal symmetrizer S (S-orthonormal); the others are orthonormal.
     Shift-invert block Krylov–Schur with a Sylvester-inertia completeness check (dense
-    below 600 vertices). Each vector's largest-magnitude entry is positive."""
+    below 600 vertices). Signs (and the bases of repeated eigenvalues) are canonical:
+    the crate's one rule, v · r0 >= 0 for a fixed probe vector r0, as on the dense path."""
     v, f = _mesh(V, F)
     evals, evecs, res = _meshlap.eigs(v, f, _count(k), kind, tol, sql_diagonal, mass)
     return (evals, evecs, res) if return_residuals else (evals, evecs)

@@ -76,7 +76,7 @@ def test_eigsh_bad_input():
         meshlap.eigsh(S, 2, np.ones(29))
     with pytest.raises(meshlap.SpectralError, match="M must be diagonal"):
         meshlap.eigsh(S, 2, S)
-    with pytest.raises(meshlap.SpectralError, match="mass matrix entry 3"):
+    with pytest.raises(meshlap.SpectralError, match="mass of vertex 3"):
         m = np.ones(n)
         m[3] = -1
         meshlap.eigsh(S, 2, m)
