@@ -131,6 +131,15 @@ pub enum MeshError {
         /// Number of vertices.
         n_vertices: usize,
     },
+    /// A face uses one vertex at two corners (a degenerate face). Connectivity and
+    /// the operators need three distinct corners; cleaning drops such faces.
+    #[error("face {face} uses vertex {vertex} at two corners (clean the mesh first)")]
+    RepeatedCorner {
+        /// The offending face.
+        face: usize,
+        /// The repeated vertex.
+        vertex: usize,
+    },
     /// An edge is shared by more than two faces.
     #[error("edge ({a}, {b}) is shared by {faces} faces (non-manifold); run `meshlap clean --split-nonmanifold` first")]
     NonManifoldEdge {

@@ -44,8 +44,8 @@ pub struct Topology {
 
 impl Topology {
     /// Builds the connectivity of `mesh`. An out-of-range index gives
-    /// [`MeshError::IndexOutOfRange`]. Faces with a repeated vertex should have been
-    /// removed first ([`super::clean::clean`]).
+    /// [`MeshError::IndexOutOfRange`], a face with a repeated vertex
+    /// [`MeshError::RepeatedCorner`] ([`super::clean::clean`] removes such faces).
     pub fn new(mesh: &TriMesh) -> Result<Self, MeshError> {
         Self::from_faces(mesh.n_vertices(), &mesh.faces)
     }
@@ -64,6 +64,21 @@ impl Topology {
             });
         }
         super::check_face_indices(faces, n)?;
+        if let Some((face, t)) = faces
+            .iter()
+            .enumerate()
+            .find(|(_, t)| t[0] == t[1] || t[1] == t[2] || t[0] == t[2])
+        {
+            let vertex = if t[0] == t[1] || t[0] == t[2] {
+                t[0]
+            } else {
+                t[1]
+            };
+            return Err(MeshError::RepeatedCorner {
+                face,
+                vertex: vertex as usize,
+            });
+        }
         let nh = faces.len() * 3;
         // Counting sort of half-edges by their smaller endpoint. Each entry packs
         // `hi << 32 | reversed << 31 | h`, where `reversed` says h runs hi → lo; sorting

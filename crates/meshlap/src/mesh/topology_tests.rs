@@ -204,3 +204,12 @@ fn out_of_range_is_an_error() {
         Err(MeshError::IndexOutOfRange { .. })
     ));
 }
+
+#[test]
+fn repeated_corner_is_an_error_not_a_panic_downstream() {
+    let faces = vec![[0u32, 1, 2], [2, 1, 1]];
+    match Topology::from_faces(3, &faces) {
+        Err(MeshError::RepeatedCorner { face: 1, vertex: 1 }) => {}
+        other => panic!("{other:?}"),
+    }
+}
