@@ -30,7 +30,7 @@ from typing import Any, Dict, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from . import _meshlap
+from . import _meshlap, errors
 from .errors import (
     CodecError,
     Error,
@@ -659,17 +659,6 @@ __all__ = [
     "get_threads",
     "watermark_embed",
     "watermark_detect",
-    "WatermarkError",
     "OPERATOR_KINDS",
-    "Error",
-    "MeshError",
-    "MeshIOError",
-    "OperatorError",
-    "SpectralError",
-    "SolveError",
-    "RepairError",
-    "PartitionError",
-    "CodecError",
-    "MetricError",
-    "RenderError",
+    *errors.__all__,
 ]

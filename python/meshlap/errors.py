@@ -74,6 +74,7 @@ __all__ = [
     "CodecError",
     "MetricError",
     "RenderError",
+    "WatermarkError",
 ]
 
 

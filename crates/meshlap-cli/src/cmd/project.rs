@@ -70,12 +70,14 @@ struct ProjectJson<'a> {
 pub fn run(args: &Args) -> meshlap::Result<()> {
     let input = args.mesh.open()?;
     let n = input.mesh.n_vertices();
-    let keep: Keep = args.keep.parse().map_err(|_| {
+    let bad_keep = || {
         meshlap::Error::InvalidArgument(format!(
             "--keep must be a count in 1..={n} or a percentage like 10%, got `{}`",
             args.keep
         ))
-    })?;
+    };
+    let keep: Keep = args.keep.parse().map_err(|_| bad_keep())?;
+    keep.resolve(n).map_err(|_| bad_keep())?;
     let params = ProjectParams {
         operator: super::operator::options(args.basis.sql_diagonal, args.basis.mass),
         basis: args.basis.options(),
@@ -108,10 +110,7 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
     );
     bar.finish_and_clear();
     let seconds = t.elapsed().as_secs_f64();
-    let pr = result.map_err(|e| match e {
-        meshlap::Error::InvalidArgument(m) => meshlap::Error::InvalidArgument(format!("--{m}")),
-        e => e,
-    })?;
+    let pr = result?;
     let mut out = input.mesh.clone();
     out.positions = pr.positions;
     write_mesh(&args.output, &out, &WriteOptions::default())?;
