@@ -264,43 +264,50 @@ def _count(k: Any) -> int:
     return int(k)
 
 
-def _diagonal_mass(M: Any, n: int) -> np.ndarray:
+def _mass(M: Any, n: int):
+    """``(diagonal, csc)`` for ``_meshlap.eigsh``: an (n,) diagonal, or the CSC arrays
+    of a sparse or dense (n, n) matrix (the library checks symmetry and positive
+    definiteness, and takes a diagonal one the cheap way)."""
     import scipy.sparse as sp
 
     if sp.issparse(M):
         if M.shape != (n, n):
             raise SpectralError(f"M must have shape ({n}, {n}), got {M.shape}")
-        coo = sp.coo_array(M)
-        if (coo.row != coo.col).any() and np.any(coo.data[coo.row != coo.col] != 0):
-            raise SpectralError(
-                "M must be diagonal (a lumped mass matrix): meshlap's partial eigensolver "
-                "takes K v = λ M v with a positive diagonal M; a consistent (non-diagonal) "
-                "mass matrix is not supported yet"
-            )
-        return np.ascontiguousarray(M.diagonal(), dtype=np.float64)
-    a = np.asarray(M)
-    if a.ndim == 1 and a.shape[0] == n and a.dtype.kind in "fiu":
-        return np.ascontiguousarray(a, dtype=np.float64)
-    if a.ndim == 2 and a.shape == (n, n):
-        off = a - np.diag(np.diag(a))
-        if np.any(off != 0):
-            raise SpectralError("M must be diagonal (a lumped mass matrix); a consistent mass matrix is not supported yet")
-        return np.ascontiguousarray(np.diag(a), dtype=np.float64)
-    raise SpectralError(f"M must have shape ({n},) or ({n}, {n}), got {a.shape}")
+        m = sp.csc_array(M, dtype=np.float64)
+    else:
+        a = np.asarray(M)
+        if a.dtype.kind not in "fiu":
+            raise SpectralError(f"M must be a real matrix or diagonal, got dtype {a.dtype}")
+        if a.ndim == 1 and a.shape[0] == n:
+            return np.ascontiguousarray(a, dtype=np.float64), None
+        if a.ndim != 2 or a.shape != (n, n):
+            raise SpectralError(f"M must have shape ({n},) or ({n}, {n}), got {a.shape}")
+        m = sp.csc_array(a.astype(np.float64))
+    m.sum_duplicates()
+    m.sort_indices()
+    return None, (
+        np.ascontiguousarray(m.indptr, dtype=np.int64),
+        np.ascontiguousarray(m.indices, dtype=np.int64),
+        np.ascontiguousarray(m.data, dtype=np.float64),
+    )
 
 
 def eigsh(A: Any, k: int, M: Any = None, tol: float = 1e-10, *, return_residuals: bool = False):
     """The k smallest eigenpairs of ANY symmetric positive semi-definite matrix ``A``
-    (scipy sparse, or dense), optionally of ``A v = λ M v`` with a positive diagonal
-    ``M`` (sparse diagonal matrix, dense diagonal matrix or the (n,) diagonal).
+    (scipy sparse, or dense), optionally of ``A v = λ M v`` with a symmetric positive
+    definite ``M``: a lumped mass (the (n,) diagonal, or a diagonal matrix) or any
+    sparse or dense SPD (n, n) matrix such as a consistent finite-element mass matrix
+    (reduced through its sparse Cholesky factor ``M = C Cᵀ``).
 
     Returns ``evals`` (k,) ascending and ``evecs`` (n, k) float64, M-orthonormal
     (``evecs.T @ M @ evecs = I``). Complete: Sylvester's law of inertia on the LDLᵀ
     factors of ``A − σM`` proves no eigenvalue inside the returned range is skipped.
     Robust on singular A (the shifts never sit on an eigenvalue, unlike scipy's
     ``sigma=0``); dense below 600 rows. ``tol`` is the relative Ritz residual of the
-    shift-inverted operator. A non-symmetric A raises :class:`SpectralError` (a
-    ``ValueError``); so does a non-diagonal M (not supported yet).
+    shift-inverted operator. A non-symmetric A or M, or an M that is not positive
+    definite, raises :class:`SpectralError` (a ``ValueError``). Sign convention: the
+    paper's operators are ``F = D − W`` (positive semi-definite); pass ``-L`` for
+    libigl's or pmp's negative semi-definite cotangent matrix.
 
     A drop-in for ``scipy.sparse.linalg.eigsh(A, k, M, sigma=-small, which="LM")``.
     """
@@ -323,7 +330,7 @@ def eigsh(A: Any, k: int, M: Any = None, tol: float = 1e-10, *, return_residuals
         raise SpectralError(f"k must be at most n = {n}, got {k}")
     a.sum_duplicates()
     a.sort_indices()
-    mass = None if M is None else _diagonal_mass(M, n)
+    mass, mass_csc = (None, None) if M is None else _mass(M, n)
     evals, evecs, res = _meshlap.eigsh(
         np.ascontiguousarray(a.indptr, dtype=np.int64),
         np.ascontiguousarray(a.indices, dtype=np.int64),
@@ -331,6 +338,7 @@ def eigsh(A: Any, k: int, M: Any = None, tol: float = 1e-10, *, return_residuals
         n,
         k,
         mass,
+        mass_csc,
         float(tol),
     )
     return (evals, evecs, res) if return_residuals else (evals, evecs)

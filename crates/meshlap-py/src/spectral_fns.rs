@@ -7,7 +7,9 @@ use crate::{compute, csc_out, json, mat_out, mesh_of, raise_as, CscParts, OrRais
 use faer::MatRef;
 use meshlap::operator::{Operator, OperatorKind, OperatorOptions};
 use meshlap::spectral::descriptors;
-use meshlap::spectral::partial::{operator_partial_spectrum, partial_spectrum, PartialParams};
+use meshlap::spectral::partial::{
+    operator_partial_spectrum, partial_spectrum_with_mass, Mass, PartialParams,
+};
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 
@@ -146,11 +148,13 @@ fn eigs<'py>(
     partial_out(py, ps)
 }
 
-/// `eigsh(indptr, indices, data, n, k, mass, tol)`: the k smallest eigenpairs of a
-/// symmetric sparse matrix given by its compressed columns, with an optional
-/// positive diagonal mass.
+/// `eigsh(indptr, indices, data, n, k, mass, mass_csc, tol)`: the k smallest
+/// eigenpairs of `A v = λ M v` for a symmetric sparse A given by its compressed
+/// columns; M is the identity, a positive diagonal (`mass`, (n,)) or a sparse
+/// symmetric positive definite matrix (`mass_csc`: its indptr, indices, data). The
+/// library checks symmetry and positivity.
 #[pyfunction]
-#[pyo3(signature = (indptr, indices, data, n, k, mass=None, tol=None))]
+#[pyo3(signature = (indptr, indices, data, n, k, mass=None, mass_csc=None, tol=None))]
 #[allow(clippy::too_many_arguments)]
 fn eigsh<'py>(
     py: Python<'py>,
@@ -160,52 +164,62 @@ fn eigsh<'py>(
     n: usize,
     k: usize,
     mass: Option<PyReadonlyArray1<'_, f64>>,
+    mass_csc: Option<CscIn<'_>>,
     tol: Option<f64>,
 ) -> PyResult<Eigen<'py>> {
+    let a = csc_in(py, "A", &indptr, &indices, &data, n)?;
     let contiguous = |name: &str| raise_as(py, "Error", format!("{name} must be contiguous"));
-    let ptr = indptr.as_slice().map_err(|_| contiguous("indptr"))?;
-    let idx = indices.as_slice().map_err(|_| contiguous("indices"))?;
-    let val = data.as_slice().map_err(|_| contiguous("data"))?;
-    let mass = mass
+    let diag = mass
         .as_ref()
         .map(|m| m.as_slice().map_err(|_| contiguous("M")))
         .transpose()?;
-    let a = csc_in(py, ptr, idx, val, n)?;
+    let sparse = match &mass_csc {
+        Some((p, i, v)) => Some(csc_in(py, "M", p, i, v, n)?),
+        None => None,
+    };
+    let mass = match (&sparse, diag) {
+        (Some(m), _) => Mass::Sparse(m),
+        (None, Some(d)) => Mass::Lumped(d),
+        (None, None) => Mass::Identity,
+    };
     let mut opts = PartialParams::new(k);
     if let Some(t) = tol {
         opts.tolerance = t;
     }
-    let ps = compute(py, || -> Result<_, meshlap::Error> {
-        let asym = meshlap::analysis::properties::asymmetry(&a);
-        let scale = val.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-        if asym > 1e-10 * scale.max(f64::MIN_POSITIVE) {
-            return Err(meshlap::Error::InvalidArgument(format!(
-                "A must be symmetric: max |A − Aᵀ| = {asym:.3e} (max |A| = {scale:.3e})"
-            )));
-        }
-        Ok(partial_spectrum(&a, mass, &opts, &mut |_, _| {})?)
+    let ps = compute(py, || {
+        partial_spectrum_with_mass(&a, mass, &opts, &mut |_, _| {}).map_err(meshlap::Error::from)
     })
-    .map_err(|e| match e {
-        meshlap::Error::InvalidArgument(m) => raise_as(py, "SpectralError", m),
-        e => crate::raise(py, e),
-    })?;
+    .map_err(|e| crate::raise(py, e))?;
     partial_out(py, ps)
 }
+
+/// A matrix in compressed sparse columns from Python: indptr, indices, data.
+type CscIn<'a> = (
+    PyReadonlyArray1<'a, i64>,
+    PyReadonlyArray1<'a, i64>,
+    PyReadonlyArray1<'a, f64>,
+);
 
 /// The faer matrix of CSC arrays (checked: lengths, monotone pointers, indices in
 /// range).
 fn csc_in(
     py: Python<'_>,
-    ptr: &[i64],
-    idx: &[i64],
-    val: &[f64],
+    name: &str,
+    indptr: &PyReadonlyArray1<'_, i64>,
+    indices: &PyReadonlyArray1<'_, i64>,
+    data: &PyReadonlyArray1<'_, f64>,
     n: usize,
 ) -> PyResult<meshlap::SparseMatrix> {
+    let contiguous =
+        |what: &str| raise_as(py, "Error", format!("{name}'s {what} must be contiguous"));
+    let ptr = indptr.as_slice().map_err(|_| contiguous("indptr"))?;
+    let idx = indices.as_slice().map_err(|_| contiguous("indices"))?;
+    let val = data.as_slice().map_err(|_| contiguous("data"))?;
     let bad = |m: String| raise_as(py, "SpectralError", m);
     if ptr.len() != n + 1 || idx.len() != val.len() || ptr.last().copied() != Some(idx.len() as i64)
     {
         return Err(bad(format!(
-            "A is not a valid {n}×{n} compressed sparse matrix (indptr {}, indices {}, data {})",
+            "{name} is not a valid {n}×{n} compressed sparse matrix (indptr {}, indices {}, data {})",
             ptr.len(),
             idx.len(),
             val.len()
@@ -215,21 +229,21 @@ fn csc_in(
     for j in 0..n {
         let (s, e) = (ptr[j], ptr[j + 1]);
         if s < 0 || e < s {
-            return Err(bad("A's indptr must be non-decreasing".into()));
+            return Err(bad(format!("{name}'s indptr must be non-decreasing")));
         }
         for p in s as usize..e as usize {
             let i = idx[p];
             if i < 0 || i as usize >= n {
-                return Err(bad(format!("A has a row index {i} outside 0..{n}")));
+                return Err(bad(format!("{name} has a row index {i} outside 0..{n}")));
             }
             if !val[p].is_finite() {
-                return Err(bad(format!("A has a non-finite entry at ({i}, {j})")));
+                return Err(bad(format!("{name} has a non-finite entry at ({i}, {j})")));
             }
             trip.push(faer::sparse::Triplet::new(i as usize, j, val[p]));
         }
     }
     meshlap::SparseMatrix::try_new_from_triplets(n, n, &trip)
-        .map_err(|e| bad(format!("A could not be assembled: {e:?}")))
+        .map_err(|e| bad(format!("{name} could not be assembled: {e}")))
 }
 
 /// `project(V, F, kind, keep, patch_size)` → V′ (n, 3): the truncated ED-transform

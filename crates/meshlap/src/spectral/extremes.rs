@@ -70,7 +70,7 @@ pub fn extremes(
     mass: Option<&[f64]>,
     lower_bound: f64,
 ) -> Result<Extremes, SpectralError> {
-    super::partial::check_problem(k, mass)?;
+    super::partial::check_problem(k, mass.into())?;
     let n = k.nrows();
     if n == 0 {
         return Err(SpectralError::Empty);

@@ -183,6 +183,29 @@ pub enum SpectralError {
         /// Eigenvalues in the window by inertia.
         expected: usize,
     },
+    /// A matrix given to the partial eigensolver is not symmetric. Cause: a
+    /// non-symmetric operator (TL, T², SDL, mean-value) passed as `K`, or a matrix
+    /// assembled with one triangle only. Fix: pass the operator through
+    /// [`partial::SymmetricProblem::from_operator`], or store both triangles.
+    #[error("{what} must be symmetric: max |A − Aᵀ| = {asymmetry:.3e} (max |A| = {scale:.3e})")]
+    NotSymmetricMatrix {
+        /// Which matrix ("K" or "M").
+        what: &'static str,
+        /// `max |A − Aᵀ|`.
+        asymmetry: f64,
+        /// `max |A|`.
+        scale: f64,
+    },
+    /// The sparse mass matrix `M` has no Cholesky factorization. Cause: `M` is not
+    /// positive definite (a zero-area face gives a zero row of a consistent mass
+    /// matrix; a stiffness matrix passed as `M`). Fix: clean the mesh, or check which
+    /// matrix is `K` and which is `M`.
+    #[error("the mass matrix M is not positive definite (its Cholesky factorization failed)")]
+    MassNotPositiveDefinite {
+        /// faer's error.
+        #[source]
+        source: faer::linalg::cholesky::llt::factor::LltError,
+    },
     /// The bands made no progress (should not happen on a PSD operator).
     #[error("band {band}: no new eigenvalue found above {edge}")]
     Stalled {

@@ -1,8 +1,8 @@
 //! The band driver: shifts chained upwards from just below zero, each band's window
 //! checked complete by inertia (see the module documentation of [`super`]).
 
-use super::dense::msqrt_of;
 use super::factor::{count_below, factor_at, negative_pivots, symbolic_of, ShiftedPattern};
+use super::mass::Metric;
 use super::residuals::finish;
 use super::solve::ShiftInvert;
 use super::{BandInfo, PartialParams, PartialSpectrum};
@@ -77,20 +77,24 @@ pub(super) fn krylov_dim(b: usize, p: usize) -> usize {
 /// Band-by-band shift-invert; see the module documentation.
 pub(super) fn banded(
     k: &SparseMatrix,
-    mass: Option<&[f64]>,
+    metric: &Metric,
     opts: &PartialParams,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<PartialSpectrum, SpectralError> {
     let n = k.nrows();
     let count = opts.count;
-    let msqrt = msqrt_of(mass, n);
-    let pattern = ShiftedPattern::new(k)?;
+    let pattern = ShiftedPattern::new(k, metric)?;
+    let mut ones = Vec::new();
+    let msqrt = ShiftInvert::scale_of(metric, &mut ones);
     let symbolic = symbolic_of(&pattern)?;
-    // Scale of the spectrum (mean diagonal of M⁻¹K) and a Gershgorin lower bound.
+    // Scale of the spectrum (mean diagonal of M⁻¹K) and a Gershgorin lower bound
+    // (of the diagonally scaled K; a bound for a diagonal M only — for a sparse M it
+    // is just a guess, and the inertia checks below catch a shift that is not below
+    // the spectrum).
     let mut mean_diag = 0.0;
     let mut gersh = f64::INFINITY;
     for j in 0..n {
-        let mj = mass.map_or(1.0, |m| m[j]);
+        let mj = metric.diag(j);
         let (mut d, mut off) = (0.0, 0.0);
         for (&i, &v) in k.row_idx_of_col_raw(j).iter().zip(k.val_of_col(j)) {
             if i == j {
@@ -117,7 +121,7 @@ pub(super) fn banded(
     // with negative eigenvalues) fall back to below the Gershgorin bound. A shift far
     // below the spectrum compresses the μ = 1/(λ − σ) and slows convergence.
     let mut sigma = -1e-3 * scale;
-    let mut first = Some(factor_at(&pattern, &symbolic, mass, sigma)?);
+    let mut first = Some(factor_at(&pattern, &symbolic, sigma)?);
     if first
         .as_ref()
         .is_some_and(|values| negative_pivots(&symbolic, values) > 0)
@@ -134,12 +138,13 @@ pub(super) fn banded(
         };
         let values = match first.take() {
             Some(values) => values,
-            None => factor_at(&pattern, &symbolic, mass, sigma)?,
+            None => factor_at(&pattern, &symbolic, sigma)?,
         };
         let op = ShiftInvert {
             symbolic: &symbolic,
             values,
-            msqrt: &msqrt,
+            metric,
+            msqrt,
         };
         let seed = opts.seed.wrapping_add(1_000 * band_no as u64);
         let mut found = shift_invert_pairs(&op, sigma, b, None, opts, seed)?;
@@ -164,7 +169,7 @@ pub(super) fn banded(
         }
         let new_upper = sigma + r - delta;
         // Sylvester inertia: exactly how many eigenvalues [upper, new_upper) holds.
-        let below_new = count_below(&pattern, &symbolic, mass, new_upper)?;
+        let below_new = count_below(&pattern, &symbolic, new_upper)?;
         let expected = below_new.saturating_sub(below_upper);
         let in_window = |l: f64| l >= upper && l < new_upper;
         let mut n_in = found.iter().filter(|(l, _)| in_window(*l)).count();
@@ -254,5 +259,5 @@ pub(super) fn banded(
                 0.55 * r
             };
     }
-    Ok(finish(k, &msqrt, kept, bands, false))
+    Ok(finish(k, metric, kept, bands, false))
 }

@@ -2,6 +2,7 @@
 //! the numeric LDLᵀ at a shift, and the inertia count (Sylvester's law: the negative
 //! pivots of `K − xM = LDLᵀ` are the eigenvalues of `K v = λ M v` below x).
 
+use super::mass::{Mass, Metric};
 use super::ordering::{nested_dissection, NESTED_DISSECTION_FROM};
 use crate::spectral::{FactorizationFailure, SpectralError};
 use crate::SparseMatrix;
@@ -13,40 +14,45 @@ use faer::sparse::linalg::cholesky::{
 use faer::sparse::{SparseColMat, Triplet};
 use faer::Side;
 
-/// Builds the pattern of `K − σM` once: `K` plus an explicit diagonal.
+/// Builds the pattern of `K − σM` once: `K` plus the pattern of `M` (an explicit
+/// diagonal for a diagonal `M`), and where each entry of `M` sits in it.
 pub(super) struct ShiftedPattern {
     pub(super) base: SparseMatrix,
-    diag_pos: Vec<usize>,
+    /// `(position in base's values, M_ij)` for every stored entry of `M`.
+    shift: Vec<(usize, f64)>,
 }
 
 impl ShiftedPattern {
-    pub(super) fn new(k: &SparseMatrix) -> Result<Self, SpectralError> {
+    pub(super) fn new(k: &SparseMatrix, metric: &Metric) -> Result<Self, SpectralError> {
         let n = k.nrows();
-        let mut trip = Vec::with_capacity(k.compute_nnz() + n);
+        let entries = metric.entries();
+        let mut trip = Vec::with_capacity(k.compute_nnz() + entries.len());
         for j in 0..n {
             for (&i, &v) in k.row_idx_of_col_raw(j).iter().zip(k.val_of_col(j)) {
                 trip.push(Triplet::new(i, j, v));
             }
-            trip.push(Triplet::new(j, j, 0.0));
         }
+        trip.extend(entries.iter().map(|&(i, j, _)| Triplet::new(i, j, 0.0)));
         let base: SparseMatrix = SparseColMat::try_new_from_triplets(n, n, &trip)
             .map_err(SpectralError::SparseCreation)?;
-        let mut diag_pos = Vec::with_capacity(n);
         let col_ptr = base.symbolic().col_ptr();
-        for j in 0..n {
-            // Every column holds its diagonal: an explicit (possibly zero) entry
-            // was added above, and duplicates are summed into one.
-            let p = base.row_idx_of_col_raw(j).partition_point(|&i| i < j);
-            diag_pos.push(col_ptr[j] + p);
-        }
-        Ok(Self { base, diag_pos })
+        // Every entry of M has a place in base (an explicit, possibly zero, entry was
+        // added above, and duplicates are summed into one; rows are sorted).
+        let shift = entries
+            .iter()
+            .map(|&(i, j, v)| {
+                let p = base.row_idx_of_col_raw(j).partition_point(|&r| r < i);
+                (col_ptr[j] + p, v)
+            })
+            .collect();
+        Ok(Self { base, shift })
     }
 
-    fn shifted(&self, sigma: f64, mass: Option<&[f64]>) -> SparseMatrix {
+    fn shifted(&self, sigma: f64) -> SparseMatrix {
         let mut a = self.base.clone();
         let vals = a.val_mut();
-        for (j, &p) in self.diag_pos.iter().enumerate() {
-            vals[p] -= sigma * mass.map_or(1.0, |m| m[j]);
+        for &(p, m) in &self.shift {
+            vals[p] -= sigma * m;
         }
         a
     }
@@ -55,11 +61,10 @@ impl ShiftedPattern {
 pub(super) fn factor_at(
     pattern: &ShiftedPattern,
     symbolic: &SymbolicCholesky<usize>,
-    mass: Option<&[f64]>,
     sigma: f64,
 ) -> Result<Vec<f64>, SpectralError> {
     let par = faer::get_global_parallelism();
-    let a = pattern.shifted(sigma, mass);
+    let a = pattern.shifted(sigma);
     let mut values = vec![0.0f64; symbolic.len_val()];
     let req = symbolic.factorize_numeric_ldlt_scratch::<f64>(par, Default::default());
     let mut buf = MemBuffer::new(req);
@@ -119,10 +124,9 @@ pub(super) fn negative_pivots(symbolic: &SymbolicCholesky<usize>, values: &[f64]
 pub(super) fn count_below(
     pattern: &ShiftedPattern,
     symbolic: &SymbolicCholesky<usize>,
-    mass: Option<&[f64]>,
     x: f64,
 ) -> Result<usize, SpectralError> {
-    let values = factor_at(pattern, symbolic, mass, x)?;
+    let values = factor_at(pattern, symbolic, x)?;
     Ok(negative_pivots(symbolic, &values))
 }
 
@@ -154,21 +158,22 @@ pub(super) fn symbolic_of(
 
 /// The number of eigenvalues of `K v = λ M v` strictly below `x` (each `x` one sparse
 /// LDLᵀ of `K − xM`; Sylvester's law of inertia), for `K` symmetric n×n (both
-/// triangles stored) and `M` a positive diagonal (`None`: the identity).
+/// triangles stored) and `M` the identity, a positive diagonal or a sparse symmetric
+/// positive definite matrix (see [`Mass`]).
 ///
 /// Exact up to the factorization's rounding: an eigenvalue within rounding of `x` may
 /// be counted on either side. Used by the property report for the multiplicity of
 /// the zero eigenvalue at any n.
-pub fn eigenvalues_below(
+pub fn eigenvalues_below<'a>(
     k: &SparseMatrix,
-    mass: Option<&[f64]>,
+    mass: impl Into<Mass<'a>>,
     x: f64,
 ) -> Result<usize, SpectralError> {
-    super::check_problem(k, mass)?;
+    let metric = super::check_problem(k, mass.into())?;
     if k.nrows() == 0 {
         return Ok(0);
     }
-    let pattern = ShiftedPattern::new(k)?;
+    let pattern = ShiftedPattern::new(k, &metric)?;
     let symbolic = symbolic_of(&pattern)?;
-    count_below(&pattern, &symbolic, mass, x)
+    count_below(&pattern, &symbolic, x)
 }

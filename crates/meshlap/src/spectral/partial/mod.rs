@@ -2,9 +2,10 @@
 //! Krylov–Schur in shifted bands.
 //!
 //! ## Problem
-//! `K v = λ M v` with `K` sparse symmetric n×n and `M` a positive diagonal (the
-//! identity for the ordinary problem). It covers every operator of Zhang (2004) with a
-//! real spectrum (sign convention `F = D − W`: the operators are positive
+//! `K v = λ M v` with `K` sparse symmetric n×n and `M` the identity, a positive
+//! diagonal, or any sparse symmetric positive definite matrix ([`Mass`]; below, the
+//! diagonal case is described: a sparse `M = C Cᵀ` takes `C` where the text takes
+//! `M^{1/2}`). It covers every operator of Zhang (2004) with a real spectrum (sign convention `F = D − W`: the operators are positive
 //! semi-definite, so "smallest" means the low frequencies):
 //!
 //! - the symmetric KL, GL, SQL, SSTL: `K = F`, `M = I`;
@@ -74,6 +75,7 @@
 //! ## Layout
 //! - this file: [`PartialParams`], [`PartialSpectrum`], the entry points;
 //! - `problem`: [`SymmetricProblem`], an operator as `K v = λ M v`;
+//! - `mass`: [`Mass`] and the factor `C` of `M = C Cᵀ` (sparse Cholesky);
 //! - `dense`: the dense fallback for small n;
 //! - `factor`: the pattern of `K − σM`, its numeric LDLᵀ and the inertia count;
 //! - `ordering`: METIS nested dissection for large n;
@@ -84,6 +86,9 @@
 mod banded;
 mod dense;
 mod factor;
+mod mass;
+#[cfg(test)]
+mod mass_tests;
 mod ordering;
 mod problem;
 mod residuals;
@@ -92,6 +97,8 @@ mod solve;
 mod tests;
 
 pub use factor::eigenvalues_below;
+pub use mass::Mass;
+use mass::Metric;
 pub use problem::SymmetricProblem;
 
 use super::SpectralError;
@@ -187,17 +194,39 @@ pub fn operator_partial_spectrum(
     partial_spectrum(&p.stiffness, p.mass.as_deref(), opts, progress)
 }
 
-/// The `opts.count` smallest eigenpairs of `K v = λ M v` (`mass = None`: `M = I`).
-/// `K` must be symmetric with both triangles stored; only its lower triangle is read
-/// by the factorization. `progress(found, k)` is called after every band.
+/// The `opts.count` smallest eigenpairs of `K v = λ M v` (`mass = None`: `M = I`;
+/// `Some(m)`: `M = diag(m)`). See [`partial_spectrum_with_mass`].
 pub fn partial_spectrum(
     k: &SparseMatrix,
     mass: Option<&[f64]>,
     opts: &PartialParams,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<PartialSpectrum, SpectralError> {
+    partial_spectrum_with_mass(k, mass.into(), opts, progress)
+}
+
+/// The `opts.count` smallest eigenpairs of `K v = λ M v`, with `K` an n×n symmetric
+/// sparse matrix (both triangles stored; only the lower one is read by the
+/// factorization; sign convention of the paper's operators `F = D − W`, so `K` is
+/// positive semi-definite and "smallest" means the low frequencies) and `M` the
+/// identity, a positive diagonal, or a sparse symmetric positive definite matrix
+/// ([`Mass`]; a non-diagonal `M` is handled through its sparse Cholesky factor
+/// `M = C Cᵀ`, the problem being `C⁻¹ K C⁻ᵀ w = λ w`, `v = C⁻ᵀ w`). Eigenvectors
+/// are `M`-orthonormal. `progress(found, k)` is called after every band.
+///
+/// # Errors
+/// [`SpectralError::NotSquare`], [`SpectralError::NonFinite`],
+/// [`SpectralError::NotSymmetricMatrix`] (K or M), [`SpectralError::InvalidMass`] /
+/// [`SpectralError::MassNotPositiveDefinite`], [`SpectralError::TooMany`], and the
+/// solver's failures (see [`SpectralError`]).
+pub fn partial_spectrum_with_mass(
+    k: &SparseMatrix,
+    mass: Mass<'_>,
+    opts: &PartialParams,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<PartialSpectrum, SpectralError> {
     let n = k.nrows();
-    check_problem(k, mass)?;
+    let metric = check_problem(k, mass)?;
     let count = opts.count;
     if count > n {
         return Err(SpectralError::TooMany { count, n });
@@ -216,17 +245,18 @@ pub fn partial_spectrum(
     let band = opts.band_size.max(1).min(count);
     let p = opts.block_size.max(1);
     let out = if n < opts.dense_below || n < 2 * (banded::krylov_dim(band, p) + p) {
-        dense::dense(k, mass, count)?
+        dense::dense(k, &metric, count)?
     } else {
-        banded::banded(k, mass, opts, progress)?
+        banded::banded(k, &metric, opts, progress)?
     };
     progress(out.eigenvalues.len(), count);
     Ok(out)
 }
 
-/// Checks that `K` is square and finite and that `M` (if given) is a positive, finite
-/// diagonal of matching length.
-pub(crate) fn check_problem(k: &SparseMatrix, mass: Option<&[f64]>) -> Result<(), SpectralError> {
+/// Checks that `K` is square, finite and symmetric and that `M` matches it (a
+/// positive, finite diagonal, or a symmetric positive definite matrix, which is
+/// factored here).
+pub(crate) fn check_problem(k: &SparseMatrix, mass: Mass<'_>) -> Result<Metric, SpectralError> {
     let n = k.nrows();
     if k.ncols() != n {
         return Err(SpectralError::NotSquare {
@@ -234,13 +264,11 @@ pub(crate) fn check_problem(k: &SparseMatrix, mass: Option<&[f64]>) -> Result<()
             cols: k.ncols(),
         });
     }
-    if let Some(m) = mass {
-        check_mass(m, n)?;
-    }
     if let Some(index) = k.val().iter().position(|v| !v.is_finite()) {
         return Err(SpectralError::NonFinite { index });
     }
-    Ok(())
+    mass::check_symmetric("K", k)?;
+    Metric::new(mass, n)
 }
 
 /// Checks that a lumped mass has n entries, all positive and finite.

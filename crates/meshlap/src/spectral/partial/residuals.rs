@@ -1,6 +1,7 @@
 //! Finishing: eigenvectors in the operator's coordinates with canonical signs,
 //! Rayleigh-quotient eigenvalues and residuals.
 
+use super::mass::{symmetric_mul, Metric};
 use super::{BandInfo, PartialInfo, PartialSpectrum};
 use crate::spectral::basis::BasisOptions;
 use crate::spectral::sign::{canonicalize, clusters};
@@ -14,11 +15,14 @@ const CLUSTER_TOLERANCE: f64 = BasisOptions::DEFAULT_CLUSTER_TOLERANCE;
 /// Converts `w` to `v = M^{-1/2} w`, recomputes λ as a Rayleigh quotient, fixes the
 pub(super) fn finish(
     k: &SparseMatrix,
-    msqrt: &[f64],
+    metric: &Metric,
     pairs: Vec<(f64, Col<f64>)>,
     bands: Vec<BandInfo>,
     dense: bool,
 ) -> PartialSpectrum {
+    let Some(msqrt) = metric.diagonal_sqrt() else {
+        return finish_sparse_mass(k, metric, pairs, bands, dense);
+    };
     use rayon::prelude::*;
     let n = msqrt.len();
     let m = pairs.len();
@@ -122,6 +126,55 @@ pub(super) fn finish(
         }
         j0 += w;
     }
+    PartialSpectrum {
+        eigenvalues,
+        eigenvectors,
+        residuals,
+        info: PartialInfo { bands, dense },
+    }
+}
+
+/// [`finish`] for a sparse `M = C Cᵀ`: `v = C⁻ᵀ w / ‖w‖`, the sign rule, then per
+/// pair `λ = vᵀKv / vᵀMv` and the residual `‖C⁻¹(Kv − λMv)‖ / √(vᵀMv)`.
+fn finish_sparse_mass(
+    k: &SparseMatrix,
+    metric: &Metric,
+    pairs: Vec<(f64, Col<f64>)>,
+    bands: Vec<BandInfo>,
+    dense: bool,
+) -> PartialSpectrum {
+    use faer::reborrow::ReborrowMut;
+    use rayon::prelude::*;
+    let n = metric.dim();
+    let m = pairs.len();
+    let mut eigenvectors = Mat::from_fn(n, m, |i, j| pairs[j].1[i] / pairs[j].1.norm_l2());
+    metric.solve_ct(eigenvectors.rb_mut());
+    let approx: Vec<f64> = pairs.iter().map(|p| p.0).collect();
+    drop(pairs);
+    canonicalize(
+        &mut eigenvectors,
+        &clusters(&approx, CLUSTER_TOLERANCE),
+        None,
+    );
+    let per_pair: Vec<(f64, Vec<f64>, f64)> = (0..m)
+        .into_par_iter()
+        .map(|j| {
+            let v: Vec<f64> = eigenvectors.col(j).iter().copied().collect();
+            let kv = symmetric_mul(k, &v);
+            let mv = metric.mul_m(&v);
+            let vkv: f64 = v.iter().zip(&kv).map(|(a, b)| a * b).sum();
+            let vmv: f64 = v.iter().zip(&mv).map(|(a, b)| a * b).sum();
+            let lambda = if vmv > 0.0 { vkv / vmv } else { 0.0 };
+            let r: Vec<f64> = kv.iter().zip(&mv).map(|(a, b)| a - lambda * b).collect();
+            (lambda, r, vmv)
+        })
+        .collect();
+    let mut r = Mat::from_fn(n, m, |i, j| per_pair[j].1[i]);
+    metric.solve_c(r.rb_mut());
+    let eigenvalues = per_pair.iter().map(|p| p.0).collect();
+    let residuals = (0..m)
+        .map(|j| r.col(j).norm_l2() / per_pair[j].2.sqrt())
+        .collect();
     PartialSpectrum {
         eigenvalues,
         eigenvectors,

@@ -1,6 +1,7 @@
 //! `A_σ = M^{1/2} (K − σM)^{-1} M^{1/2}` as a block operator: the hand-written
 //! interleaved supernodal solves with faer's LDLᵀ factors (AVX2 where available).
 
+use super::mass::Metric;
 use crate::spectral::krylov_schur::BlockOperator;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::reborrow::ReborrowMut;
@@ -18,10 +19,30 @@ use faer::{Conj, MatMut, MatRef, Par};
 /// BENCHMARKS.md, "Partial spectra and partitioning"). The
 /// right-hand sides are split between the rayon threads (faer's parallel solve
 /// spin-waits). A simplicial factorization (tiny matrices) falls back to faer.
+///
+/// For a sparse (non-diagonal) `M = C Cᵀ` the operator is `Cᵀ (K − σM)⁻¹ C`: the
+/// products with `C` and `Cᵀ` wrap the solves, which then run unscaled.
 pub(super) struct ShiftInvert<'a> {
     pub(super) symbolic: &'a SymbolicCholesky<usize>,
     pub(super) values: Vec<f64>,
+    /// `M` and its factor.
+    pub(super) metric: &'a Metric,
+    /// `√m` for a diagonal `M`; ones for a sparse `M` (see [`ShiftInvert::scale_of`]).
     pub(super) msqrt: &'a [f64],
+}
+
+impl ShiftInvert<'_> {
+    /// The row scaling the solves apply on both sides: `√m` for a diagonal `M`, ones
+    /// (kept in `ones`) for a sparse one.
+    pub(super) fn scale_of<'a>(metric: &'a Metric, ones: &'a mut Vec<f64>) -> &'a [f64] {
+        match metric.diagonal_sqrt() {
+            Some(s) => s,
+            None => {
+                *ones = vec![1.0; metric.dim()];
+                ones
+            }
+        }
+    }
 }
 
 impl ShiftInvert<'_> {
@@ -227,6 +248,13 @@ impl BlockOperator for ShiftInvert<'_> {
     }
     fn apply_block(&self, x: MatRef<'_, f64>, mut out: MatMut<'_, f64>) {
         out.copy_from(x);
+        let sparse_mass = self.metric.diagonal_sqrt().is_none();
+        if sparse_mass {
+            self.metric.mul_c(out.rb_mut());
+        }
         self.solve_cols(out.rb_mut(), rayon::current_num_threads());
+        if sparse_mass {
+            self.metric.mul_ct(out.rb_mut());
+        }
     }
 }

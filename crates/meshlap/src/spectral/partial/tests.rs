@@ -1,5 +1,5 @@
-use super::dense::msqrt_of;
 use super::factor::{factor_at, ShiftedPattern};
+use super::mass::Metric;
 use super::solve::ShiftInvert;
 use super::*;
 use crate::mesh::{builtin, topology::Topology, TriMesh};
@@ -11,6 +11,14 @@ use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, LdltRef, Symme
 use faer::sparse::Triplet;
 use faer::Side;
 use faer::{Conj, Par};
+
+/// `√m_i` (all ones without a mass).
+fn msqrt_of(mass: Option<&[f64]>, n: usize) -> Vec<f64> {
+    match mass {
+        Some(m) => m.iter().map(|x| x.sqrt()).collect(),
+        None => vec![1.0; n],
+    }
+}
 
 fn assemble(kind: OperatorKind, mesh: &TriMesh) -> Operator {
     let topo = Topology::new(mesh).unwrap();
@@ -84,9 +92,16 @@ fn interleaved_supernodal_solve_matches_faer_for_both_orderings() {
     let mesh = builtin::icosphere(5).unwrap();
     let op = assemble(OperatorKind::Sql, &mesh);
     let n = mesh.n_vertices();
-    let pattern = ShiftedPattern::new(&op.matrix).unwrap();
+    let identity = Metric::new(Mass::Identity, n).unwrap();
+    let pattern = ShiftedPattern::new(&op.matrix, &identity).unwrap();
     let nd = super::ordering::nested_dissection(&pattern.base).expect("METIS ordering");
     let msqrt: Vec<f64> = (0..n).map(|i| 1.0 + (i % 5) as f64 * 0.1).collect();
+    // The solves' scaling alone (the factored matrix is K − σI).
+    let scaling = Metric::new(
+        Mass::Lumped(&msqrt.iter().map(|s| s * s).collect::<Vec<_>>()),
+        n,
+    )
+    .unwrap();
     let mut x = Mat::<f64>::zeros(n, 13);
     super::super::krylov_schur::random_fill(x.as_mut(), 42);
     for custom in [false, true] {
@@ -105,10 +120,11 @@ fn interleaved_supernodal_solve_matches_faer_for_both_orderings() {
         assert!(matches!(symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_)));
         // A shift inside the spectrum: K − σI is indefinite.
         let sigma = 0.37;
-        let values = factor_at(&pattern, &symbolic, None, sigma).unwrap();
+        let values = factor_at(&pattern, &symbolic, sigma).unwrap();
         let si = ShiftInvert {
             symbolic: &symbolic,
             values: values.clone(),
+            metric: &scaling,
             msqrt: &msqrt,
         };
         for p in [1usize, 3, 8, 13] {

@@ -1,0 +1,411 @@
+//! The mass matrix `M` of `K v = λ M v` and a factor `C` with `M = C Cᵀ`, through which
+//! the generalized problem becomes the symmetric `C⁻¹ K C⁻ᵀ w = λ w`, `w = Cᵀ v`.
+//!
+//! - identity or a positive diagonal (lumped mass, diagonal symmetrizer):
+//!   `C = diag(√m)`;
+//! - a sparse symmetric positive definite `M` (a consistent finite-element mass
+//!   matrix, say): `C = Pᵀ L` from faer's simplicial sparse Cholesky `P M Pᵀ = L Lᵀ`
+//!   (AMD ordering). Simplicial, because the products with `L` and `Lᵀ` and the
+//!   triangular solves below read its columns directly.
+
+use super::check_mass;
+use crate::spectral::SpectralError;
+use crate::SparseMatrix;
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::{LltError, LltRegularization};
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholeskyRaw, SymmetricOrdering,
+};
+use faer::sparse::linalg::SupernodalThreshold;
+use faer::{MatMut, Side};
+
+/// The mass matrix `M` of the generalized problem `K v = λ M v`.
+#[derive(Clone, Copy, Debug)]
+pub enum Mass<'a> {
+    /// `M = I`: the ordinary problem `K v = λ v`.
+    Identity,
+    /// `M = diag(m)`, every entry positive and finite (n entries).
+    Lumped(&'a [f64]),
+    /// A sparse symmetric positive definite n×n `M` (both triangles stored; the lower
+    /// one is read), e.g. a consistent finite-element mass matrix.
+    Sparse(&'a SparseMatrix),
+}
+
+impl<'a> From<Option<&'a [f64]>> for Mass<'a> {
+    fn from(m: Option<&'a [f64]>) -> Self {
+        m.map_or(Mass::Identity, Mass::Lumped)
+    }
+}
+
+/// `M` with its factor `C` (`M = C Cᵀ`).
+pub(crate) enum Metric {
+    /// `M = diag(m)`, `C = diag(√m)`.
+    Diagonal {
+        /// `m`.
+        m: Vec<f64>,
+        /// `√m`.
+        sqrt: Vec<f64>,
+    },
+    /// Sparse `M = Pᵀ L Lᵀ P`, `C = Pᵀ L` (`(P x)_i = x_{fwd[i]}`).
+    Factor {
+        /// `M` (both triangles).
+        m: SparseMatrix,
+        /// Column pointers of `L` (lower, n×n).
+        col_ptr: Vec<usize>,
+        /// Row indices of `L`.
+        row_idx: Vec<usize>,
+        /// Values of `L`.
+        val: Vec<f64>,
+        /// Position of each column's diagonal in `val`.
+        diag: Vec<usize>,
+        /// The fill-reducing permutation.
+        fwd: Vec<usize>,
+    },
+}
+
+impl Metric {
+    /// Checks `mass` against n and factors it.
+    pub(super) fn new(mass: Mass<'_>, n: usize) -> Result<Self, SpectralError> {
+        match mass {
+            Mass::Identity => Ok(Self::diagonal(vec![1.0; n])),
+            Mass::Lumped(m) => {
+                check_mass(m, n)?;
+                Ok(Self::diagonal(m.to_vec()))
+            }
+            Mass::Sparse(m) => Self::factor(m, n),
+        }
+    }
+
+    fn diagonal(m: Vec<f64>) -> Self {
+        let sqrt = m.iter().map(|x| x.sqrt()).collect();
+        Self::Diagonal { m, sqrt }
+    }
+
+    fn factor(m: &SparseMatrix, n: usize) -> Result<Self, SpectralError> {
+        if m.nrows() != n || m.ncols() != n {
+            return Err(SpectralError::ShapeMismatch {
+                what: "mass matrix rows and columns",
+                expected: n,
+                got: if m.nrows() != n { m.nrows() } else { m.ncols() },
+            });
+        }
+        if let Some(index) = m.val().iter().position(|v| !v.is_finite()) {
+            return Err(SpectralError::NonFinite { index });
+        }
+        check_symmetric("M", m)?;
+        // A diagonal M (stored sparse) takes the cheap path.
+        let mut d = vec![0.0; n];
+        let mut off = false;
+        for j in 0..n {
+            for (&i, &v) in m.row_idx_of_col_raw(j).iter().zip(m.val_of_col(j)) {
+                if i == j {
+                    d[j] += v;
+                } else if v != 0.0 {
+                    off = true;
+                }
+            }
+        }
+        if !off {
+            check_mass(&d, n)?;
+            return Ok(Self::diagonal(d));
+        }
+        let symbolic = factorize_symbolic_cholesky(
+            m.symbolic(),
+            Side::Lower,
+            SymmetricOrdering::Amd,
+            CholeskySymbolicParams {
+                supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SIMPLICIAL,
+                ..Default::default()
+            },
+        )
+        .map_err(SpectralError::SymbolicFactorization)?;
+        let mut val = vec![0.0f64; symbolic.len_val()];
+        let par = faer::Par::Seq;
+        let req = symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default());
+        let mut buf = MemBuffer::new(req);
+        symbolic
+            .factorize_numeric_llt(
+                &mut val,
+                m.as_ref(),
+                Side::Lower,
+                LltRegularization::default(),
+                par,
+                MemStack::new(&mut buf),
+                Default::default(),
+            )
+            .map_err(|source| SpectralError::MassNotPositiveDefinite { source })?;
+        let SymbolicCholeskyRaw::Simplicial(s) = symbolic.raw() else {
+            unreachable!("the simplicial factorization was forced")
+        };
+        let col_ptr = s.col_ptr().to_vec();
+        let row_idx = s.row_idx().to_vec();
+        let mut diag = Vec::with_capacity(n);
+        for j in 0..n {
+            let p = (col_ptr[j]..col_ptr[j + 1]).find(|&p| row_idx[p] == j);
+            match p {
+                Some(p) if val[p].is_finite() && val[p] > 0.0 => diag.push(p),
+                _ => {
+                    return Err(SpectralError::MassNotPositiveDefinite {
+                        source: LltError::NonPositivePivot { index: j },
+                    })
+                }
+            }
+        }
+        let fwd = match symbolic.perm() {
+            Some(p) => p.arrays().0.to_vec(),
+            None => (0..n).collect(),
+        };
+        Ok(Self::Factor {
+            m: m.clone(),
+            col_ptr,
+            row_idx,
+            val,
+            diag,
+            fwd,
+        })
+    }
+
+    /// n.
+    pub(super) fn dim(&self) -> usize {
+        match self {
+            Self::Diagonal { m, .. } => m.len(),
+            Self::Factor { fwd, .. } => fwd.len(),
+        }
+    }
+
+    /// `M_jj`.
+    pub(super) fn diag(&self, j: usize) -> f64 {
+        match self {
+            Self::Diagonal { m, .. } => m[j],
+            Self::Factor { m, .. } => m
+                .row_idx_of_col_raw(j)
+                .iter()
+                .zip(m.val_of_col(j))
+                .filter(|(&i, _)| i == j)
+                .map(|(_, &v)| v)
+                .sum(),
+        }
+    }
+
+    /// The entries `(i, j, M_ij)` of `M` (the diagonal only for a diagonal `M`).
+    pub(super) fn entries(&self) -> Vec<(usize, usize, f64)> {
+        match self {
+            Self::Diagonal { m, .. } => m.iter().enumerate().map(|(j, &v)| (j, j, v)).collect(),
+            Self::Factor { m, .. } => (0..m.ncols())
+                .flat_map(|j| {
+                    m.row_idx_of_col_raw(j)
+                        .iter()
+                        .zip(m.val_of_col(j))
+                        .map(move |(&i, &v)| (i, j, v))
+                })
+                .collect(),
+        }
+    }
+
+    /// `√m` for a diagonal `M`; `None` for a sparse one.
+    pub(super) fn diagonal_sqrt(&self) -> Option<&[f64]> {
+        match self {
+            Self::Diagonal { sqrt, .. } => Some(sqrt),
+            Self::Factor { .. } => None,
+        }
+    }
+
+    /// `x ← C x` (each column).
+    pub(super) fn mul_c(&self, x: MatMut<'_, f64>) {
+        self.each_col(
+            x,
+            |r| r,
+            |this, col, tmp| {
+                let Self::Factor {
+                    col_ptr,
+                    row_idx,
+                    val,
+                    fwd,
+                    ..
+                } = this
+                else {
+                    return;
+                };
+                // tmp = L col; col = Pᵀ tmp.
+                tmp.iter_mut().for_each(|t| *t = 0.0);
+                for (j, &xj) in col.iter().enumerate() {
+                    for p in col_ptr[j]..col_ptr[j + 1] {
+                        tmp[row_idx[p]] += val[p] * xj;
+                    }
+                }
+                for (i, &f) in fwd.iter().enumerate() {
+                    col[f] = tmp[i];
+                }
+            },
+        );
+    }
+
+    /// `x ← Cᵀ x` (each column).
+    pub(super) fn mul_ct(&self, x: MatMut<'_, f64>) {
+        self.each_col(
+            x,
+            |r| r,
+            |this, col, tmp| {
+                let Self::Factor {
+                    col_ptr,
+                    row_idx,
+                    val,
+                    fwd,
+                    ..
+                } = this
+                else {
+                    return;
+                };
+                // tmp = P col; col = Lᵀ tmp.
+                for (i, &f) in fwd.iter().enumerate() {
+                    tmp[i] = col[f];
+                }
+                for (j, c) in col.iter_mut().enumerate() {
+                    *c = (col_ptr[j]..col_ptr[j + 1])
+                        .map(|p| val[p] * tmp[row_idx[p]])
+                        .sum();
+                }
+            },
+        );
+    }
+
+    /// `x ← C⁻¹ x` (each column).
+    pub(super) fn solve_c(&self, x: MatMut<'_, f64>) {
+        self.each_col(
+            x,
+            |r| 1.0 / r,
+            |this, col, tmp| {
+                let Self::Factor {
+                    col_ptr,
+                    row_idx,
+                    val,
+                    diag,
+                    fwd,
+                    ..
+                } = this
+                else {
+                    return;
+                };
+                // tmp = P col; L y = tmp (forward, by columns).
+                for (i, &f) in fwd.iter().enumerate() {
+                    tmp[i] = col[f];
+                }
+                for j in 0..tmp.len() {
+                    let yj = tmp[j] / val[diag[j]];
+                    tmp[j] = yj;
+                    for p in col_ptr[j]..col_ptr[j + 1] {
+                        if p != diag[j] {
+                            tmp[row_idx[p]] -= val[p] * yj;
+                        }
+                    }
+                }
+                col.copy_from_slice(tmp);
+            },
+        );
+    }
+
+    /// `x ← C⁻ᵀ x` (each column).
+    pub(super) fn solve_ct(&self, x: MatMut<'_, f64>) {
+        self.each_col(
+            x,
+            |r| 1.0 / r,
+            |this, col, tmp| {
+                let Self::Factor {
+                    col_ptr,
+                    row_idx,
+                    val,
+                    diag,
+                    fwd,
+                    ..
+                } = this
+                else {
+                    return;
+                };
+                // Lᵀ y = col (backward, dot products down the columns); col = Pᵀ y.
+                tmp.copy_from_slice(col);
+                for j in (0..tmp.len()).rev() {
+                    let mut acc = tmp[j];
+                    for p in col_ptr[j]..col_ptr[j + 1] {
+                        if p != diag[j] {
+                            acc -= val[p] * tmp[row_idx[p]];
+                        }
+                    }
+                    tmp[j] = acc / val[diag[j]];
+                }
+                for (i, &f) in fwd.iter().enumerate() {
+                    col[f] = tmp[i];
+                }
+            },
+        );
+    }
+
+    /// `M x` for one vector.
+    pub(super) fn mul_m(&self, x: &[f64]) -> Vec<f64> {
+        match self {
+            Self::Diagonal { m, .. } => m.iter().zip(x).map(|(a, b)| a * b).collect(),
+            Self::Factor { m, .. } => symmetric_mul(m, x),
+        }
+    }
+
+    /// Runs `f` on each column of `x` (contiguous copies, in parallel) for a sparse
+    /// `M`; for a diagonal one multiplies row i by `scale(√m_i)` instead.
+    fn each_col(
+        &self,
+        mut x: MatMut<'_, f64>,
+        scale: impl Fn(f64) -> f64,
+        f: impl Fn(&Self, &mut [f64], &mut [f64]) + Sync,
+    ) {
+        use rayon::prelude::*;
+        let n = x.nrows();
+        if let Self::Diagonal { sqrt, .. } = self {
+            let s: Vec<f64> = sqrt.iter().map(|&r| scale(r)).collect();
+            for j in 0..x.ncols() {
+                for (i, &si) in s.iter().enumerate() {
+                    x[(i, j)] *= si;
+                }
+            }
+            return;
+        }
+        let mut cols: Vec<Vec<f64>> = (0..x.ncols())
+            .map(|j| x.rb().col(j).iter().copied().collect())
+            .collect();
+        cols.par_iter_mut().for_each(|c| {
+            let mut tmp = vec![0.0; n];
+            f(self, c, &mut tmp);
+        });
+        for (j, c) in cols.iter().enumerate() {
+            for i in 0..n {
+                x[(i, j)] = c[i];
+            }
+        }
+    }
+}
+
+use faer::reborrow::Reborrow;
+
+/// `K x` for a symmetric `K` stored by columns (row i of `K x` gathers column i).
+pub(super) fn symmetric_mul(k: &SparseMatrix, x: &[f64]) -> Vec<f64> {
+    (0..k.ncols())
+        .map(|i| {
+            k.row_idx_of_col_raw(i)
+                .iter()
+                .zip(k.val_of_col(i))
+                .map(|(&r, &a)| a * x[r])
+                .sum()
+        })
+        .collect()
+}
+
+/// Refuses a matrix whose asymmetry `max |A − Aᵀ|` exceeds `10⁻¹⁰ max |A|`.
+pub(crate) fn check_symmetric(what: &'static str, a: &SparseMatrix) -> Result<(), SpectralError> {
+    let asymmetry = crate::operator::symmetrize::asymmetry(a);
+    let scale = a.val().iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    if asymmetry > 1e-10 * scale.max(f64::MIN_POSITIVE) {
+        return Err(SpectralError::NotSymmetricMatrix {
+            what,
+            asymmetry,
+            scale,
+        });
+    }
+    Ok(())
+}
