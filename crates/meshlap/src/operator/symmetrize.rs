@@ -186,7 +186,7 @@ pub fn symmetric_product(f: &SparseMatrix, s: &[f64]) -> Result<SparseMatrix, Cr
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::mesh::{builtin, topology::Topology};
     use crate::operator::{Operator, OperatorKind, OperatorOptions};
@@ -227,15 +227,21 @@ mod tests {
         assert!(ev[0].abs() < 1e-12 && ev[1] > 1e-3);
     }
 
-    #[test]
-    fn mean_value_like_sign_pattern_has_no_symmetrizer() {
+    /// A 2×2 matrix with `F_01 F_10 < 0` (as the mean-value operator can have): no
+    /// positive diagonal symmetrizer exists.
+    pub(crate) fn opposite_signs() -> SparseMatrix {
         let trip = [
             Triplet::new(0usize, 0usize, 1.0),
             Triplet::new(0, 1, -1.0),
             Triplet::new(1, 0, 1.0),
             Triplet::new(1, 1, 1.0),
         ];
-        let m = SparseMatrix::try_new_from_triplets(2, 2, &trip).unwrap();
+        SparseMatrix::try_new_from_triplets(2, 2, &trip).unwrap()
+    }
+
+    #[test]
+    fn mean_value_like_sign_pattern_has_no_symmetrizer() {
+        let m = opposite_signs();
         assert!(diagonal_symmetrizer(&m).is_none());
         assert!(asymmetry(&m) == 2.0);
     }

@@ -18,7 +18,7 @@ pub(super) fn dense(
     let n = k.nrows();
     let a = match metric {
         Metric::Diagonal { m, .. } => symmetrized_dense(k, Scaling::Congruence(m)),
-        Metric::Factor { .. } => {
+        Metric::Factor(_) => {
             // X = C⁻¹ K, then A = C⁻¹ Xᵀ = C⁻¹ K C⁻ᵀ, averaged with its transpose.
             let mut x = symmetrized_dense(k, Scaling::None);
             metric.solve_c(x.as_mut());

@@ -46,21 +46,24 @@ pub(crate) enum Metric {
         /// `√m`.
         sqrt: Vec<f64>,
     },
-    /// Sparse `M = Pᵀ L Lᵀ P`, `C = Pᵀ L` (`(P x)_i = x_{fwd[i]}`).
-    Factor {
-        /// `M` (both triangles).
-        m: SparseMatrix,
-        /// Column pointers of `L` (lower, n×n).
-        col_ptr: Vec<usize>,
-        /// Row indices of `L`.
-        row_idx: Vec<usize>,
-        /// Values of `L`.
-        val: Vec<f64>,
-        /// Position of each column's diagonal in `val`.
-        diag: Vec<usize>,
-        /// The fill-reducing permutation.
-        fwd: Vec<usize>,
-    },
+    /// Sparse `M = Pᵀ L Lᵀ P`, `C = Pᵀ L`.
+    Factor(SparseFactor),
+}
+
+/// A sparse `M = Pᵀ L Lᵀ P` and its Cholesky factor (`(P x)_i = x_{fwd[i]}`).
+pub(crate) struct SparseFactor {
+    /// `M` (both triangles).
+    m: SparseMatrix,
+    /// Column pointers of `L` (lower, n×n).
+    col_ptr: Vec<usize>,
+    /// Row indices of `L`.
+    row_idx: Vec<usize>,
+    /// Values of `L`.
+    val: Vec<f64>,
+    /// Position of each column's diagonal in `val`.
+    diag: Vec<usize>,
+    /// The fill-reducing permutation.
+    fwd: Vec<usize>,
 }
 
 impl Metric {
@@ -155,21 +158,21 @@ impl Metric {
             Some(p) => p.arrays().0.to_vec(),
             None => (0..n).collect(),
         };
-        Ok(Self::Factor {
+        Ok(Self::Factor(SparseFactor {
             m: m.clone(),
             col_ptr,
             row_idx,
             val,
             diag,
             fwd,
-        })
+        }))
     }
 
     /// n.
     pub(super) fn dim(&self) -> usize {
         match self {
             Self::Diagonal { m, .. } => m.len(),
-            Self::Factor { fwd, .. } => fwd.len(),
+            Self::Factor(f) => f.fwd.len(),
         }
     }
 
@@ -177,13 +180,14 @@ impl Metric {
     pub(super) fn diag(&self, j: usize) -> f64 {
         match self {
             Self::Diagonal { m, .. } => m[j],
-            Self::Factor { m, .. } => m
-                .row_idx_of_col_raw(j)
-                .iter()
-                .zip(m.val_of_col(j))
-                .filter(|(&i, _)| i == j)
-                .map(|(_, &v)| v)
-                .sum(),
+            Self::Factor(f) => {
+                f.m.row_idx_of_col_raw(j)
+                    .iter()
+                    .zip(f.m.val_of_col(j))
+                    .filter(|(&i, _)| i == j)
+                    .map(|(_, &v)| v)
+                    .sum()
+            }
         }
     }
 
@@ -191,11 +195,11 @@ impl Metric {
     pub(super) fn entries(&self) -> Vec<(usize, usize, f64)> {
         match self {
             Self::Diagonal { m, .. } => m.iter().enumerate().map(|(j, &v)| (j, j, v)).collect(),
-            Self::Factor { m, .. } => (0..m.ncols())
+            Self::Factor(f) => (0..f.m.ncols())
                 .flat_map(|j| {
-                    m.row_idx_of_col_raw(j)
+                    f.m.row_idx_of_col_raw(j)
                         .iter()
-                        .zip(m.val_of_col(j))
+                        .zip(f.m.val_of_col(j))
                         .map(move |(&i, &v)| (i, j, v))
                 })
                 .collect(),
@@ -206,7 +210,7 @@ impl Metric {
     pub(super) fn diagonal_sqrt(&self) -> Option<&[f64]> {
         match self {
             Self::Diagonal { sqrt, .. } => Some(sqrt),
-            Self::Factor { .. } => None,
+            Self::Factor(_) => None,
         }
     }
 
@@ -215,27 +219,15 @@ impl Metric {
         self.each_col(
             x,
             |r| r,
-            |this, col, tmp| {
-                let Self::Factor {
-                    col_ptr,
-                    row_idx,
-                    val,
-                    fwd,
-                    ..
-                } = this
-                else {
-                    return;
-                };
+            |f, col, tmp| {
                 // tmp = L col; col = Pᵀ tmp.
                 tmp.iter_mut().for_each(|t| *t = 0.0);
                 for (j, &xj) in col.iter().enumerate() {
-                    for p in col_ptr[j]..col_ptr[j + 1] {
-                        tmp[row_idx[p]] += val[p] * xj;
+                    for p in f.col_ptr[j]..f.col_ptr[j + 1] {
+                        tmp[f.row_idx[p]] += f.val[p] * xj;
                     }
                 }
-                for (i, &f) in fwd.iter().enumerate() {
-                    col[f] = tmp[i];
-                }
+                f.unpermute(tmp, col);
             },
         );
     }
@@ -245,24 +237,12 @@ impl Metric {
         self.each_col(
             x,
             |r| r,
-            |this, col, tmp| {
-                let Self::Factor {
-                    col_ptr,
-                    row_idx,
-                    val,
-                    fwd,
-                    ..
-                } = this
-                else {
-                    return;
-                };
+            |f, col, tmp| {
                 // tmp = P col; col = Lᵀ tmp.
-                for (i, &f) in fwd.iter().enumerate() {
-                    tmp[i] = col[f];
-                }
+                f.permute(col, tmp);
                 for (j, c) in col.iter_mut().enumerate() {
-                    *c = (col_ptr[j]..col_ptr[j + 1])
-                        .map(|p| val[p] * tmp[row_idx[p]])
+                    *c = (f.col_ptr[j]..f.col_ptr[j + 1])
+                        .map(|p| f.val[p] * tmp[f.row_idx[p]])
                         .sum();
                 }
             },
@@ -274,28 +254,15 @@ impl Metric {
         self.each_col(
             x,
             |r| 1.0 / r,
-            |this, col, tmp| {
-                let Self::Factor {
-                    col_ptr,
-                    row_idx,
-                    val,
-                    diag,
-                    fwd,
-                    ..
-                } = this
-                else {
-                    return;
-                };
+            |f, col, tmp| {
                 // tmp = P col; L y = tmp (forward, by columns).
-                for (i, &f) in fwd.iter().enumerate() {
-                    tmp[i] = col[f];
-                }
+                f.permute(col, tmp);
                 for j in 0..tmp.len() {
-                    let yj = tmp[j] / val[diag[j]];
+                    let yj = tmp[j] / f.val[f.diag[j]];
                     tmp[j] = yj;
-                    for p in col_ptr[j]..col_ptr[j + 1] {
-                        if p != diag[j] {
-                            tmp[row_idx[p]] -= val[p] * yj;
+                    for p in f.col_ptr[j]..f.col_ptr[j + 1] {
+                        if p != f.diag[j] {
+                            tmp[f.row_idx[p]] -= f.val[p] * yj;
                         }
                     }
                 }
@@ -309,32 +276,19 @@ impl Metric {
         self.each_col(
             x,
             |r| 1.0 / r,
-            |this, col, tmp| {
-                let Self::Factor {
-                    col_ptr,
-                    row_idx,
-                    val,
-                    diag,
-                    fwd,
-                    ..
-                } = this
-                else {
-                    return;
-                };
+            |f, col, tmp| {
                 // Lᵀ y = col (backward, dot products down the columns); col = Pᵀ y.
                 tmp.copy_from_slice(col);
                 for j in (0..tmp.len()).rev() {
                     let mut acc = tmp[j];
-                    for p in col_ptr[j]..col_ptr[j + 1] {
-                        if p != diag[j] {
-                            acc -= val[p] * tmp[row_idx[p]];
+                    for p in f.col_ptr[j]..f.col_ptr[j + 1] {
+                        if p != f.diag[j] {
+                            acc -= f.val[p] * tmp[f.row_idx[p]];
                         }
                     }
-                    tmp[j] = acc / val[diag[j]];
+                    tmp[j] = acc / f.val[f.diag[j]];
                 }
-                for (i, &f) in fwd.iter().enumerate() {
-                    col[f] = tmp[i];
-                }
+                f.unpermute(tmp, col);
             },
         );
     }
@@ -343,7 +297,7 @@ impl Metric {
     pub(super) fn mul_m(&self, x: &[f64]) -> Vec<f64> {
         match self {
             Self::Diagonal { m, .. } => m.iter().zip(x).map(|(a, b)| a * b).collect(),
-            Self::Factor { m, .. } => symmetric_mul(m, x),
+            Self::Factor(f) => symmetric_mul(&f.m, x),
         }
     }
 
@@ -353,25 +307,28 @@ impl Metric {
         &self,
         mut x: MatMut<'_, f64>,
         scale: impl Fn(f64) -> f64,
-        f: impl Fn(&Self, &mut [f64], &mut [f64]) + Sync,
+        f: impl Fn(&SparseFactor, &mut [f64], &mut [f64]) + Sync,
     ) {
         use rayon::prelude::*;
         let n = x.nrows();
-        if let Self::Diagonal { sqrt, .. } = self {
-            let s: Vec<f64> = sqrt.iter().map(|&r| scale(r)).collect();
-            for j in 0..x.ncols() {
-                for (i, &si) in s.iter().enumerate() {
-                    x[(i, j)] *= si;
+        let factor = match self {
+            Self::Diagonal { sqrt, .. } => {
+                let s: Vec<f64> = sqrt.iter().map(|&r| scale(r)).collect();
+                for j in 0..x.ncols() {
+                    for (i, &si) in s.iter().enumerate() {
+                        x[(i, j)] *= si;
+                    }
                 }
+                return;
             }
-            return;
-        }
+            Self::Factor(factor) => factor,
+        };
         let mut cols: Vec<Vec<f64>> = (0..x.ncols())
             .map(|j| x.rb().col(j).iter().copied().collect())
             .collect();
         cols.par_iter_mut().for_each(|c| {
             let mut tmp = vec![0.0; n];
-            f(self, c, &mut tmp);
+            f(factor, c, &mut tmp);
         });
         for (j, c) in cols.iter().enumerate() {
             for i in 0..n {
@@ -382,6 +339,22 @@ impl Metric {
 }
 
 use faer::reborrow::Reborrow;
+
+impl SparseFactor {
+    /// `out = P x`.
+    fn permute(&self, x: &[f64], out: &mut [f64]) {
+        for (o, &f) in out.iter_mut().zip(&self.fwd) {
+            *o = x[f];
+        }
+    }
+
+    /// `out = Pᵀ y`.
+    fn unpermute(&self, y: &[f64], out: &mut [f64]) {
+        for (&yi, &f) in y.iter().zip(&self.fwd) {
+            out[f] = yi;
+        }
+    }
+}
 
 /// `K x` for a symmetric `K` stored by columns (row i of `K x` gathers column i).
 pub(super) fn symmetric_mul(k: &SparseMatrix, x: &[f64]) -> Vec<f64> {

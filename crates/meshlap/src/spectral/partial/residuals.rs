@@ -12,7 +12,8 @@ use faer::{Col, Mat};
 /// the dense path's default.
 const CLUSTER_TOLERANCE: f64 = BasisOptions::DEFAULT_CLUSTER_TOLERANCE;
 
-/// Converts `w` to `v = M^{-1/2} w`, recomputes λ as a Rayleigh quotient, fixes the
+/// Converts `w` to `v = C⁻ᵀ w` (`M^{-1/2} w` for a diagonal `M`), fixes the signs by
+/// the crate's one rule, and recomputes each λ as a Rayleigh quotient with its residual.
 pub(super) fn finish(
     k: &SparseMatrix,
     metric: &Metric,
@@ -20,24 +21,25 @@ pub(super) fn finish(
     bands: Vec<BandInfo>,
     dense: bool,
 ) -> PartialSpectrum {
-    let Some(msqrt) = metric.diagonal_sqrt() else {
-        return finish_sparse_mass(k, metric, pairs, bands, dense);
-    };
     use rayon::prelude::*;
-    let n = msqrt.len();
-    let m = pairs.len();
-    // v = M^{-1/2} w / ‖w‖, per pair in parallel.
+    let info = PartialInfo { bands, dense };
+    let (n, m) = (metric.dim(), pairs.len());
+    // v = C⁻ᵀ w / ‖w‖ (M^{-1/2} w / ‖w‖ for a diagonal M, per pair in parallel).
     let mut eigenvectors = Mat::<f64>::zeros(n, m);
     eigenvectors
         .par_col_chunks_mut(1)
         .zip(pairs.par_iter())
         .for_each(|(col, (_, w))| {
             let nw = w.norm_l2();
-            col.col_mut(0)
-                .iter_mut()
-                .enumerate()
-                .for_each(|(i, e)| *e = w[i] / nw / msqrt[i]);
+            let col = col.col_mut(0).iter_mut().enumerate();
+            match metric.diagonal_sqrt() {
+                Some(msqrt) => col.for_each(|(i, e)| *e = w[i] / nw / msqrt[i]),
+                None => col.for_each(|(i, e)| *e = w[i] / nw),
+            }
         });
+    if metric.diagonal_sqrt().is_none() {
+        metric.solve_ct(eigenvectors.as_mut());
+    }
     // The crate's one sign and cluster rule, on the operator's coordinates v (the
     // M-orthonormal basis of a cluster stays M-orthonormal under its rotation).
     let approx: Vec<f64> = pairs.iter().map(|p| p.0).collect();
@@ -47,6 +49,23 @@ pub(super) fn finish(
         &clusters(&approx, CLUSTER_TOLERANCE),
         None,
     );
+    match metric.diagonal_sqrt() {
+        Some(msqrt) => finish_diagonal(k, msqrt, eigenvectors, info),
+        None => finish_sparse_mass(k, metric, eigenvectors, info),
+    }
+}
+
+/// The eigenvalues and residuals of [`finish`] for a diagonal `M`, on interleaved
+/// chunks of 8 vectors.
+fn finish_diagonal(
+    k: &SparseMatrix,
+    msqrt: &[f64],
+    eigenvectors: Mat<f64>,
+    info: PartialInfo,
+) -> PartialSpectrum {
+    use rayon::prelude::*;
+    let n = msqrt.len();
+    let m = eigenvectors.ncols();
     // K V by rows (K is symmetric: row i of K V gathers over column i of K), on
     // interleaved chunks of 8 vectors; then the Rayleigh quotients and residuals.
     let mut eigenvalues = vec![0.0f64; m];
@@ -130,32 +149,20 @@ pub(super) fn finish(
         eigenvalues,
         eigenvectors,
         residuals,
-        info: PartialInfo { bands, dense },
+        info,
     }
 }
 
-/// [`finish`] for a sparse `M = C Cᵀ`: `v = C⁻ᵀ w / ‖w‖`, the sign rule, then per
-/// pair `λ = vᵀKv / vᵀMv` and the residual `‖C⁻¹(Kv − λMv)‖ / √(vᵀMv)`.
+/// The eigenvalues and residuals of [`finish`] for a sparse `M = C Cᵀ`: per pair `λ = vᵀKv / vᵀMv` and the residual `‖C⁻¹(Kv − λMv)‖ / √(vᵀMv)`.
 fn finish_sparse_mass(
     k: &SparseMatrix,
     metric: &Metric,
-    pairs: Vec<(f64, Col<f64>)>,
-    bands: Vec<BandInfo>,
-    dense: bool,
+    eigenvectors: Mat<f64>,
+    info: PartialInfo,
 ) -> PartialSpectrum {
     use faer::reborrow::ReborrowMut;
     use rayon::prelude::*;
-    let n = metric.dim();
-    let m = pairs.len();
-    let mut eigenvectors = Mat::from_fn(n, m, |i, j| pairs[j].1[i] / pairs[j].1.norm_l2());
-    metric.solve_ct(eigenvectors.rb_mut());
-    let approx: Vec<f64> = pairs.iter().map(|p| p.0).collect();
-    drop(pairs);
-    canonicalize(
-        &mut eigenvectors,
-        &clusters(&approx, CLUSTER_TOLERANCE),
-        None,
-    );
+    let (n, m) = (metric.dim(), eigenvectors.ncols());
     let per_pair: Vec<(f64, Vec<f64>, f64)> = (0..m)
         .into_par_iter()
         .map(|j| {
@@ -179,6 +186,6 @@ fn finish_sparse_mass(
         eigenvalues,
         eigenvectors,
         residuals,
-        info: PartialInfo { bands, dense },
+        info,
     }
 }

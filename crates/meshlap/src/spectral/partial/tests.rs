@@ -8,7 +8,7 @@ use crate::operator::OperatorOptions;
 use crate::spectral::krylov_schur::BlockOperator;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, LdltRef, SymmetricOrdering};
-use faer::sparse::Triplet;
+
 use faer::Side;
 use faer::{Conj, Par};
 
@@ -292,13 +292,7 @@ fn bad_input_is_an_error() {
         Err(SpectralError::TooMany { count: 13, n: 12 })
     ));
     // F_01 F_10 < 0: no positive diagonal symmetrizer.
-    let trip = [
-        Triplet::new(0usize, 0usize, 1.0),
-        Triplet::new(0, 1, -1.0),
-        Triplet::new(1, 0, 1.0),
-        Triplet::new(1, 1, 1.0),
-    ];
-    let m = SparseMatrix::try_new_from_triplets(2, 2, &trip).unwrap();
+    let m = crate::operator::symmetrize::tests::opposite_signs();
     let op = Operator {
         kind: OperatorKind::MeanValue,
         matrix: m,
