@@ -121,7 +121,7 @@ def _csr(parts: Tuple[np.ndarray, np.ndarray, np.ndarray, Tuple[int, int]]):
     import scipy.sparse as sp
 
     indptr, indices, data, shape = parts
-    return sp.csc_array((data, indices, indptr), shape=shape).tocsr()
+    return sp.csr_array((data, indices, indptr), shape=shape)
 
 
 # ----------------------------------------------------------------------------------

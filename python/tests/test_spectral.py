@@ -70,7 +70,7 @@ def consistent_mass(V, F):
 @pytest.mark.parametrize("mesh", ["sphere", "big_sphere"])
 def test_eigsh_with_a_consistent_mass_matrix(mesh, request):
     """A non-diagonal SPD M (dense path for the small sphere, shift-invert bands for the
-    big one) against scipy's dense generalized eigh and its shift-invert eigsh."""
+    big one) against scipy's dense generalized eigh."""
     V, F = request.getfixturevalue(mesh)
     L = meshlap.operator(V, F, "cotan")
     M = consistent_mass(V, F)
@@ -79,10 +79,10 @@ def test_eigsh_with_a_consistent_mass_matrix(mesh, request):
     evals, evecs, res = meshlap.eigsh(L, k, M, return_residuals=True)
     check_pairs(L, M, evals, evecs)
     assert res.max() < 1e-8 * max(1.0, evals.max())
-    if len(V) <= 200:
-        ref = sla.eigh(L.toarray(), M.toarray(), eigvals_only=True)[:k]
-    else:
-        ref = np.sort(spla.eigsh(L.tocsc(), k, M.tocsc(), sigma=-1e-3, which="LM", return_eigenvectors=False))
+    # scipy's dense generalized eigh as the reference: its shift-invert eigsh (ARPACK,
+    # random start) sometimes skips a copy of the sphere's nearly 9-fold eigenvalue
+    # that k = 20 cuts through.
+    ref = sla.eigh(L.toarray(), M.toarray(), eigvals_only=True)[:k]
     compare_to_scipy(evals, ref)
     # A dense M is the same problem.
     e2, _ = meshlap.eigsh(L, k, M.toarray())

@@ -187,30 +187,43 @@ pub(crate) fn mat_out<'py>(
     PyArray1::from_vec(py, flat).reshape([r, c])
 }
 
-/// A sparse matrix as `(indptr, indices, data, shape)` of its compressed columns
-/// (the Python layer builds a `csc_array` and converts it to CSR).
-pub(crate) type CscParts<'py> = (
+/// A sparse matrix as `(indptr, indices, data, shape)` of its compressed rows (the
+/// Python layer wraps them in a `scipy.sparse.csr_array` without a conversion).
+pub(crate) type CsrParts<'py> = (
     Bound<'py, PyArray1<i64>>,
     Bound<'py, PyArray1<i64>>,
     Bound<'py, PyArray1<f64>>,
     (usize, usize),
 );
 
-pub(crate) fn csc_out<'py>(py: Python<'py>, m: &meshlap::SparseMatrix) -> CscParts<'py> {
-    let mut ptr = Vec::with_capacity(m.ncols() + 1);
-    let mut idx = Vec::new();
-    let mut val = Vec::new();
-    ptr.push(0i64);
-    for j in 0..m.ncols() {
-        idx.extend(m.row_idx_of_col_raw(j).iter().map(|&i| i as i64));
-        val.extend_from_slice(m.val_of_col(j));
-        ptr.push(idx.len() as i64);
+pub(crate) fn csr_out<'py>(py: Python<'py>, m: &meshlap::SparseMatrix) -> CsrParts<'py> {
+    // CSR of `m` by a counting transpose of its columns (rows come out sorted).
+    let (nr, nc) = (m.nrows(), m.ncols());
+    let mut ptr = vec![0i64; nr + 1];
+    for j in 0..nc {
+        for &i in m.row_idx_of_col_raw(j) {
+            ptr[i + 1] += 1;
+        }
+    }
+    for i in 0..nr {
+        ptr[i + 1] += ptr[i];
+    }
+    let nnz = ptr[nr] as usize;
+    let mut next: Vec<usize> = ptr[..nr].iter().map(|&p| p as usize).collect();
+    let mut idx = vec![0i64; nnz];
+    let mut val = vec![0.0f64; nnz];
+    for j in 0..nc {
+        for (&i, &v) in m.row_idx_of_col_raw(j).iter().zip(m.val_of_col(j)) {
+            idx[next[i]] = j as i64;
+            val[next[i]] = v;
+            next[i] += 1;
+        }
     }
     (
         PyArray1::from_vec(py, ptr),
         PyArray1::from_vec(py, idx),
         PyArray1::from_vec(py, val),
-        (m.nrows(), m.ncols()),
+        (nr, nc),
     )
 }
 

@@ -3,7 +3,7 @@
 //! spectral projection and compaction, filtering, and HKS/WKS. Operators are
 //! positive semi-definite, `F = D − W` (Zhang 2004).
 
-use crate::{compute, csc_out, json, mat_out, mesh_of, raise_as, CscParts, OrRaise};
+use crate::{compute, csr_out, json, mat_out, mesh_of, raise_as, CsrParts, OrRaise};
 use faer::MatRef;
 use meshlap::operator::{Operator, OperatorKind, OperatorOptions};
 use meshlap::spectral::descriptors;
@@ -61,10 +61,10 @@ fn operator<'py>(
     kind: &str,
     sql_diagonal: &str,
     mass: &str,
-) -> PyResult<CscParts<'py>> {
+) -> PyResult<CsrParts<'py>> {
     let input = mesh_of(py, &v, &f)?;
     let op = assemble(py, &input, kind, sql_diagonal, mass)?;
-    Ok(csc_out(py, &op.matrix))
+    Ok(csr_out(py, &op.matrix))
 }
 
 /// `mass_matrix(V, F, kind)` → the lumped mass diagonal (n,) of the cotangent
