@@ -39,7 +39,7 @@ fn class_of(e: &meshlap::Error) -> &'static str {
         E::Operator(_) => "OperatorError",
         E::Solve(_) | E::Filter(_) | E::Smoothing(_) => "SolveError",
         E::Repair(_) => "RepairError",
-        E::Spectral(_) | E::Descriptor(_) => "SpectralError",
+        E::Spectral(_) | E::Descriptor(_) | E::Patchwise(_) => "SpectralError",
         E::Watermark(_) | E::Attack(_) => "WatermarkError",
         E::Codec(_) => "CodecError",
         E::Metric(_) => "MetricError",

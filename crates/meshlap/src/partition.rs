@@ -67,9 +67,15 @@ pub enum PartitionError {
         /// Vertices in the connectivity.
         topology: usize,
     },
-    /// METIS reported an error.
-    #[error("METIS failed: {0}")]
-    Metis(String),
+    /// The `metis` bindings refused the adjacency graph (kept as the source).
+    ///
+    /// Cause: an index that does not fit METIS's 32-bit `Idx` or a malformed
+    /// adjacency; the connectivity is checked first, so this is a bug to report.
+    #[error("METIS refused the adjacency graph")]
+    MetisGraph(#[source] metis::NewGraphError),
+    /// METIS reported an error (out of memory or invalid input; kept as the source).
+    #[error("METIS failed")]
+    Metis(#[source] metis::Error),
 }
 
 /// Options of [`partition`].
@@ -278,11 +284,11 @@ fn metis_parts(
     let mut options = [-1 as metis::Idx; metis::NOPTIONS];
     options[METIS_OPTION_NIPARTS] = 1;
     let cut = metis::Graph::new(1, nparts as metis::Idx, &xadj, &adjncy)
-        .map_err(|e| PartitionError::Metis(e.to_string()))?
+        .map_err(PartitionError::MetisGraph)?
         .set_options(&options)
         .set_option(metis::option::Seed(seed))
         .part_kway(&mut part)
-        .map_err(|e| PartitionError::Metis(e.to_string()))?;
+        .map_err(PartitionError::Metis)?;
     Ok((part.into_iter().map(|p| p as u32).collect(), cut as usize))
 }
 

@@ -361,7 +361,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                 let opts = meshlap::partition::PartitionOptions::new(p);
                 let part = meshlap::partition::partition(&input.topology, &opts).unwrap();
                 let t_part = t0.elapsed().as_secs_f64() - t_open;
-                let rec = meshlap::spectral::patchwise::patchwise_reconstruction(
+                let rec = meshlap::spectral::patchwise::patchwise_positions(
                     &input.mesh,
                     &part,
                     kind,

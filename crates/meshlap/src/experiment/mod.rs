@@ -62,6 +62,11 @@ pub enum ExperimentError {
         /// What is wrong with its value.
         reason: String,
     },
+    /// The watermark experiment's message is not hexadecimal (kept as the source).
+    ///
+    /// Fix: give `message` as hex digits, e.g. `0xC0FFEE`.
+    #[error("option `message` is not a hexadecimal message")]
+    Message(#[source] crate::watermark::MessageError),
     /// Writing a result failed.
     #[error(transparent)]
     Io(#[from] crate::io::IoError),

@@ -186,8 +186,7 @@ pub fn run(
     out: &mut Outputs,
     progress: &mut ProgressFn,
 ) -> Result<WatermarkResults, ExperimentError> {
-    let message = Message::from_hex(&opts.message)
-        .map_err(|e| ExperimentError::invalid("message", e.to_string()))?;
+    let message = Message::from_hex(&opts.message).map_err(ExperimentError::Message)?;
     if opts.operators.is_empty() {
         return Err(ExperimentError::invalid(
             "operators",

@@ -128,6 +128,11 @@ pub enum SpectralError {
         /// Dimension.
         n: usize,
     },
+    /// The number of coefficients to keep is out of range for the mesh.
+    ///
+    /// Fix: a count in `1..=n` or a percentage in (0, 100] ([`project::Keep`]).
+    #[error(transparent)]
+    Keep(#[from] project::KeepError),
     /// A sparse matrix could not be built (index out of range; kept from faer).
     #[error("cannot build the sparse matrix")]
     SparseCreation(#[source] faer::sparse::CreationError),
