@@ -252,6 +252,12 @@ fn get_threads() -> usize {
 fn _meshlap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(set_threads, m)?)?;
     m.add_function(wrap_pyfunction!(get_threads, m)?)?;
+    // The library's defaults that the Python signatures repeat (asserted equal in
+    // python/tests/test_mesh.py).
+    m.add(
+        "DEFAULT_SMOOTH_OPERATOR",
+        meshlap::filter::FilterSettings::DEFAULT_OPERATOR.name(),
+    )?;
     mesh_fns::register(m)?;
     spectral_fns::register(m)?;
     watermark_fns::register(m)?;

@@ -81,8 +81,8 @@ fn write_mesh(
     compute(py, || meshlap::io::write_mesh(p, &input.mesh, &opts)).or_raise(py)
 }
 
-/// `info(V, F)` → JSON of `meshlap info --json`'s mesh report (the mesh is cleaned
-/// first, as the CLI does, and the dropped counts reported).
+/// `info(V, F)` → JSON of `meshlap info --json` (`Input::info`; the mesh is cleaned
+/// first, as the CLI does, and the dropped counts reported; source `array`).
 #[pyfunction]
 fn info(
     py: Python<'_>,
@@ -94,20 +94,11 @@ fn info(
         meshlap::input::from_mesh("array", raw, None, &Default::default())
     })
     .or_raise(py)?;
-    json(py, &input.report())
+    json(py, &input.info())
 }
 
-#[derive(serde::Serialize)]
-struct CleanJson {
-    dropped_unreferenced_vertices: usize,
-    dropped_degenerate_faces: usize,
-    dropped_duplicate_faces: usize,
-    split: Option<meshlap::mesh::clean::SplitReport>,
-    vertices: usize,
-    faces: usize,
-}
-
-/// `clean(V, F, split_nonmanifold=False)` → `(V, F, report JSON)`.
+/// `clean(V, F, split_nonmanifold=False)` → `(V, F, report JSON)`: the JSON of
+/// `meshlap clean --json` (`Input::cleaned`).
 #[pyfunction]
 #[pyo3(signature = (v, f, split_nonmanifold=false))]
 fn clean<'py>(
@@ -117,24 +108,11 @@ fn clean<'py>(
     split_nonmanifold: bool,
 ) -> PyResult<MeshReport<'py>> {
     let raw = raw_mesh(py, &v, &f)?;
-    let (mesh, report, split) = compute(py, || -> meshlap::Result<_> {
-        let (m, r) = meshlap::mesh::clean::clean(&raw, &Default::default())?;
-        if split_nonmanifold {
-            let (m, s) = meshlap::mesh::clean::split_non_manifold(&m)?;
-            Ok((m, r, Some(s)))
-        } else {
-            Ok((m, r, None))
-        }
+    let (mesh, out) = compute(py, || -> meshlap::Result<_> {
+        let input = meshlap::input::from_mesh("array", raw, None, &Default::default())?;
+        Ok(input.cleaned(split_nonmanifold)?)
     })
     .or_raise(py)?;
-    let out = CleanJson {
-        dropped_unreferenced_vertices: report.dropped_unreferenced_vertices,
-        dropped_degenerate_faces: report.dropped_degenerate_faces,
-        dropped_duplicate_faces: report.dropped_duplicate_faces,
-        split,
-        vertices: mesh.n_vertices(),
-        faces: mesh.n_faces(),
-    };
     let (va, fa) = mesh_arrays(py, &mesh)?;
     Ok((va, fa, json(py, &out)?))
 }

@@ -144,10 +144,33 @@ pub struct Submesh {
     pub vertices: Vec<u32>,
 }
 
+/// A well-spread colour for patch `p` (golden-ratio hue walk, HSV with s = 0.65,
+/// v = 0.95), as `meshlap partition --output` paints the patches.
+pub fn patch_colour(p: u32) -> [u8; 3] {
+    let h = (p as f64 * 0.618_033_988_75).fract() * 6.0;
+    let (s, v) = (0.65, 0.95);
+    let c = v * s;
+    let x = c * (1.0 - ((h % 2.0) - 1.0).abs());
+    let (r, g, b) = match h as u32 {
+        0 => (c, x, 0.0),
+        1 => (x, c, 0.0),
+        2 => (0.0, c, x),
+        3 => (0.0, x, c),
+        4 => (x, 0.0, c),
+        _ => (c, 0.0, x),
+    };
+    let m = v - c;
+    [r, g, b].map(|t| ((t + m) * 255.0).round() as u8)
+}
+
 impl Partition {
     /// Patch index of every vertex (length n).
     pub fn patch_of(&self) -> &[u32] {
         &self.patch_of
+    }
+    /// The [`patch_colour`] of every vertex's patch (length n).
+    pub fn vertex_colours(&self) -> Vec<[u8; 3]> {
+        self.patch_of.iter().map(|&p| patch_colour(p)).collect()
     }
     /// Number of patches.
     pub fn n_patches(&self) -> usize {

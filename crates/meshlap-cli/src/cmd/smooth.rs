@@ -50,7 +50,7 @@ pub struct Args {
     pub implicit: bool,
     /// Operator F: kirchhoff (kl), tutte (tl), graph (gl), sql, sstl, tutte2, sdl,
     /// cotan, mean-value.
-    #[arg(long, short = 'k', default_value = "tutte")]
+    #[arg(long, short = 'k', default_value_t = FilterSettings::DEFAULT_OPERATOR)]
     pub operator: OperatorKind,
     /// λ: implicit (default 30, the paper's Table 1), explicit and taubin (default 0.5;
     /// keep λ·γ_max < 2 for stability: λ ≤ 1 for the TL).

@@ -27,12 +27,12 @@ pub struct BasisArgs {
     /// e.g. the TL through the GL), symmetric, symmetrized, or general (non-symmetric
     /// eigendecomposition plus a dense LU solve for the coefficients, as Matlab's
     /// eig + E\x in the paper's Fig. 3).
-    #[arg(long, default_value = "auto")]
+    #[arg(long, default_value_t = BasisOptions::default().path)]
     pub path: EigenPath,
     /// Dense symmetric eigensolver: faer (parallel divide and conquer) or
     /// reproducible (sequential, the same bits on every CPU, faster for n below a
     /// few hundred; the codec's patch solver).
-    #[arg(long, default_value = "faer")]
+    #[arg(long, default_value_t = BasisOptions::default().dense_solver)]
     pub dense_solver: DenseSolver,
     /// Basis scaling: unit (unit-length eigenvectors, as Matlab's eig) or weighted
     /// (orthonormal in the symmetrizer's / mass matrix's inner product).

@@ -38,7 +38,7 @@ pub struct Args {
     #[arg(long, default_value_t = AttackOptions::DEFAULT_LAMBDA)]
     pub lambda: f64,
     /// Seed of the noise, the similarity and the cropping side.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = AttackOptions::DEFAULT_SEED)]
     pub seed: u64,
     /// Print machine-readable JSON.
     #[arg(long)]

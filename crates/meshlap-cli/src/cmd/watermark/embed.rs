@@ -20,7 +20,7 @@ pub fn parse_key(s: &str) -> Result<u64, String> {
 pub struct LayoutArgs {
     /// Operator of the patch bases (F = D − W): kirchhoff (the papers'), sql, sstl,
     /// tutte.
-    #[arg(long, default_value = "kirchhoff",
+    #[arg(long, default_value_t = LayoutParams::default().operator,
           value_parser = crate::common::one_of::<OperatorKind>(["kirchhoff", "sql", "sstl", "tutte"]))]
     pub operator: OperatorKind,
     /// Target vertices per patch.
