@@ -5,7 +5,7 @@
 //! Python package `meshlap` (python/meshlap) wraps these functions: it checks shapes
 //! and dtypes (naming the argument), converts array-likes, and builds
 //! `scipy.sparse.csr_array` results and dicts. Every compute call releases the GIL
-//! ([`compute`]) and runs on the pool set by `set_threads`.
+//! (`compute`) and runs on the pool set by `set_threads`.
 //!
 //! Sign convention: every operator is positive semi-definite, `F = D − W` (Zhang
 //! 2004); libigl's `cotmatrix` is the negative.

@@ -12,7 +12,7 @@
 //!    matching coarsening, greedy growing of the coarsest graph, boundary
 //!    Fiduccia–Mattheyses refinement at every uncoarsening level), through the `metis`
 //!    crate's vendored build (plain C, no system library), with one initial
-//!    partitioning of the coarsest graph instead of four (see [`metis_parts`]).
+//!    partitioning of the coarsest graph instead of four (see `metis_parts`).
 //!    METIS is the reference for this job; re-implementing it by hand would only
 //!    lose quality.
 //! 2. **Faces and patches.** A face belongs to patch `p` when its three corners do

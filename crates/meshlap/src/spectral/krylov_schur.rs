@@ -24,7 +24,7 @@
 //!    leading range of the basis, so after measuring against the whole basis the
 //!    second pass subtracts only the significant range. The products of the tall
 //!    basis with a thin block are memory-bound and use the streaming kernels of
-//!    [`super::thin_products`]. The coefficients are stored as column block j of the
+//!    `thin_products`. The coefficients are stored as column block j of the
 //!    projected matrix `H`; the remainder is factored `W = V_{j+1} R` by Cholesky QR
 //!    twice (modified Gram–Schmidt when the block is ill-conditioned). Full re-orthogonalisation makes `H` the Rayleigh quotient
 //!    `VᵀAV` up to rounding, so no Lanczos-specific structure has to be trusted: `H` is
