@@ -212,6 +212,18 @@ pub enum FactorizationFailure {
 #[cfg(test)]
 pub(crate) mod test_util {
     use crate::mesh::{builtin, TriMesh};
+    use crate::operator::OperatorKind;
+
+    /// The kinds with a real spectrum on every mesh (symmetric, or the TL through its
+    /// diagonal symmetrizer; the cotangent operator with its mass).
+    pub const REAL_SPECTRUM_KINDS: [OperatorKind; 6] = [
+        OperatorKind::Kirchhoff,
+        OperatorKind::Tutte,
+        OperatorKind::Graph,
+        OperatorKind::Sql,
+        OperatorKind::Sstl,
+        OperatorKind::Cotan,
+    ];
 
     /// An icosphere with three faces removed far apart: irregular valences, three
     /// holes and no symmetry left, so its combinatorial spectra are simple.
