@@ -22,6 +22,19 @@ where
         .map_err(|e| raise_as(py, class, format!("{what}: {e}")))
 }
 
+/// A contiguous view of an optional 1-D array, the argument named in the error.
+fn slice1<'a, T: numpy::Element>(
+    py: Python<'_>,
+    a: Option<&'a PyReadonlyArray1<'_, T>>,
+    name: &str,
+) -> PyResult<Option<&'a [T]>> {
+    a.map(|a| {
+        a.as_slice()
+            .map_err(|_| raise_as(py, "Error", format!("{name} must be contiguous")))
+    })
+    .transpose()
+}
+
 /// `read_mesh(path, format=None)` → `(V, F)`: read (or generate `builtin:…`) and clean
 /// exactly as the CLI does (`meshlap::input::open`).
 #[pyfunction]
@@ -57,13 +70,7 @@ fn write_mesh(
     let format = format
         .map(|s| parse::<meshlap::io::Format>(py, s, "format", "MeshIOError"))
         .transpose()?;
-    let scalars = scalars
-        .as_ref()
-        .map(|s| {
-            s.as_slice()
-                .map_err(|_| raise_as(py, "Error", "scalars must be contiguous".into()))
-        })
-        .transpose()?;
+    let scalars = slice1(py, scalars.as_ref(), "scalars")?;
     let colors: Option<Vec<[u8; 3]>> = match &colors {
         Some(c) => {
             let (s, _, _) = slice2(py, c, "colors", Some(3))?;
@@ -237,13 +244,7 @@ fn compare(
 ) -> PyResult<String> {
     let a = mesh_of(py, &va, &fa)?;
     let b = mesh_of(py, &vb, &fb)?;
-    let map = map
-        .as_ref()
-        .map(|m| {
-            m.as_slice()
-                .map_err(|_| raise_as(py, "Error", "map must be contiguous".into()))
-        })
-        .transpose()?;
+    let map = slice1(py, map.as_ref(), "map")?;
     let c = compute(py, || {
         let opts = meshlap::metric::CompareOptions {
             samples,
@@ -280,11 +281,8 @@ fn render<'py>(
     let cmap = colormap
         .map(|c| parse::<Colormap>(py, c, "colormap", "RenderError"))
         .transpose()?;
-    let coloring = match &scalars {
-        Some(s) => {
-            let values = s
-                .as_slice()
-                .map_err(|_| raise_as(py, "Error", "scalars must be contiguous".into()))?;
+    let coloring = match slice1(py, scalars.as_ref(), "scalars")? {
+        Some(values) => {
             if values.len() != input.mesh.n_vertices() {
                 return Err(raise_as(
                     py,

@@ -14,10 +14,12 @@ use serde::Serialize;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-/// Operator and eigensolver options shared by `spectrum`, `project` and
+/// The mesh, operator and eigensolver options shared by `spectrum`, `project` and
 /// `compaction`.
 #[derive(clap::Args, Debug, Clone)]
 pub struct BasisArgs {
+    #[command(flatten)]
+    pub mesh: MeshArgs,
     /// Operator kind: kirchhoff (kl), tutte (tl), graph (gl), sql, sstl, cotan (with its
     /// lumped mass: L v = λ M v), or any other from `meshlap operator --help`.
     #[arg(long, short)]
@@ -82,8 +84,6 @@ impl BasisArgs {
 #[derive(clap::Args, Debug)]
 pub struct Args {
     #[command(flatten)]
-    pub mesh: MeshArgs,
-    #[command(flatten)]
     pub basis: BasisArgs,
     /// Report only the k smallest eigenpairs (default: all n).
     #[arg(long, value_name = "k")]
@@ -116,7 +116,7 @@ struct SpectrumJson<'a> {
 }
 
 pub fn run(args: &Args) -> meshlap::Result<()> {
-    let input = args.mesh.open()?;
+    let input = args.basis.mesh.open()?;
     let n = input.mesh.n_vertices();
     let op = args.basis.operator(&input)?;
     let params = SmallestParams {
