@@ -165,8 +165,9 @@ def write_mesh(
 
 
 def info(V: Any, F: Any) -> Dict[str, Any]:
-    """The report of ``meshlap info --json`` (after cleaning, with the dropped
-    counts): vertices, faces, edges, boundary_edges, boundary_loops, components,
+    """The report of ``meshlap info --json`` (one library function, ``Input::info``;
+    after cleaning, with the dropped counts): source (``"array"``),
+    polygons_triangulated, read, vertices, faces, edges, boundary_edges, boundary_loops, components,
     euler_characteristic, genus, non_manifold_edges, non_manifold_vertices,
     inconsistently_oriented_edges, zero_area_faces, degree, bbox_min, bbox_max,
     bbox_diagonal, dropped_* counts."""
@@ -176,11 +177,12 @@ def info(V: Any, F: Any) -> Dict[str, Any]:
 
 def clean(V: Any, F: Any, split_nonmanifold: bool = False):
     """Clean a mesh as the CLI does; ``split_nonmanifold`` also duplicates vertices
-    along non-manifold edges and at non-manifold vertices.
+    along non-manifold edges and at non-manifold vertices. The report has the keys of
+    ``meshlap clean --json`` (one library function, ``Input::cleaned``).
 
     Returns ``(V, F, report)``: float64 ``(n', 3)``, int64 ``(m', 3)`` and a dict
     (dropped_unreferenced_vertices, dropped_degenerate_faces, dropped_duplicate_faces,
-    split, vertices, faces).
+    split, vertices, faces, non_manifold_edges, non_manifold_vertices).
     """
     v, f = _mesh(V, F)
     v2, f2, rep = _meshlap.clean(v, f, bool(split_nonmanifold))
@@ -393,7 +395,9 @@ def smooth(
     preserve: str = "none",
     dense_limit: Optional[int] = None,
 ):
-    """Low-pass filter the positions with operator F (``F = D − W``): ``implicit``
+    """Low-pass filter the positions with operator F (``F = D − W``; default the
+    SQL, the library's ``FilterSettings::DEFAULT_OPERATOR``, as ``meshlap smooth``):
+    ``implicit``
     ((I + λF)x′ = x, Desbrun 1999; Zhang 2004 §4.10; λ = 30, 1 step by default),
     ``explicit``, ``taubin``, ``butterworth``, ``ideal`` (see ``meshlap smooth``).
     ``None`` takes the library's default; the solver ``auto`` is CG for a symmetric F

@@ -85,6 +85,15 @@ def test_implicit_smoothing_equals_scipy_solve(sphere):
     assert hist[0][-1] < 1e-12 < hist[0][0] and max(info["residuals"]) < 1e-11
 
 
+def test_smooth_default_operator_is_the_librarys():
+    import inspect
+
+    from meshlap import _meshlap
+
+    default = inspect.signature(meshlap.smooth).parameters["operator"].default
+    assert default == _meshlap.DEFAULT_SMOOTH_OPERATOR == "sql"
+
+
 def test_taubin_and_explicit_filters_take_library_defaults(sphere):
     V, F = sphere
     for name in ["explicit", "taubin"]:

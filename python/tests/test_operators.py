@@ -107,7 +107,8 @@ def test_info_and_clean(sphere):
     r = meshlap.info(V, F)
     for key in ["vertices", "faces", "edges", "boundary_edges", "boundary_loops", "components",
                 "euler_characteristic", "non_manifold_edges", "non_manifold_vertices",
-                "dropped_unreferenced_vertices", "dropped_degenerate_faces", "dropped_duplicate_faces"]:
+                "dropped_unreferenced_vertices", "dropped_degenerate_faces", "dropped_duplicate_faces",
+                "source", "polygons_triangulated", "read"]:
         assert key in r
     assert r["euler_characteristic"] == 2 and r["genus"] == 0
     # An unreferenced vertex, a duplicate face and a degenerate one are dropped.
@@ -115,6 +116,10 @@ def test_info_and_clean(sphere):
     F2 = np.vstack([F, F[:1], [[0, 0, 1]]])
     Vc, Fc, rep = meshlap.clean(V2, F2)
     assert (rep["dropped_unreferenced_vertices"], rep["dropped_duplicate_faces"], rep["dropped_degenerate_faces"]) == (1, 1, 1)
+    # the keys of `meshlap clean --json` (the same library function)
+    assert set(rep) == {"dropped_unreferenced_vertices", "dropped_degenerate_faces",
+                        "dropped_duplicate_faces", "split", "vertices", "faces",
+                        "non_manifold_edges", "non_manifold_vertices"}
     np.testing.assert_array_equal(Vc, V)
     np.testing.assert_array_equal(Fc, F)
     assert Fc.dtype == np.int64

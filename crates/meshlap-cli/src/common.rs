@@ -26,6 +26,17 @@ impl MeshArgs {
     }
 }
 
+/// A mesh to read and the file a command writes (`-o`).
+#[derive(clap::Args, Debug, Clone)]
+pub struct MeshInOut {
+    #[command(flatten)]
+    pub mesh: MeshArgs,
+    /// Output file, written atomically (a mesh: format from the extension; `compress`
+    /// writes .mlz, `render` .png).
+    #[arg(long, short)]
+    pub output: std::path::PathBuf,
+}
+
 /// Prints `value` as pretty JSON on stdout.
 pub fn print_json<T: Serialize>(value: &T) -> meshlap::Result<()> {
     let s = serde_json::to_string_pretty(value)

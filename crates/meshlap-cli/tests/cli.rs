@@ -199,6 +199,20 @@ fn operator_report_and_matrix_market() {
     assert!((printed["max_abs_row_sum"].as_f64().unwrap() - 0.73).abs() < 0.01);
 }
 
+/// The negative weights of the SQL of the mesh at `path` (`meshlap operator --json`).
+fn sql_negative_weights(path: &std::path::Path) -> serde_json::Value {
+    let s = json(&meshlap(&[
+        "operator",
+        path.to_str().unwrap(),
+        "--kind",
+        "sql",
+        "--json",
+        "--dense-limit",
+        "0",
+    ]));
+    s["negative_weights"].clone()
+}
+
 #[test]
 fn repair_and_iterate() {
     let dir = tempfile::tempdir().unwrap();
@@ -212,16 +226,7 @@ fn repair_and_iterate() {
     ]));
     assert_eq!(r["negative_before"], 7);
     assert_eq!(r["negative_after"], 0);
-    let s = json(&meshlap(&[
-        "operator",
-        out.to_str().unwrap(),
-        "--kind",
-        "sql",
-        "--json",
-        "--dense-limit",
-        "0",
-    ]));
-    assert_eq!(s["negative_weights"], 0);
+    assert_eq!(sql_negative_weights(&out), 0);
     let it = json(&meshlap(&[
         "iterate",
         "builtin:cube:3",
@@ -444,16 +449,7 @@ fn repair_sql_vertex_split_method() {
     let info = json(&meshlap(&["info", out.to_str().unwrap(), "--json"]));
     assert_eq!(info["vertices"].as_u64().unwrap(), 2903 + added);
     assert_eq!(info["non_manifold_edges"], 0);
-    let s = json(&meshlap(&[
-        "operator",
-        out.to_str().unwrap(),
-        "--kind",
-        "sql",
-        "--json",
-        "--dense-limit",
-        "0",
-    ]));
-    assert_eq!(s["negative_weights"], 0);
+    assert_eq!(sql_negative_weights(&out), 0);
     let bad = meshlap(&[
         "repair-sql",
         &data("cow.obj"),

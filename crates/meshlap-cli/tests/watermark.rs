@@ -2,6 +2,7 @@
 
 mod common;
 use common::*;
+use std::process::Output;
 
 const MSG: &str = "0123456789abcdef";
 
@@ -11,22 +12,43 @@ fn tmp(name: &str) -> String {
     dir.join(name).display().to_string()
 }
 
+/// `meshlap watermark embed MESH -o OUT --key KEY --message MESSAGE EXTRA…`.
+fn embed(mesh: &str, out: &str, key: &str, message: &str, extra: &[&str]) -> Output {
+    let mut a = vec![
+        "watermark",
+        "embed",
+        mesh,
+        "-o",
+        out,
+        "--key",
+        key,
+        "--message",
+        message,
+    ];
+    a.extend_from_slice(extra);
+    meshlap(&a)
+}
+
+/// `meshlap watermark detect SUSPECT --original ORIGINAL --key KEY EXTRA…`.
+fn detect(suspect: &str, original: &str, key: &str, extra: &[&str]) -> Output {
+    let mut a = vec![
+        "watermark",
+        "detect",
+        suspect,
+        "--original",
+        original,
+        "--key",
+        key,
+    ];
+    a.extend_from_slice(extra);
+    meshlap(&a)
+}
+
 #[test]
 fn embed_then_detect_recovers_the_message_with_the_documented_keys() {
     let cow = data("cow.obj");
     let out = tmp("cow-marked.obj");
-    let e = json(&meshlap(&[
-        "watermark",
-        "embed",
-        &cow,
-        "-o",
-        &out,
-        "--key",
-        "0x2a",
-        "--message",
-        MSG,
-        "--json",
-    ]));
+    let e = json(&embed(&cow, &out, "0x2a", MSG, &["--json"]));
     for key in [
         "bits",
         "patches",
@@ -40,18 +62,7 @@ fn embed_then_detect_recovers_the_message_with_the_documented_keys() {
     }
     assert_eq!(e["bits"], 64);
     assert!(e["mrms"].as_f64().unwrap() <= 1.5e-4);
-    let d = json(&meshlap(&[
-        "watermark",
-        "detect",
-        &out,
-        "--original",
-        &cow,
-        "--key",
-        "42",
-        "--expect",
-        MSG,
-        "--json",
-    ]));
+    let d = json(&detect(&out, &cow, "42", &["--expect", MSG, "--json"]));
     for key in [
         "message",
         "bits",
@@ -77,27 +88,10 @@ fn embed_then_detect_recovers_the_message_with_the_documented_keys() {
     assert_eq!(d["resampled"], false);
     assert!(d["false_positive_probability"].as_f64().unwrap() <= 1e-6);
     // A wrong key: no message, a probability above the threshold.
-    let w = json(&meshlap(&[
-        "watermark",
-        "detect",
-        &out,
-        "--original",
-        &cow,
-        "--key",
-        "43",
-        "--json",
-    ]));
+    let w = json(&detect(&out, &cow, "43", &["--json"]));
     assert!(w["message"].is_null());
     assert!(w["false_positive_probability"].as_f64().unwrap() > 1e-6);
-    let text = meshlap(&[
-        "watermark",
-        "detect",
-        &out,
-        "--original",
-        &cow,
-        "--key",
-        "43",
-    ]);
+    let text = detect(&out, &cow, "43", &[]);
     assert!(String::from_utf8_lossy(&text.stdout).contains("no watermark found"));
 }
 
@@ -105,75 +99,31 @@ fn embed_then_detect_recovers_the_message_with_the_documented_keys() {
 fn bad_input_gives_one_line_errors() {
     let out = tmp("bad.obj");
     assert_one_line_error(
-        &meshlap(&[
-            "watermark",
-            "embed",
-            "builtin:icosphere:3",
-            "-o",
-            &out,
-            "--key",
-            "1",
-            "--message",
-            "12xz",
-        ]),
+        &embed("builtin:icosphere:3", &out, "1", "12xz", &[]),
         "non-hex",
     );
     assert_one_line_error(
-        &meshlap(&[
-            "watermark",
-            "embed",
-            "builtin:tetrahedron",
-            "-o",
-            &out,
-            "--key",
-            "1",
-            "--message",
-            MSG,
-        ]),
+        &embed("builtin:tetrahedron", &out, "1", MSG, &[]),
         "coefficient slots",
     );
     assert_one_line_error(
-        &meshlap(&[
-            "watermark",
-            "detect",
-            "builtin:torus:30:15",
-            "--original",
-            "builtin:icosphere:3",
-            "--key",
-            "1",
-        ]),
+        &detect("builtin:torus:30:15", "builtin:icosphere:3", "1", &[]),
         "does not match",
     );
     assert_eq!(
-        meshlap(&[
-            "watermark",
-            "embed",
-            "builtin:icosphere:3",
-            "-o",
-            &out,
-            "--key",
-            "x",
-            "--message",
-            MSG
-        ])
-        .status
-        .code(),
+        embed("builtin:icosphere:3", &out, "x", MSG, &[])
+            .status
+            .code(),
         Some(2)
     );
     assert_eq!(
-        meshlap(&[
-            "watermark",
-            "embed",
+        embed(
             "builtin:icosphere:3",
-            "-o",
             &out,
-            "--key",
             "1",
-            "--message",
             MSG,
-            "--operator",
-            "cotan",
-        ])
+            &["--operator", "cotan"]
+        )
         .status
         .code(),
         Some(2)

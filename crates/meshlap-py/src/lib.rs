@@ -5,7 +5,7 @@
 //! Python package `meshlap` (python/meshlap) wraps these functions: it checks shapes
 //! and dtypes (naming the argument), converts array-likes, and builds
 //! `scipy.sparse.csr_array` results and dicts. Every compute call releases the GIL
-//! ([`compute`]) and runs on the pool set by `set_threads`.
+//! (`compute`) and runs on the pool set by `set_threads`.
 //!
 //! Sign convention: every operator is positive semi-definite, `F = D − W` (Zhang
 //! 2004); libigl's `cotmatrix` is the negative.
@@ -39,7 +39,7 @@ fn class_of(e: &meshlap::Error) -> &'static str {
         E::Operator(_) => "OperatorError",
         E::Solve(_) | E::Filter(_) | E::Smoothing(_) => "SolveError",
         E::Repair(_) => "RepairError",
-        E::Spectral(_) | E::Descriptor(_) => "SpectralError",
+        E::Spectral(_) | E::Descriptor(_) | E::Patchwise(_) => "SpectralError",
         E::Watermark(_) | E::Attack(_) => "WatermarkError",
         E::Codec(_) => "CodecError",
         E::Metric(_) => "MetricError",
@@ -265,6 +265,12 @@ fn get_threads() -> usize {
 fn _meshlap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(set_threads, m)?)?;
     m.add_function(wrap_pyfunction!(get_threads, m)?)?;
+    // The library's defaults that the Python signatures repeat (asserted equal in
+    // python/tests/test_mesh.py).
+    m.add(
+        "DEFAULT_SMOOTH_OPERATOR",
+        meshlap::filter::FilterSettings::DEFAULT_OPERATOR.name(),
+    )?;
     mesh_fns::register(m)?;
     spectral_fns::register(m)?;
     watermark_fns::register(m)?;

@@ -22,6 +22,19 @@ where
         .map_err(|e| raise_as(py, class, format!("{what}: {e}")))
 }
 
+/// A contiguous view of an optional 1-D array, the argument named in the error.
+fn slice1<'a, T: numpy::Element>(
+    py: Python<'_>,
+    a: Option<&'a PyReadonlyArray1<'_, T>>,
+    name: &str,
+) -> PyResult<Option<&'a [T]>> {
+    a.map(|a| {
+        a.as_slice()
+            .map_err(|_| raise_as(py, "Error", format!("{name} must be contiguous")))
+    })
+    .transpose()
+}
+
 /// `read_mesh(path, format=None)` → `(V, F)`: read (or generate `builtin:…`) and clean
 /// exactly as the CLI does (`meshlap::input::open`).
 #[pyfunction]
@@ -57,13 +70,7 @@ fn write_mesh(
     let format = format
         .map(|s| parse::<meshlap::io::Format>(py, s, "format", "MeshIOError"))
         .transpose()?;
-    let scalars = scalars
-        .as_ref()
-        .map(|s| {
-            s.as_slice()
-                .map_err(|_| raise_as(py, "Error", "scalars must be contiguous".into()))
-        })
-        .transpose()?;
+    let scalars = slice1(py, scalars.as_ref(), "scalars")?;
     let colors: Option<Vec<[u8; 3]>> = match &colors {
         Some(c) => {
             let (s, _, _) = slice2(py, c, "colors", Some(3))?;
@@ -81,8 +88,8 @@ fn write_mesh(
     compute(py, || meshlap::io::write_mesh(p, &input.mesh, &opts)).or_raise(py)
 }
 
-/// `info(V, F)` → JSON of `meshlap info --json`'s mesh report (the mesh is cleaned
-/// first, as the CLI does, and the dropped counts reported).
+/// `info(V, F)` → JSON of `meshlap info --json` (`Input::info`; the mesh is cleaned
+/// first, as the CLI does, and the dropped counts reported; source `array`).
 #[pyfunction]
 fn info(
     py: Python<'_>,
@@ -94,20 +101,11 @@ fn info(
         meshlap::input::from_mesh("array", raw, None, &Default::default())
     })
     .or_raise(py)?;
-    json(py, &input.report())
+    json(py, &input.info())
 }
 
-#[derive(serde::Serialize)]
-struct CleanJson {
-    dropped_unreferenced_vertices: usize,
-    dropped_degenerate_faces: usize,
-    dropped_duplicate_faces: usize,
-    split: Option<meshlap::mesh::clean::SplitReport>,
-    vertices: usize,
-    faces: usize,
-}
-
-/// `clean(V, F, split_nonmanifold=False)` → `(V, F, report JSON)`.
+/// `clean(V, F, split_nonmanifold=False)` → `(V, F, report JSON)`: the JSON of
+/// `meshlap clean --json` (`Input::cleaned`).
 #[pyfunction]
 #[pyo3(signature = (v, f, split_nonmanifold=false))]
 fn clean<'py>(
@@ -117,24 +115,11 @@ fn clean<'py>(
     split_nonmanifold: bool,
 ) -> PyResult<MeshReport<'py>> {
     let raw = raw_mesh(py, &v, &f)?;
-    let (mesh, report, split) = compute(py, || -> meshlap::Result<_> {
-        let (m, r) = meshlap::mesh::clean::clean(&raw, &Default::default())?;
-        if split_nonmanifold {
-            let (m, s) = meshlap::mesh::clean::split_non_manifold(&m)?;
-            Ok((m, r, Some(s)))
-        } else {
-            Ok((m, r, None))
-        }
+    let (mesh, out) = compute(py, || -> meshlap::Result<_> {
+        let input = meshlap::input::from_mesh("array", raw, None, &Default::default())?;
+        Ok(input.cleaned(split_nonmanifold)?)
     })
     .or_raise(py)?;
-    let out = CleanJson {
-        dropped_unreferenced_vertices: report.dropped_unreferenced_vertices,
-        dropped_degenerate_faces: report.dropped_degenerate_faces,
-        dropped_duplicate_faces: report.dropped_duplicate_faces,
-        split,
-        vertices: mesh.n_vertices(),
-        faces: mesh.n_faces(),
-    };
     let (va, fa) = mesh_arrays(py, &mesh)?;
     Ok((va, fa, json(py, &out)?))
 }
@@ -259,13 +244,7 @@ fn compare(
 ) -> PyResult<String> {
     let a = mesh_of(py, &va, &fa)?;
     let b = mesh_of(py, &vb, &fb)?;
-    let map = map
-        .as_ref()
-        .map(|m| {
-            m.as_slice()
-                .map_err(|_| raise_as(py, "Error", "map must be contiguous".into()))
-        })
-        .transpose()?;
+    let map = slice1(py, map.as_ref(), "map")?;
     let c = compute(py, || {
         let opts = meshlap::metric::CompareOptions {
             samples,
@@ -302,11 +281,8 @@ fn render<'py>(
     let cmap = colormap
         .map(|c| parse::<Colormap>(py, c, "colormap", "RenderError"))
         .transpose()?;
-    let coloring = match &scalars {
-        Some(s) => {
-            let values = s
-                .as_slice()
-                .map_err(|_| raise_as(py, "Error", "scalars must be contiguous".into()))?;
+    let coloring = match slice1(py, scalars.as_ref(), "scalars")? {
+        Some(values) => {
             if values.len() != input.mesh.n_vertices() {
                 return Err(raise_as(
                     py,

@@ -28,6 +28,9 @@ pub enum Error {
     /// A spectral computation failed.
     #[error(transparent)]
     Spectral(#[from] crate::spectral::SpectralError),
+    /// A patch-by-patch reconstruction failed.
+    #[error(transparent)]
+    Patchwise(#[from] crate::spectral::patchwise::PatchwiseError),
     /// Compression or decompression failed.
     #[error(transparent)]
     Codec(#[from] crate::codec::CodecError),

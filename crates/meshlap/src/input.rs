@@ -5,9 +5,12 @@
 //! [`Topology`] built once.
 
 use crate::io::{self, Format, ReadInfo};
-use crate::mesh::clean::{clean, CleanOptions, CleanReport, MeshReport};
-use crate::mesh::{builtin, topology::Topology, TriMesh};
+use crate::mesh::clean::{
+    clean, split_non_manifold, CleanOptions, CleanReport, MeshReport, SplitReport,
+};
+use crate::mesh::{builtin, topology::Topology, MeshError, TriMesh};
 use crate::Result;
+use serde::Serialize;
 use std::path::Path;
 
 /// Options of [`open`].
@@ -34,10 +37,84 @@ pub struct Input {
     pub clean: CleanReport,
 }
 
+/// What `meshlap info --json` and Python's `meshlap.info` print: the source, the
+/// [`MeshReport`] of the cleaned mesh (its keys flattened in) and what the reader
+/// noticed.
+#[derive(Clone, Debug, Serialize)]
+pub struct InfoReport {
+    /// Where the mesh came from (path, `builtin:` spec, or `array` for Python).
+    pub source: String,
+    /// Counts, connectivity, degrees, bounding box and what cleaning dropped.
+    #[serde(flatten)]
+    pub report: MeshReport,
+    /// Polygons the reader split into triangles (fan); 0 for generated meshes.
+    pub polygons_triangulated: usize,
+    /// What the reader reported (`None` for generated and in-memory meshes).
+    pub read: Option<ReadInfo>,
+}
+
+/// What `meshlap clean --json` and Python's `meshlap.clean` print about the mesh
+/// [`Input::cleaned`] returns.
+#[derive(Clone, Debug, Serialize)]
+pub struct CleanSummary {
+    /// What cleaning dropped (counts).
+    #[serde(flatten)]
+    pub clean: CleanReport,
+    /// What splitting non-manifold edges and vertices did (`None` when not asked).
+    pub split: Option<SplitReport>,
+    /// Vertices of the result.
+    pub vertices: usize,
+    /// Faces of the result.
+    pub faces: usize,
+    /// Non-manifold edges left in the result (0 after a split).
+    pub non_manifold_edges: usize,
+    /// Non-manifold vertices left in the result (0 after a split).
+    pub non_manifold_vertices: usize,
+}
+
 impl Input {
     /// The full validation report of the cleaned mesh.
     pub fn report(&self) -> MeshReport {
         MeshReport::new(&self.mesh, &self.topology, &self.clean)
+    }
+
+    /// The report of `meshlap info`: [`Input::report`] with the source and the
+    /// reader's notes.
+    pub fn info(&self) -> InfoReport {
+        InfoReport {
+            source: self.source.clone(),
+            report: self.report(),
+            polygons_triangulated: self
+                .read_info
+                .as_ref()
+                .map_or(0, |i| i.polygons_triangulated),
+            read: self.read_info.clone(),
+        }
+    }
+
+    /// The cleaned mesh as `meshlap clean` writes it: with `split`, made
+    /// manifold by [`split_non_manifold`]; with the summary of what was done.
+    ///
+    /// # Errors
+    /// [`MeshError`] from [`split_non_manifold`] or from building the result's
+    /// connectivity.
+    pub fn cleaned(&self, split: bool) -> Result<(TriMesh, CleanSummary), MeshError> {
+        let (mesh, split) = if split {
+            let (m, r) = split_non_manifold(&self.mesh)?;
+            (m, Some(r))
+        } else {
+            (self.mesh.clone(), None)
+        };
+        let topo = Topology::new(&mesh)?;
+        let summary = CleanSummary {
+            clean: self.clean.clone(),
+            split,
+            vertices: mesh.n_vertices(),
+            faces: mesh.n_faces(),
+            non_manifold_edges: topo.non_manifold_edges().count(),
+            non_manifold_vertices: topo.non_manifold_vertices().count(),
+        };
+        Ok((mesh, summary))
     }
 }
 

@@ -29,7 +29,7 @@
 //! - [`partition`]: METIS graph partitioning of a mesh into connected patches (used by
 //!   the patch-wise transforms, the codec and watermarking).
 //! - [`spectral`]: eigenvalue-decomposition (ED) transforms, the k smallest eigenpairs
-//!   at any size ([`spectral::smallest`]), partial spectra, extreme eigenvalues,
+//!   at any size ([`spectral::smallest()`]), partial spectra, extreme eigenvalues,
 //!   patch-wise reconstruction.
 //! - [`watermark`]: spectral mesh watermarking (Ohbuchi et al. 2001/2002) and the
 //!   attacks of the watermarking benchmark (Wang et al. 2010).

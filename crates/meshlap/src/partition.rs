@@ -12,7 +12,7 @@
 //!    matching coarsening, greedy growing of the coarsest graph, boundary
 //!    Fiduccia–Mattheyses refinement at every uncoarsening level), through the `metis`
 //!    crate's vendored build (plain C, no system library), with one initial
-//!    partitioning of the coarsest graph instead of four (see [`metis_parts`]).
+//!    partitioning of the coarsest graph instead of four (see `metis_parts`).
 //!    METIS is the reference for this job; re-implementing it by hand would only
 //!    lose quality.
 //! 2. **Faces and patches.** A face belongs to patch `p` when its three corners do
@@ -67,9 +67,15 @@ pub enum PartitionError {
         /// Vertices in the connectivity.
         topology: usize,
     },
-    /// METIS reported an error.
-    #[error("METIS failed: {0}")]
-    Metis(String),
+    /// The `metis` bindings refused the adjacency graph (kept as the source).
+    ///
+    /// Cause: an index that does not fit METIS's 32-bit `Idx` or a malformed
+    /// adjacency; the connectivity is checked first, so this is a bug to report.
+    #[error("METIS refused the adjacency graph")]
+    MetisGraph(#[source] metis::NewGraphError),
+    /// METIS reported an error (out of memory or invalid input; kept as the source).
+    #[error("METIS failed")]
+    Metis(#[source] metis::Error),
 }
 
 /// Options of [`partition`].
@@ -138,10 +144,33 @@ pub struct Submesh {
     pub vertices: Vec<u32>,
 }
 
+/// A well-spread colour for patch `p` (golden-ratio hue walk, HSV with s = 0.65,
+/// v = 0.95), as `meshlap partition --output` paints the patches.
+pub fn patch_colour(p: u32) -> [u8; 3] {
+    let h = (p as f64 * 0.618_033_988_75).fract() * 6.0;
+    let (s, v) = (0.65, 0.95);
+    let c = v * s;
+    let x = c * (1.0 - ((h % 2.0) - 1.0).abs());
+    let (r, g, b) = match h as u32 {
+        0 => (c, x, 0.0),
+        1 => (x, c, 0.0),
+        2 => (0.0, c, x),
+        3 => (0.0, x, c),
+        4 => (x, 0.0, c),
+        _ => (c, 0.0, x),
+    };
+    let m = v - c;
+    [r, g, b].map(|t| ((t + m) * 255.0).round() as u8)
+}
+
 impl Partition {
     /// Patch index of every vertex (length n).
     pub fn patch_of(&self) -> &[u32] {
         &self.patch_of
+    }
+    /// The [`patch_colour`] of every vertex's patch (length n).
+    pub fn vertex_colours(&self) -> Vec<[u8; 3]> {
+        self.patch_of.iter().map(|&p| patch_colour(p)).collect()
     }
     /// Number of patches.
     pub fn n_patches(&self) -> usize {
@@ -278,11 +307,11 @@ fn metis_parts(
     let mut options = [-1 as metis::Idx; metis::NOPTIONS];
     options[METIS_OPTION_NIPARTS] = 1;
     let cut = metis::Graph::new(1, nparts as metis::Idx, &xadj, &adjncy)
-        .map_err(|e| PartitionError::Metis(e.to_string()))?
+        .map_err(PartitionError::MetisGraph)?
         .set_options(&options)
         .set_option(metis::option::Seed(seed))
         .part_kway(&mut part)
-        .map_err(|e| PartitionError::Metis(e.to_string()))?;
+        .map_err(PartitionError::Metis)?;
     Ok((part.into_iter().map(|p| p as u32).collect(), cut as usize))
 }
 

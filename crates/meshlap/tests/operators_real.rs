@@ -8,6 +8,15 @@ use meshlap::operator::sql::{sql, sql_edge_weights, BoundaryDiagonal};
 use meshlap::operator::{Operator, OperatorKind, OperatorOptions};
 use meshlap::SparseMatrix;
 
+/// KL, GL and SQL are symmetric by construction; the SSTL sums TᵀT in a symmetric
+/// order: all four exactly.
+const EXACTLY_SYMMETRIC: [OperatorKind; 4] = [
+    OperatorKind::Kirchhoff,
+    OperatorKind::Graph,
+    OperatorKind::Sql,
+    OperatorKind::Sstl,
+];
+
 fn max_abs_row_sum(m: &SparseMatrix) -> f64 {
     let mut rs = vec![0.0; m.nrows()];
     for j in 0..m.ncols() {
@@ -44,12 +53,7 @@ fn zero_row_sums_and_symmetry_on_every_test_mesh() {
             let rs = max_abs_row_sum(&op.matrix);
             assert!(rs <= 1e-12, "{name} {kind}: row sum {rs}");
         }
-        for kind in [
-            OperatorKind::Kirchhoff,
-            OperatorKind::Graph,
-            OperatorKind::Sql,
-            OperatorKind::Sstl,
-        ] {
+        for kind in EXACTLY_SYMMETRIC {
             let op = Operator::assemble(kind, &mesh, &topo, &OperatorOptions::default()).unwrap();
             // KL, GL and SQL are symmetric by construction; the SSTL sums TᵀT in a
             // symmetric order: all four exactly.
@@ -79,12 +83,7 @@ fn zero_row_sums_and_exact_symmetry_on_the_large_shared_meshes() {
             let rs = max_abs_row_sum(&assemble(kind));
             assert!(rs <= 1e-12, "{name} {kind}: row sum {rs}");
         }
-        for kind in [
-            OperatorKind::Kirchhoff,
-            OperatorKind::Graph,
-            OperatorKind::Sql,
-            OperatorKind::Sstl,
-        ] {
+        for kind in EXACTLY_SYMMETRIC {
             assert!(asymmetry(&assemble(kind)) == 0.0, "{name} {kind}");
         }
     }
@@ -196,13 +195,7 @@ fn gershgorin_bounds_hold_on_woody() {
     // the cow (2903) nine dense eigensolves took about a minute of CPU.
     let input = load(&data("woody.obj"));
     for kind in OperatorKind::ALL {
-        let op = Operator::assemble(
-            kind,
-            &input.mesh,
-            &input.topology,
-            &OperatorOptions::default(),
-        )
-        .unwrap();
+        let op = Operator::on_input(kind, &input).unwrap();
         let r = analyze(&op.matrix, &PropertyOptions::default());
         assert!(r.lambda_max.is_some(), "{kind}: spectrum not computed");
         assert_eq!(r.gershgorin_holds, Some(true), "{kind}");

@@ -17,7 +17,7 @@
 //! truncated ED reconstruction, end to end, with the peak RSS).
 
 use meshlap::input::{open, OpenOptions};
-use meshlap::operator::{Operator, OperatorKind, OperatorOptions};
+use meshlap::operator::{Operator, OperatorKind};
 use std::collections::BTreeMap;
 use std::time::Instant;
 
@@ -39,6 +39,19 @@ fn time<T>(repeat: usize, mut f: impl FnMut() -> T) -> (f64, Vec<f64>) {
         times.push(t.elapsed().as_secs_f64());
     }
     (median(times.clone()), times)
+}
+
+/// `{"median": …, "times": […]}` of `repeat` runs of `f`.
+fn timing<T>(repeat: usize, f: impl FnMut() -> T) -> serde_json::Value {
+    let (m, t) = time(repeat, f);
+    serde_json::json!({"median": m, "times": t})
+}
+
+/// Connectivity alone (read and cleaning excluded), shared by all operators.
+fn topology_timing(input: &meshlap::input::Input, repeat: usize) -> serde_json::Value {
+    timing(repeat, || {
+        meshlap::mesh::topology::Topology::new(&input.mesh).map(|t| t.n_edges())
+    })
 }
 
 /// The value after `name` in the arguments.
@@ -76,10 +89,10 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     out.insert("threads".into(), rayon::current_num_threads().into());
     match task.as_str() {
         "load" => {
-            let (m, t) = time(repeat, || {
+            let t = timing(repeat, || {
                 open(&mesh, &OpenOptions::default()).map(|i| i.mesh.n_faces())
             });
-            out.insert("load".into(), serde_json::json!({"median": m, "times": t}));
+            out.insert("load".into(), t);
         }
         "operators" => {
             let input = open(&mesh, &OpenOptions::default())?;
@@ -94,56 +107,30 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                 if only.is_some_and(|k| k != kind) {
                     continue;
                 }
-                let (m, t) = time(repeat, || {
-                    Operator::assemble(
-                        kind,
-                        &input.mesh,
-                        &input.topology,
-                        &OperatorOptions::default(),
-                    )
-                    .map(|o| o.matrix.compute_nnz())
+                let t = timing(repeat, || {
+                    Operator::on_input(kind, &input).map(|o| o.matrix.compute_nnz())
                 });
-                out.insert(
-                    kind.name().into(),
-                    serde_json::json!({"median": m, "times": t}),
-                );
+                out.insert(kind.name().into(), t);
             }
             if only.is_some() {
                 println!("{}", serde_json::to_string(&out)?);
                 return Ok(());
             }
             // Connectivity is shared by all operators; time it separately.
-            let (m, t) = time(repeat, || {
-                meshlap::mesh::topology::Topology::new(&input.mesh).map(|t| t.n_edges())
-            });
-            out.insert(
-                "topology".into(),
-                serde_json::json!({"median": m, "times": t}),
-            );
+            out.insert("topology".into(), topology_timing(&input, repeat));
         }
         "topology" => {
             // Connectivity alone (read and cleaning excluded).
             let input = open(&mesh, &OpenOptions::default())?;
             out.insert("vertices".into(), input.mesh.n_vertices().into());
-            let (m, t) = time(repeat, || {
-                meshlap::mesh::topology::Topology::new(&input.mesh).map(|t| t.n_edges())
-            });
-            out.insert(
-                "topology".into(),
-                serde_json::json!({"median": m, "times": t}),
-            );
+            out.insert("topology".into(), topology_timing(&input, repeat));
         }
         "dump" => {
             // Every operator as Matrix Market, for the scripts to compare entries.
             let dir = args.get(2).ok_or(usage)?;
             let input = open(&mesh, &OpenOptions::default())?;
             for kind in OperatorKind::ALL {
-                let op = Operator::assemble(
-                    kind,
-                    &input.mesh,
-                    &input.topology,
-                    &OperatorOptions::default(),
-                )?;
+                let op = Operator::on_input(kind, &input)?;
                 let path = std::path::Path::new(dir).join(format!("{}.mtx", kind.name()));
                 meshlap::io::write_matrix_market(&path, op.matrix.as_ref())?;
             }
@@ -262,18 +249,13 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                 cases.push(("tutte-general", OperatorKind::Tutte, EigenPath::General));
             }
             for (name, kind, path) in cases {
-                let op = Operator::assemble(
-                    kind,
-                    &input.mesh,
-                    &input.topology,
-                    &OperatorOptions::default(),
-                )?;
+                let op = Operator::on_input(kind, &input)?;
                 let opts = BasisOptions {
                     path,
                     ..Default::default()
                 };
-                let (m, t) = time(repeat, || EigenBasis::compute(&op, &opts).map(|b| b.len()));
-                out.insert(name.into(), serde_json::json!({"median": m, "times": t}));
+                let t = timing(repeat, || EigenBasis::compute(&op, &opts).map(|b| b.len()));
+                out.insert(name.into(), t);
             }
         }
         "partial" => {
@@ -285,13 +267,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             out.insert("vertices".into(), input.mesh.n_vertices().into());
             let mut last = None;
             let (m, t) = time(repeat, || {
-                let op = Operator::assemble(
-                    kind,
-                    &input.mesh,
-                    &input.topology,
-                    &OperatorOptions::default(),
-                )
-                .unwrap();
+                let op = Operator::on_input(kind, &input).unwrap();
                 let mut opts = meshlap::spectral::partial::PartialParams::new(count);
                 if let Some(t) = flag(&args, "--tol") {
                     opts.tolerance = t.parse().unwrap();
@@ -361,7 +337,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                 let opts = meshlap::partition::PartitionOptions::new(p);
                 let part = meshlap::partition::partition(&input.topology, &opts).unwrap();
                 let t_part = t0.elapsed().as_secs_f64() - t_open;
-                let rec = meshlap::spectral::patchwise::patchwise_reconstruction(
+                let rec = meshlap::spectral::patchwise::patchwise_positions(
                     &input.mesh,
                     &part,
                     kind,

@@ -2,8 +2,6 @@
 
 use crate::common::{print_json, MeshArgs};
 use meshlap::io::{write_mesh, WriteOptions};
-use meshlap::mesh::clean::{split_non_manifold, SplitReport};
-use serde::Serialize;
 use std::path::PathBuf;
 
 /// Clean a mesh and write it: drop unreferenced vertices, faces with a repeated vertex
@@ -24,46 +22,17 @@ pub struct Args {
     pub json: bool,
 }
 
-#[derive(Serialize)]
-struct CleanJson {
-    dropped_unreferenced_vertices: usize,
-    dropped_degenerate_faces: usize,
-    dropped_duplicate_faces: usize,
-    split: Option<SplitReport>,
-    vertices: usize,
-    faces: usize,
-    non_manifold_edges: usize,
-    non_manifold_vertices: usize,
-}
-
 pub fn run(args: &Args) -> meshlap::Result<()> {
-    let input = args.mesh.open()?;
-    let (mesh, split) = if args.split_nonmanifold {
-        let (m, r) = split_non_manifold(&input.mesh)?;
-        (m, Some(r))
-    } else {
-        (input.mesh.clone(), None)
-    };
-    let topo = meshlap::mesh::topology::Topology::new(&mesh)?;
+    let (mesh, out) = args.mesh.open()?.cleaned(args.split_nonmanifold)?;
     write_mesh(&args.output, &mesh, &WriteOptions::default())?;
-    let out = CleanJson {
-        dropped_unreferenced_vertices: input.clean.dropped_unreferenced_vertices,
-        dropped_degenerate_faces: input.clean.dropped_degenerate_faces,
-        dropped_duplicate_faces: input.clean.dropped_duplicate_faces,
-        split,
-        vertices: mesh.n_vertices(),
-        faces: mesh.n_faces(),
-        non_manifold_edges: topo.non_manifold_edges().count(),
-        non_manifold_vertices: topo.non_manifold_vertices().count(),
-    };
     if args.json {
         return print_json(&out);
     }
     println!(
         "dropped {} unreferenced vertices, {} degenerate faces, {} duplicate faces",
-        out.dropped_unreferenced_vertices,
-        out.dropped_degenerate_faces,
-        out.dropped_duplicate_faces
+        out.clean.dropped_unreferenced_vertices,
+        out.clean.dropped_degenerate_faces,
+        out.clean.dropped_duplicate_faces
     );
     if let Some(s) = &out.split {
         println!(

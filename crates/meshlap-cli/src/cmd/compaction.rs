@@ -1,7 +1,7 @@
 //! `meshlap compaction`.
 
 use super::spectrum::BasisArgs;
-use crate::common::{print_json, MeshArgs};
+use crate::common::print_json;
 use meshlap::io::write_atomic;
 use meshlap::operator::OperatorKind;
 use meshlap::spectral::compaction::{positions_compaction, Compaction};
@@ -21,8 +21,6 @@ use std::path::PathBuf;
 /// the energy).
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    #[command(flatten)]
-    pub mesh: MeshArgs,
     #[command(flatten)]
     pub basis: BasisArgs,
     /// Translate the mesh's centroid to the origin first.
@@ -54,7 +52,7 @@ struct CompactionJson<'a> {
 }
 
 pub fn run(args: &Args) -> meshlap::Result<()> {
-    let input = args.mesh.open()?;
+    let input = args.basis.mesh.open()?;
     let n = input.mesh.n_vertices();
     let op = args.basis.operator(&input)?;
     let (comp, path) = positions_compaction(

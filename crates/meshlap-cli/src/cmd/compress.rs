@@ -1,12 +1,11 @@
 //! `meshlap compress`.
 
-use crate::common::{print_json, MeshArgs};
+use crate::common::{print_json, MeshInOut};
 use meshlap::codec::{
     compress, CompressOptions, CompressReport, Compressed, GeometryMode, Keep, Quantization,
     SpatialParams, SpectralParams,
 };
 use meshlap::operator::OperatorKind;
-use std::path::PathBuf;
 
 /// Compress a mesh to a `.mlz` file: connectivity losslessly (cut-border machine,
 /// range-coded), geometry by one of two coders (`--mode`): Karni–Gotsman spectral
@@ -23,10 +22,7 @@ use std::path::PathBuf;
 #[derive(clap::Args, Debug)]
 pub struct Args {
     #[command(flatten)]
-    pub mesh: MeshArgs,
-    /// Output file (.mlz).
-    #[arg(short, long)]
-    pub output: PathBuf,
+    pub io: MeshInOut,
     /// Geometry coder: auto (code both, keep the lower error — under `--target-bpv`
     /// the lower product of vertex RMS and normal RMS, under `--bits` the lower
     /// log2(vertex RMS · normal RMS) + 2·geometry bpv/3), spectral or spatial.
@@ -117,9 +113,9 @@ impl Args {
 }
 
 pub fn run(args: &Args) -> meshlap::Result<()> {
-    let input = args.mesh.open()?;
+    let input = args.io.mesh.open()?;
     let c = compress(&input.mesh, &input.topology, &args.options())?;
-    meshlap::io::write_atomic(&args.output, |w| w.write_all(&c.bytes))?;
+    meshlap::io::write_atomic(&args.io.output, |w| w.write_all(&c.bytes))?;
     let distortion = if args.measure {
         Some(c.distortion(&input.mesh, args.samples)?)
     } else {
@@ -140,7 +136,7 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
     }
     println!(
         "wrote           {} ({} bytes)",
-        args.output.display(),
+        args.io.output.display(),
         r.bytes
     );
     println!("vertices        {}  faces {}", r.vertices, r.faces);

@@ -52,7 +52,7 @@ struct DescriptorsJson<'a> {
 
 pub fn run(args: &Args) -> meshlap::Result<()> {
     let input = args.mesh.open()?;
-    let op = Operator::assemble(args.kind, &input.mesh, &input.topology, &Default::default())?;
+    let op = Operator::on_input(args.kind, &input)?;
     let params = DescriptorParams {
         eigenpairs: args.eigenpairs,
         hks: args.hks,

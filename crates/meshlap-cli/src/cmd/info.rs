@@ -1,8 +1,6 @@
 //! `meshlap info`.
 
 use crate::common::{print_json, MeshArgs};
-use meshlap::mesh::clean::MeshReport;
-use serde::Serialize;
 
 /// Describe a mesh: counts, boundary loops, components, Euler characteristic and
 /// genus, degree statistics, bounding box, and everything cleaning dropped or
@@ -20,31 +18,14 @@ pub struct Args {
     pub json: bool,
 }
 
-#[derive(Serialize)]
-struct InfoJson<'a> {
-    source: &'a str,
-    #[serde(flatten)]
-    report: &'a MeshReport,
-    polygons_triangulated: usize,
-    read: Option<&'a meshlap::io::ReadInfo>,
-}
-
 pub fn run(args: &Args) -> meshlap::Result<()> {
-    let input = args.mesh.open()?;
-    let r = input.report();
-    let polys = input
-        .read_info
-        .as_ref()
-        .map_or(0, |i| i.polygons_triangulated);
+    let info = args.mesh.open()?.info();
     if args.json {
-        return print_json(&InfoJson {
-            source: &input.source,
-            report: &r,
-            polygons_triangulated: polys,
-            read: input.read_info.as_ref(),
-        });
+        return print_json(&info);
     }
-    println!("mesh            {}", input.source);
+    let r = &info.report;
+    let polys = info.polygons_triangulated;
+    println!("mesh            {}", info.source);
     println!("vertices        {}", r.vertices);
     println!("faces           {}", r.faces);
     println!("edges           {}", r.edges);

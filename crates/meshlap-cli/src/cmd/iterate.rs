@@ -46,7 +46,7 @@ struct IterateJson<'a> {
 
 pub fn run(args: &Args) -> meshlap::Result<()> {
     let input = args.mesh.open()?;
-    let op = Operator::assemble(args.kind, &input.mesh, &input.topology, &Default::default())?;
+    let op = Operator::on_input(args.kind, &input)?;
     let opts = IterateOptions {
         k: args.k,
         steps: args.steps,

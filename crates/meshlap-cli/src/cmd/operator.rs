@@ -1,11 +1,11 @@
 //! `meshlap operator`.
 
 use crate::common::{opt, print_json, MeshArgs};
-use meshlap::analysis::properties::{analyze, PropertyOptions, PropertyReport};
+use meshlap::analysis::operator_report::operator_report;
+use meshlap::analysis::properties::PropertyOptions;
 use meshlap::operator::{
     cotan::MassKind, sql::BoundaryDiagonal, Operator, OperatorKind, OperatorOptions,
 };
-use serde::Serialize;
 use std::path::PathBuf;
 
 /// Assemble a Laplacian operator and report its matrix-theoretic properties, each
@@ -60,16 +60,6 @@ pub struct Args {
     pub dense_limit: usize,
 }
 
-#[derive(Serialize)]
-struct OperatorJson<'a> {
-    kind: OperatorKind,
-    source: &'a str,
-    #[serde(flatten)]
-    report: &'a PropertyReport,
-    /// For TL and GL: max |λ_TL − λ_GL| over the sorted spectra.
-    same_spectrum_max_difference: Option<f64>,
-}
-
 pub fn options(sql_boundary: BoundaryDiagonal, mass: MassKind) -> OperatorOptions {
     OperatorOptions { sql_boundary, mass }
 }
@@ -85,34 +75,11 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         dense_limit: args.dense_limit,
         ..Default::default()
     };
-    let report = analyze(&op.matrix, &popts);
-    // TL and GL are similar: compare the spectra measured on both matrices.
-    let partner = match args.kind {
-        OperatorKind::Tutte => Some(OperatorKind::Graph),
-        OperatorKind::Graph => Some(OperatorKind::Tutte),
-        _ => None,
-    };
-    let same = match (partner, &report.eigenvalues) {
-        (Some(p), Some(ev)) => {
-            let other = Operator::assemble(p, &input.mesh, &input.topology, &opts)?;
-            analyze(&other.matrix, &popts).eigenvalues.map(|ov| {
-                ev.iter()
-                    .zip(&ov)
-                    .map(|(a, b)| (a - b).abs())
-                    .fold(0.0, f64::max)
-            })
-        }
-        _ => None,
-    };
+    let out = operator_report(&input, &op, &opts, &popts)?;
     if args.json {
-        return print_json(&OperatorJson {
-            kind: args.kind,
-            source: &input.source,
-            report: &report,
-            same_spectrum_max_difference: same,
-        });
+        return print_json(&out);
     }
-    let r = &report;
+    let r = &out.report;
     println!("operator        {} on {}", args.kind, input.source);
     println!("size            n = {}, nnz = {}", r.n, r.nnz);
     println!(
@@ -161,7 +128,7 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         r.positive_semidefinite
             .map_or("n/a".into(), |b| b.to_string())
     );
-    if let Some(d) = same {
+    if let Some(d) = out.same_spectrum_max_difference {
         println!("TL/GL spectra   max difference {d:.3e}");
     }
     if r.gsml.is_gsml {

@@ -40,24 +40,6 @@ struct Report<'a> {
     output: Option<String>,
 }
 
-/// A well-spread colour for patch `p` (golden-ratio hue walk, HSV with s = 0.65, v = 0.95).
-fn colour(p: u32) -> [u8; 3] {
-    let h = (p as f64 * 0.618_033_988_75).fract() * 6.0;
-    let (s, v) = (0.65, 0.95);
-    let c = v * s;
-    let x = c * (1.0 - ((h % 2.0) - 1.0).abs());
-    let (r, g, b) = match h as u32 {
-        0 => (c, x, 0.0),
-        1 => (x, c, 0.0),
-        2 => (0.0, c, x),
-        3 => (0.0, x, c),
-        4 => (x, 0.0, c),
-        _ => (c, 0.0, x),
-    };
-    let m = v - c;
-    [r, g, b].map(|t| ((t + m) * 255.0).round() as u8)
-}
-
 pub fn run(args: &Args) -> meshlap::Result<()> {
     if let Some(out) = &args.output {
         let ext = out.extension().and_then(|e| e.to_str()).unwrap_or("");
@@ -75,7 +57,7 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
     };
     let part = partition_mesh(&input.mesh, &input.topology, &opts)?;
     if let Some(out) = &args.output {
-        let colours: Vec<[u8; 3]> = part.patch_of().iter().map(|&p| colour(p)).collect();
+        let colours = part.vertex_colours();
         let scalar: Vec<f64> = part.patch_of().iter().map(|&p| p as f64).collect();
         write_mesh(
             out,

@@ -1,7 +1,7 @@
 //! `meshlap project`.
 
 use super::spectrum::BasisArgs;
-use crate::common::{print_json, MeshArgs};
+use crate::common::print_json;
 use meshlap::io::{write_mesh, WriteOptions};
 use meshlap::operator::OperatorKind;
 use meshlap::spectral::project::{project, Keep, ProjectParams};
@@ -23,8 +23,6 @@ use std::path::PathBuf;
 /// them, and the SQL refuses a non-manifold edge in one line naming it.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    #[command(flatten)]
-    pub mesh: MeshArgs,
     #[command(flatten)]
     pub basis: BasisArgs,
     /// Coefficients kept: a count m (1 ≤ m ≤ n) or a percentage of n such as 10%.
@@ -68,7 +66,7 @@ struct ProjectJson<'a> {
 }
 
 pub fn run(args: &Args) -> meshlap::Result<()> {
-    let input = args.mesh.open()?;
+    let input = args.basis.mesh.open()?;
     let n = input.mesh.n_vertices();
     let bad_keep = || {
         meshlap::Error::InvalidArgument(format!(

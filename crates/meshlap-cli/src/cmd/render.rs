@@ -1,7 +1,7 @@
 //! `meshlap render`.
 
-use crate::common::{spinner, MeshArgs};
-use meshlap::operator::{Operator, OperatorKind, OperatorOptions};
+use crate::common::{spinner, MeshInOut};
+use meshlap::operator::{Operator, OperatorKind};
 use meshlap::render::{render, Coloring, Colormap, RenderOptions, Scalars};
 use std::path::PathBuf;
 
@@ -46,10 +46,7 @@ impl From<ColormapArg> for Colormap {
 #[derive(clap::Args, Debug)]
 pub struct Args {
     #[command(flatten)]
-    pub mesh: MeshArgs,
-    /// Output PNG file.
-    #[arg(short, long)]
-    pub output: PathBuf,
+    pub io: MeshInOut,
     /// Image width in pixels.
     #[arg(long, default_value_t = 800)]
     pub width: u32,
@@ -91,14 +88,14 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> meshlap::Result<()> {
-    let input = args.mesh.open()?;
+    let input = args.io.mesh.open()?;
     let mesh = &input.mesh;
     let scalars = if let Some(path) = &args.scalars {
         let colormap = args.colormap.map_or(Colormap::Viridis, Colormap::from);
         Some(Scalars::from_npy(path, mesh.n_vertices(), colormap)?)
     } else if let (Some(k), Some(kind)) = (args.eigenvector, args.kind) {
         let bar = spinner(format!("eigenvector {k} of the {kind} operator"));
-        let op = Operator::assemble(kind, mesh, &input.topology, &OperatorOptions::default())?;
+        let op = Operator::on_input(kind, &input)?;
         let s = Scalars::eigenvector(&op, k);
         bar.finish_and_clear();
         Some(s?)
@@ -129,7 +126,7 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         legend: !args.no_legend,
         ..Default::default()
     };
-    render(mesh, &opts)?.write_png(&args.output)?;
-    eprintln!("wrote {}", args.output.display());
+    render(mesh, &opts)?.write_png(&args.io.output)?;
+    eprintln!("wrote {}", args.io.output.display());
     Ok(())
 }

@@ -1,10 +1,9 @@
 //! `meshlap repair-sql`.
 
-use crate::common::{one_of, print_json, MeshArgs};
+use crate::common::{one_of, print_json, MeshInOut};
 use meshlap::analysis::repair::{repair_sql, RepairError, RepairMethod, RepairOptions};
 use meshlap::io::{write_mesh, WriteOptions};
 use meshlap::mesh::MeshError;
-use std::path::PathBuf;
 
 /// Remove the negative weights of the symmetric quasi-Laplacian (SQL) by greedy edge
 /// swapping (Zhang 2004 §3.7): repeatedly flip the edge with the most negative weight
@@ -19,10 +18,7 @@ use std::path::PathBuf;
 #[derive(clap::Args, Debug)]
 pub struct Args {
     #[command(flatten)]
-    pub mesh: MeshArgs,
-    /// Output mesh with the edited connectivity (written atomically).
-    #[arg(long, short)]
-    pub output: PathBuf,
+    pub io: MeshInOut,
     /// Refuse flips whose two new triangles meet at more than this angle (degrees, in
     /// (0, 180]) between their normals, or that fold over.
     #[arg(long, value_name = "DEGREES")]
@@ -40,7 +36,7 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> meshlap::Result<()> {
-    let input = args.mesh.open()?;
+    let input = args.io.mesh.open()?;
     let opts = RepairOptions {
         max_dihedral_degrees: args.max_dihedral,
         method: args.method,
@@ -52,7 +48,7 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         ),
         e => e.into(),
     })?;
-    write_mesh(&args.output, &mesh, &WriteOptions::default())?;
+    write_mesh(&args.io.output, &mesh, &WriteOptions::default())?;
     if args.json {
         return print_json(&report);
     }
@@ -67,6 +63,6 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
     for w in report.remaining.iter().take(10) {
         println!("  left: W({}, {}) = {:.6}", w.i, w.j, w.weight);
     }
-    println!("wrote {}", args.output.display());
+    println!("wrote {}", args.io.output.display());
     Ok(())
 }

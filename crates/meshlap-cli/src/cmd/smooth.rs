@@ -1,6 +1,6 @@
 //! `meshlap smooth`.
 
-use crate::common::{one_of, print_json, spinner, MeshArgs};
+use crate::common::{one_of, print_json, spinner, MeshInOut};
 use meshlap::filter::{
     apply, ButterworthOptions, Filter, FilterError, FilterKind, FilterReport, FilterSettings,
     Preserve, SolverKind, TaubinOptions, DEFAULT_DENSE_LIMIT,
@@ -9,7 +9,6 @@ use meshlap::io::{write_mesh, WriteOptions};
 use meshlap::operator::{Operator, OperatorKind};
 use meshlap::solve::{Params, SolveInfo, Stopping};
 use serde::Serialize;
-use std::path::PathBuf;
 
 /// Smooth (low-pass filter) a mesh with a Laplacian operator F and write the result.
 ///
@@ -37,10 +36,7 @@ use std::path::PathBuf;
 #[derive(clap::Args, Debug)]
 pub struct Args {
     #[command(flatten)]
-    pub mesh: MeshArgs,
-    /// Output mesh (same connectivity, filtered positions).
-    #[arg(long, short)]
-    pub output: PathBuf,
+    pub io: MeshInOut,
     /// Filter to apply.
     #[arg(long, default_value_t = FilterKind::Implicit,
           value_parser = one_of::<FilterKind>(FilterKind::ALL.map(FilterKind::name)))]
@@ -50,7 +46,7 @@ pub struct Args {
     pub implicit: bool,
     /// Operator F: kirchhoff (kl), tutte (tl), graph (gl), sql, sstl, tutte2, sdl,
     /// cotan, mean-value.
-    #[arg(long, short = 'k', default_value = "tutte")]
+    #[arg(long, short = 'k', default_value_t = FilterSettings::DEFAULT_OPERATOR)]
     pub operator: OperatorKind,
     /// λ: implicit (default 30, the paper's Table 1), explicit and taubin (default 0.5;
     /// keep λ·γ_max < 2 for stability: λ ≤ 1 for the TL).
@@ -161,20 +157,15 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         dense_limit: Some(args.dense_limit),
     };
     let filter = Filter::new(kind, &settings).map_err(with_hint)?;
-    let input = args.mesh.open()?;
-    let op = Operator::assemble(
-        args.operator,
-        &input.mesh,
-        &input.topology,
-        &Default::default(),
-    )?;
+    let input = args.io.mesh.open()?;
+    let op = Operator::on_input(args.operator, &input)?;
     let bar = spinner(format!("{kind} filtering"));
     let result = apply(&input.mesh, &op.matrix, &filter, args.preserve);
     bar.finish_and_clear();
     let (positions, report) = result.map_err(with_hint)?;
     let mut mesh = input.mesh.clone();
     mesh.positions = positions;
-    write_mesh(&args.output, &mesh, &WriteOptions::default())?;
+    write_mesh(&args.io.output, &mesh, &WriteOptions::default())?;
     if args.json {
         let iterative = report.solver.is_some_and(|s| !s.is_direct());
         return print_json(&SmoothJson {
@@ -193,7 +184,7 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
             volume_before: report.volume_before,
             volume_after: report.volume_after,
             solves: &report.solves,
-            output: args.output.display().to_string(),
+            output: args.io.output.display().to_string(),
         });
     }
     print_text(args, kind, &report);
@@ -232,5 +223,5 @@ fn print_text(args: &Args, kind: FilterKind, r: &FilterReport) {
         "volume: {:.6e} → {:.6e}; total {:.4} s",
         r.volume_before, r.volume_after, r.seconds
     );
-    println!("wrote {}", args.output.display());
+    println!("wrote {}", args.io.output.display());
 }

@@ -14,10 +14,12 @@ use serde::Serialize;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-/// Operator and eigensolver options shared by `spectrum`, `project` and
+/// The mesh, operator and eigensolver options shared by `spectrum`, `project` and
 /// `compaction`.
 #[derive(clap::Args, Debug, Clone)]
 pub struct BasisArgs {
+    #[command(flatten)]
+    pub mesh: MeshArgs,
     /// Operator kind: kirchhoff (kl), tutte (tl), graph (gl), sql, sstl, cotan (with its
     /// lumped mass: L v = λ M v), or any other from `meshlap operator --help`.
     #[arg(long, short)]
@@ -27,12 +29,12 @@ pub struct BasisArgs {
     /// e.g. the TL through the GL), symmetric, symmetrized, or general (non-symmetric
     /// eigendecomposition plus a dense LU solve for the coefficients, as Matlab's
     /// eig + E\x in the paper's Fig. 3).
-    #[arg(long, default_value = "auto")]
+    #[arg(long, default_value_t = BasisOptions::default().path)]
     pub path: EigenPath,
     /// Dense symmetric eigensolver: faer (parallel divide and conquer) or
     /// reproducible (sequential, the same bits on every CPU, faster for n below a
     /// few hundred; the codec's patch solver).
-    #[arg(long, default_value = "faer")]
+    #[arg(long, default_value_t = BasisOptions::default().dense_solver)]
     pub dense_solver: DenseSolver,
     /// Basis scaling: unit (unit-length eigenvectors, as Matlab's eig) or weighted
     /// (orthonormal in the symmetrizer's / mass matrix's inner product).
@@ -82,8 +84,6 @@ impl BasisArgs {
 #[derive(clap::Args, Debug)]
 pub struct Args {
     #[command(flatten)]
-    pub mesh: MeshArgs,
-    #[command(flatten)]
     pub basis: BasisArgs,
     /// Report only the k smallest eigenpairs (default: all n).
     #[arg(long, value_name = "k")]
@@ -116,7 +116,7 @@ struct SpectrumJson<'a> {
 }
 
 pub fn run(args: &Args) -> meshlap::Result<()> {
-    let input = args.mesh.open()?;
+    let input = args.basis.mesh.open()?;
     let n = input.mesh.n_vertices();
     let op = args.basis.operator(&input)?;
     let params = SmallestParams {

@@ -27,7 +27,7 @@ use super::CodecError;
 
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"MLZ\x1a";
-/// Current format version (what [`write`] writes).
+/// Current format version (what [`write()`] writes).
 pub const VERSION: u16 = 5;
 /// Oldest format version [`read`] accepts (its files decode as they always did).
 pub const MIN_VERSION: u16 = 4;

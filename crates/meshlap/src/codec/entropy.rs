@@ -472,13 +472,17 @@ mod tests {
             .collect();
         let ints: Vec<i64> = (0..n).map(|_| rng.gen_range(-5000..5000)).collect();
         let direct: Vec<u32> = (0..n).map(|_| rng.gen_range(0..1 << 13)).collect();
+        // The same fresh models on both sides.
+        let models = || {
+            (
+                BitModel::default(),
+                BitTree::new(3),
+                UintModel::default(),
+                IntModel::default(),
+            )
+        };
         let mut enc = RangeEncoder::new();
-        let (mut bm, mut bt, mut um, mut im) = (
-            BitModel::default(),
-            BitTree::new(3),
-            UintModel::default(),
-            IntModel::default(),
-        );
+        let (mut bm, mut bt, mut um, mut im) = models();
         for i in 0..n {
             enc.bit(&mut bm, bits[i]);
             bt.encode(&mut enc, syms[i]);
@@ -488,12 +492,7 @@ mod tests {
         }
         let data = enc.finish();
         let mut dec = RangeDecoder::new(&data);
-        let (mut bm, mut bt, mut um, mut im) = (
-            BitModel::default(),
-            BitTree::new(3),
-            UintModel::default(),
-            IntModel::default(),
-        );
+        let (mut bm, mut bt, mut um, mut im) = models();
         for i in 0..n {
             assert_eq!(dec.bit(&mut bm), bits[i]);
             assert_eq!(bt.decode(&mut dec), syms[i]);

@@ -190,14 +190,9 @@ pub fn properties(
                 short_name(&input.source),
                 kind.name()
             )));
-            let report = Operator::assemble(
-                kind,
-                &input.mesh,
-                &input.topology,
-                &OperatorOptions::default(),
-            )
-            .map(|op| analyze(&op.matrix, opts))
-            .map_err(|e| e.to_string());
+            let report = Operator::on_input(kind, input)
+                .map(|op| analyze(&op.matrix, opts))
+                .map_err(|e| e.to_string());
             rows.push(PropertyRow {
                 mesh: input.source.clone(),
                 components,
@@ -414,13 +409,7 @@ pub fn limits(
     let degrees = input.topology.degrees();
     let mut rows = Vec::new();
     for &kind in kinds {
-        let op = Operator::assemble(
-            kind,
-            &input.mesh,
-            &input.topology,
-            &OperatorOptions::default(),
-        )
-        .map_err(|e| input_err(input, e))?;
+        let op = Operator::on_input(kind, input).map_err(|e| input_err(input, e))?;
         let opts = IterateOptions { k: None, steps };
         let run = iterate(&op.matrix, &input.mesh.positions, &degrees, &opts)
             .map_err(|e| input_err(input, e))?;

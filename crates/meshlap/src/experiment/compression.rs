@@ -14,7 +14,7 @@
 //! `meshlap clean --split-nonmanifold`), since the connectivity coder needs it.
 //! [`run`] sweeps every mesh of [`CompressionOptions`] and writes the results.
 
-use super::meshes::{open_all, shared, short_name, DEFAULT_MESH_DIR};
+use super::meshes::{open_all, shared, short_name};
 use super::{sig, ExperimentError, Outputs, Progress, ProgressFn, Table};
 use crate::codec::spectral::{Keep, SpectralParams};
 use crate::codec::{compress, CompressOptions, Quantization};
@@ -69,13 +69,7 @@ pub struct CompressionOptions {
     pub draco: Option<PathBuf>,
 }
 
-impl Default for CompressionOptions {
-    /// The settings of `experiment all` ([`CompressionOptions::paper`] with
-    /// [`DEFAULT_MESH_DIR`]).
-    fn default() -> Self {
-        Self::paper(Path::new(DEFAULT_MESH_DIR))
-    }
-}
+default_is_paper!(CompressionOptions);
 
 impl CompressionOptions {
     /// Five operators, seven keep ratios at 12 bits, on a smooth sphere, a cube and a

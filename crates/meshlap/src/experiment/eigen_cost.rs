@@ -18,7 +18,7 @@ use super::meshes::{open, open_all, shared, short_name};
 use super::{sig, ExperimentError, Outputs, Progress, ProgressFn, Table};
 use crate::input::{self, Input};
 use crate::mesh::{TriMesh, VertexId};
-use crate::operator::{Operator, OperatorKind, OperatorOptions};
+use crate::operator::{Operator, OperatorKind};
 use crate::plot::{Chart, Scale, Series};
 use crate::spectral::compaction::{centre, energy_compaction};
 use crate::spectral::{forward, positions_to_mat, BasisOptions, EigenBasis, EigenPath};
@@ -254,13 +254,8 @@ pub fn cost(
                     "{} n={size} {label}",
                     short_name(&input.source)
                 )));
-                let op = Operator::assemble(
-                    kind,
-                    &patch.mesh,
-                    &patch.topology,
-                    &OperatorOptions::default(),
-                )
-                .map_err(|e| input_err(&patch.source, e))?;
+                let op =
+                    Operator::on_input(kind, &patch).map_err(|e| input_err(&patch.source, e))?;
                 let opts = BasisOptions {
                     path,
                     ..Default::default()
@@ -351,12 +346,7 @@ fn coefficients(
     kind: OperatorKind,
     x: faer::MatRef<'_, f64>,
 ) -> Result<faer::Mat<f64>, crate::Error> {
-    let op = Operator::assemble(
-        kind,
-        &input.mesh,
-        &input.topology,
-        &OperatorOptions::default(),
-    )?;
+    let op = Operator::on_input(kind, input)?;
     let b = EigenBasis::compute(&op, &BasisOptions::default())?;
     Ok(forward(&b, x)?)
 }

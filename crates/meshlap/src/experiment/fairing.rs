@@ -52,12 +52,7 @@ pub struct FairingOptions {
     pub repair_sql: bool,
 }
 
-impl Default for FairingOptions {
-    /// The paper's settings and models ([`DEFAULT_MESH_DIR`]), three timed runs.
-    fn default() -> Self {
-        Self::paper(Path::new(DEFAULT_MESH_DIR))
-    }
-}
+default_is_paper!(FairingOptions);
 
 impl FairingOptions {
     /// The paper's settings with its models (cow, horse, bunny, Igea) read from `dir`.

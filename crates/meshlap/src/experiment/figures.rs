@@ -15,11 +15,11 @@
 //! it. All pictures of one model share the original's framing. [`run`] makes both
 //! figures with [`FiguresOptions`]. Sign convention of the operators: `F = D − W`.
 
-use super::meshes::{open, shared, short_name, DEFAULT_MESH_DIR};
+use super::meshes::{open, shared, short_name};
 use super::{sig, ExperimentError, Outputs, Progress, ProgressFn, Table};
 use crate::input::Input;
 use crate::mesh::TriMesh;
-use crate::operator::{Operator, OperatorKind, OperatorOptions};
+use crate::operator::{Operator, OperatorKind};
 use crate::render::{render, Framing, Panel, RenderOptions, Window};
 use crate::spectral::basis::{BasisOptions, EigenBasis};
 use crate::spectral::transform::{mat_to_positions, positions_to_mat, truncated};
@@ -40,13 +40,7 @@ pub struct FiguresOptions {
     pub size: u32,
 }
 
-impl Default for FiguresOptions {
-    /// The paper's settings: the cow from [`DEFAULT_MESH_DIR`], 5 % of the
-    /// coefficients in Fig. 1, 24 in Fig. 4, 420-pixel cells.
-    fn default() -> Self {
-        Self::paper(Path::new(DEFAULT_MESH_DIR))
-    }
-}
+default_is_paper!(FiguresOptions);
 
 impl FiguresOptions {
     /// The paper's settings with the cow read from `dir`.
@@ -171,13 +165,7 @@ pub fn reconstruct(
     keep: usize,
 ) -> Result<(TriMesh, f64), ExperimentError> {
     let err = |e: crate::Error| ExperimentError::input(&input.source, e);
-    let op = Operator::assemble(
-        kind,
-        &input.mesh,
-        &input.topology,
-        &OperatorOptions::default(),
-    )
-    .map_err(|e| err(e.into()))?;
+    let op = Operator::on_input(kind, input).map_err(|e| err(e.into()))?;
     let basis = EigenBasis::compute(&op, &BasisOptions::default()).map_err(|e| err(e.into()))?;
     let x = positions_to_mat(&input.mesh.positions);
     let y = truncated(&basis, x.as_ref(), keep.clamp(1, basis.len())).map_err(|e| err(e.into()))?;

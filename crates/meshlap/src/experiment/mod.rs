@@ -22,6 +22,20 @@
 //! Only built with the `experiments` feature. Every operator uses the paper's sign
 //! convention `F = D − W` (positive semi-definite).
 
+/// `impl Default for $ty` as `$ty::paper` on [`DEFAULT_MESH_DIR`]: an experiment's
+/// defaults are the paper's settings on the shared meshes (see each `paper`).
+macro_rules! default_is_paper {
+    ($ty:ty) => {
+        impl Default for $ty {
+            /// The paper's settings (`Self::paper`) on the meshes of
+            /// [`DEFAULT_MESH_DIR`](crate::experiment::DEFAULT_MESH_DIR).
+            fn default() -> Self {
+                Self::paper(std::path::Path::new($crate::experiment::DEFAULT_MESH_DIR))
+            }
+        }
+    };
+}
+
 pub mod all;
 pub mod claims;
 pub mod compression;
@@ -62,6 +76,11 @@ pub enum ExperimentError {
         /// What is wrong with its value.
         reason: String,
     },
+    /// The watermark experiment's message is not hexadecimal (kept as the source).
+    ///
+    /// Fix: give `message` as hex digits, e.g. `0xC0FFEE`.
+    #[error("option `message` is not a hexadecimal message")]
+    Message(#[source] crate::watermark::MessageError),
     /// Writing a result failed.
     #[error(transparent)]
     Io(#[from] crate::io::IoError),

@@ -11,7 +11,7 @@
 //! (distortion, timings, false-positive checks), one chart of BER against strength per
 //! attack kind, and per mesh a picture: original, marked, heat map of the displacement.
 
-use super::meshes::{open_all, shared, short_name, DEFAULT_MESH_DIR};
+use super::meshes::{open_all, shared, short_name};
 use super::{sig, ExperimentError, Outputs, Progress, ProgressFn, Table};
 use crate::mesh::TriMesh;
 use crate::operator::OperatorKind;
@@ -44,12 +44,7 @@ pub struct WatermarkOptions {
     pub pictures: bool,
 }
 
-impl Default for WatermarkOptions {
-    /// The setting: bunny, horse and Igea from [`DEFAULT_MESH_DIR`].
-    fn default() -> Self {
-        Self::paper(Path::new(DEFAULT_MESH_DIR))
-    }
-}
+default_is_paper!(WatermarkOptions);
 
 impl WatermarkOptions {
     /// stanford-bunny, horse and igea from `dir`, the Kirchhoff operator (the papers')
@@ -186,8 +181,7 @@ pub fn run(
     out: &mut Outputs,
     progress: &mut ProgressFn,
 ) -> Result<WatermarkResults, ExperimentError> {
-    let message = Message::from_hex(&opts.message)
-        .map_err(|e| ExperimentError::invalid("message", e.to_string()))?;
+    let message = Message::from_hex(&opts.message).map_err(ExperimentError::Message)?;
     if opts.operators.is_empty() {
         return Err(ExperimentError::invalid(
             "operators",

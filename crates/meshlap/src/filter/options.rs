@@ -7,7 +7,8 @@
 //! chosen from the operator ([`SolverKind::Auto`]: CG for a symmetric F, BiCG
 //! otherwise); explicit and Taubin λ = 0.5 with 10 steps (pairs), Taubin pass-band
 //! `k_PB` = 0.1; Butterworth order 2. The Butterworth and ideal filters have no
-//! default pass-band: it is an eigenvalue of F, which depends on the operator.
+//! default pass-band: it is an eigenvalue of F, which depends on the operator. The
+//! operator F itself defaults to the SQL ([`FilterSettings::DEFAULT_OPERATOR`]).
 
 use super::{FilterError, SolverKind};
 use crate::solve::Params;
@@ -187,6 +188,14 @@ pub struct FilterSettings {
     pub passband: Option<f64>,
     /// Largest n of the ideal filter.
     pub dense_limit: Option<usize>,
+}
+
+impl FilterSettings {
+    /// The operator F a front end filters with when none is named (`meshlap smooth`
+    /// without `--operator`, Python's `meshlap.smooth`): Zhang's symmetric
+    /// quasi-Laplacian (SQL, `F = D − W`, positive semi-definite on meshes without
+    /// negative weights), symmetric, so implicit fairing solves it with CG.
+    pub const DEFAULT_OPERATOR: crate::operator::OperatorKind = crate::operator::OperatorKind::Sql;
 }
 
 pub(crate) fn positive(value: f64, name: &'static str) -> Result<(), FilterError> {

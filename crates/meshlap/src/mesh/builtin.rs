@@ -264,28 +264,35 @@ pub fn torus(u: usize, v: usize) -> Result<TriMesh, MeshError> {
         }
     }
     let idx = |i: usize, j: usize| ((i % u) * v + (j % v)) as u32;
-    let mut faces = Vec::with_capacity(2 * u * v);
-    for i in 0..u {
-        for j in 0..v {
-            let (a, b, c, d) = (idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1));
-            faces.push([a, b, c]);
-            faces.push([a, c, d]);
-        }
-    }
+    let faces = split_quads(u, v, |i, j| {
+        [idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1)]
+    });
     Ok(TriMesh::new(p, faces))
 }
 
-fn grid_faces(n: usize) -> Vec<[u32; 3]> {
-    let idx = |i: usize, j: usize| (j * (n + 1) + i) as u32;
-    let mut faces = Vec::with_capacity(2 * n * n);
-    for j in 0..n {
-        for i in 0..n {
-            let (a, b, c, d) = (idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1));
+/// The triangles `(a, b, c)` and `(a, c, d)` of every quad `[a, b, c, d]` (corners
+/// counter-clockwise) of an `outer`×`inner` grid of quads, `quad(o, i)`, `o` outer.
+fn split_quads(
+    outer: usize,
+    inner: usize,
+    quad: impl Fn(usize, usize) -> [u32; 4],
+) -> Vec<[u32; 3]> {
+    let mut faces = Vec::with_capacity(2 * outer * inner);
+    for o in 0..outer {
+        for i in 0..inner {
+            let [a, b, c, d] = quad(o, i);
             faces.push([a, b, c]);
             faces.push([a, c, d]);
         }
     }
     faces
+}
+
+fn grid_faces(n: usize) -> Vec<[u32; 3]> {
+    let idx = |i: usize, j: usize| (j * (n + 1) + i) as u32;
+    split_quads(n, n, |j, i| {
+        [idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1)]
+    })
 }
 
 /// Open unit square in the z = 0 plane, `n`×`n` quads each split along the same

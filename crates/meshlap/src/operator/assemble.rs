@@ -9,6 +9,19 @@ use crate::SparseMatrix;
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use rayon::prelude::*;
 
+/// Per vertex, the sum of the edge weights `w` (in [`Topology::edges`] order) over its
+/// one-ring edges: the diagonal of `D − W` or a row's normalising sum.
+pub(crate) fn vertex_weight_sums(topo: &Topology, w: &[f64]) -> Vec<f64> {
+    (0..topo.n_vertices())
+        .map(|v| {
+            topo.neighbor_edges(crate::VertexId(v as u32))
+                .iter()
+                .map(|&e| w[e as usize])
+                .sum()
+        })
+        .collect()
+}
+
 /// An n×n matrix with the pattern of the one-ring plus the diagonal: entry (i, j) for
 /// each edge (i, j) is `off(i, j, edge)`, entry (i, i) is `diag(i)`. Column j lists its
 /// rows ascending (the neighbours of j, which are sorted, with j merged in).

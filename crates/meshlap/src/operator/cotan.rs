@@ -105,14 +105,7 @@ pub fn cotan(
             }
         }
     }
-    let diag: Vec<f64> = (0..topo.n_vertices())
-        .map(|v| {
-            topo.neighbor_edges(crate::VertexId(v as u32))
-                .iter()
-                .map(|&e| w[e as usize])
-                .sum()
-        })
-        .collect();
+    let diag = super::assemble::vertex_weight_sums(topo, &w);
     let l = super::assemble::one_ring_matrix(topo, |i| diag[i], |_, _, e| -w[e]);
     super::check_finite(&l, Some(&mass), "cotan")?;
     Ok((l, mass))

@@ -223,6 +223,20 @@ pub struct Operator {
 }
 
 impl Operator {
+    /// Assembles `kind` with the default [`OperatorOptions`] on an opened mesh (its
+    /// cleaned mesh and connectivity), as every front end does without options.
+    pub fn on_input(
+        kind: OperatorKind,
+        input: &crate::input::Input,
+    ) -> Result<Self, OperatorError> {
+        Self::assemble(
+            kind,
+            &input.mesh,
+            &input.topology,
+            &OperatorOptions::default(),
+        )
+    }
+
     /// Assembles `kind` on `mesh` with connectivity `topo`.
     pub fn assemble(
         kind: OperatorKind,

@@ -36,14 +36,7 @@ fn inverse_lengths(mesh: &TriMesh, topo: &Topology) -> Result<Vec<f64>, Operator
 /// Assembles the scale-dependent Laplacian of `mesh`.
 pub fn sdl(mesh: &TriMesh, topo: &Topology) -> Result<SparseMatrix, OperatorError> {
     let w = inverse_lengths(mesh, topo)?;
-    let sums: Vec<f64> = (0..topo.n_vertices())
-        .map(|v| {
-            topo.neighbor_edges(crate::VertexId(v as u32))
-                .iter()
-                .map(|&e| w[e as usize])
-                .sum()
-        })
-        .collect();
+    let sums = super::assemble::vertex_weight_sums(topo, &w);
     let f = super::assemble::one_ring_matrix(topo, |_| 1.0, |i, _, e| -w[e] / sums[i]);
     super::check_finite(&f, None, "sdl")?;
     Ok(f)

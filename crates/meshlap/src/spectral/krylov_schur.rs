@@ -24,7 +24,7 @@
 //!    leading range of the basis, so after measuring against the whole basis the
 //!    second pass subtracts only the significant range. The products of the tall
 //!    basis with a thin block are memory-bound and use the streaming kernels of
-//!    [`super::thin_products`]. The coefficients are stored as column block j of the
+//!    `thin_products`. The coefficients are stored as column block j of the
 //!    projected matrix `H`; the remainder is factored `W = V_{j+1} R` by Cholesky QR
 //!    twice (modified Gram–Schmidt when the block is ill-conditioned). Full re-orthogonalisation makes `H` the Rayleigh quotient
 //!    `VᵀAV` up to rounding, so no Lanczos-specific structure has to be trusted: `H` is
@@ -190,15 +190,16 @@ fn nn_product(
     c: MatRef<'_, f64>,
     alpha: f64,
 ) {
+    /// `out ← … + α·A C` on `threads` threads: the rows of `out` and `A` are halved
+    /// until one thread is left; `(accum, C, α)` is the same for every half.
     fn go(
         out: MatMut<'_, f64>,
-        accum: Accum,
         a: MatRef<'_, f64>,
-        c: MatRef<'_, f64>,
-        alpha: f64,
+        same: (Accum, MatRef<'_, f64>, f64),
         threads: usize,
     ) {
         if threads <= 1 {
+            let (accum, c, alpha) = same;
             matmul(out, accum, a, c, alpha, Par::Seq);
             return;
         }
@@ -206,11 +207,11 @@ fn nn_product(
         let (o1, o2) = out.split_at_row_mut(h);
         let (a1, a2) = a.split_at_row(h);
         rayon::join(
-            || go(o1, accum, a1, c, alpha, threads / 2),
-            || go(o2, accum, a2, c, alpha, threads - threads / 2),
+            || go(o1, a1, same, threads / 2),
+            || go(o2, a2, same, threads - threads / 2),
         );
     }
-    go(out, accum, a, c, alpha, row_threads(a.nrows()))
+    go(out, a, (accum, c, alpha), row_threads(a.nrows()))
 }
 
 /// The Ritz vectors `V Q[:, which]` (n×|which|) for the listed columns of `Q`.
@@ -295,8 +296,7 @@ fn orthonormalize_block(
     mut coef: MatMut<'_, f64>,
     mut r: MatMut<'_, f64>,
     rng: &mut u64,
-    breakdowns: &mut usize,
-    skipped: &mut usize,
+    info: &mut KrylovSchurInfo,
 ) {
     let p = w.ncols();
     let s = v.ncols();
@@ -340,7 +340,7 @@ fn orthonormalize_block(
             let mut dst = coef.subrows_mut(lo, len);
             dst += part;
         } else {
-            *skipped += 1;
+            info.skipped_updates += 1;
         }
     }
     r.fill(0.0);
@@ -369,7 +369,7 @@ fn orthonormalize_block(
             w.rb_mut().col_mut(j).iter_mut().for_each(|x| *x *= inv);
         } else {
             // Breakdown: an invariant subspace. Continue with a random direction.
-            *breakdowns += 1;
+            info.breakdowns += 1;
             for i in 0..=j {
                 r[(i, j)] = if i == j { 0.0 } else { r[(i, j)] };
             }
@@ -536,8 +536,7 @@ pub fn largest_magnitude(
             c.as_mut(),
             r.as_mut(),
             &mut rng,
-            &mut info.breakdowns,
-            &mut info.skipped_updates,
+            &mut info,
         );
         v.as_mut().subcols_mut(0, p).copy_from(&w);
     }
@@ -578,8 +577,7 @@ pub fn largest_magnitude(
                 c.as_mut(),
                 r.as_mut(),
                 &mut rng,
-                &mut info.breakdowns,
-                &mut info.skipped_updates,
+                &mut info,
             );
             h.as_mut().submatrix_mut(0, s, s + p, p).copy_from(&c);
             h.as_mut().submatrix_mut(s + p, s, p, p).copy_from(&r);
@@ -688,6 +686,31 @@ mod tests {
         }
     }
 
+    /// [`largest_magnitude`] of the diagonal operator `vals` with blocks of `block`
+    /// and a basis of at most `max_dim` vectors.
+    fn run(
+        vals: Vec<f64>,
+        nev: usize,
+        deflate: Option<MatRef<'_, f64>>,
+        block: usize,
+        max_dim: usize,
+    ) -> Result<RitzPairs, KrylovSchurError> {
+        let params = KrylovSchurParams {
+            block,
+            max_dim,
+            ..Default::default()
+        };
+        largest_magnitude(&Diagonal(vals), nev, deflate, &params)
+    }
+
+    /// `(value, copies)` groups, in order.
+    fn repeated(groups: &[(f64, usize)]) -> Vec<f64> {
+        groups
+            .iter()
+            .flat_map(|&(v, c)| std::iter::repeat_n(v, c))
+            .collect()
+    }
+
     #[test]
     fn finds_largest_magnitude_of_two_sided_spectrum() {
         // Eigenvalues ±1/k: the largest magnitudes come in pairs of both signs.
@@ -702,13 +725,7 @@ mod tests {
                 }
             })
             .collect();
-        let op = Diagonal(vals.clone());
-        let params = KrylovSchurParams {
-            block: 8,
-            max_dim: 96,
-            ..Default::default()
-        };
-        let got = largest_magnitude(&op, 30, None, &params).unwrap();
+        let got = run(vals.clone(), 30, None, 8, 96).unwrap();
         let mut want: Vec<f64> = vals.clone();
         want.sort_by(|a, b| b.abs().total_cmp(&a.abs()));
         for j in 0..30 {
@@ -723,16 +740,9 @@ mod tests {
     #[test]
     fn multiple_eigenvalue_found_with_every_copy() {
         // Eigenvalue 1 with multiplicity 6, then 1/2 with multiplicity 5, then a tail.
-        let mut vals = vec![1.0; 6];
-        vals.extend(vec![0.5; 5]);
+        let mut vals = repeated(&[(1.0, 6), (0.5, 5)]);
         vals.extend((0..300).map(|i| 0.3 / (1.0 + i as f64)));
-        let op = Diagonal(vals);
-        let params = KrylovSchurParams {
-            block: 8,
-            max_dim: 64,
-            ..Default::default()
-        };
-        let got = largest_magnitude(&op, 11, None, &params).unwrap();
+        let got = run(vals, 11, None, 8, 64).unwrap();
         for j in 0..6 {
             assert!((got.values[j] - 1.0).abs() < 1e-12);
         }
@@ -747,27 +757,16 @@ mod tests {
         // dimension 12 at most, so the expansion to 24 must break down and continue
         // with random directions. (Krylov methods cannot promise every copy of a
         // multiple eigenvalue; `partial` checks counts by Sylvester inertia.)
-        let mut vals = vec![1.0; 10];
-        vals.extend(vec![0.5; 10]);
-        vals.extend(vec![0.1; 20]);
-        let op = Diagonal(vals);
-        let params = KrylovSchurParams {
-            block: 4,
-            max_dim: 24,
-            ..Default::default()
-        };
-        let got = largest_magnitude(&op, 12, None, &params).unwrap();
+        let vals = repeated(&[(1.0, 10), (0.5, 10), (0.1, 20)]);
+        let got = run(vals, 12, None, 4, 24).unwrap();
         assert!(got.info.breakdowns > 0);
-        let ones = got
-            .values
-            .iter()
-            .filter(|&&x| (x - 1.0).abs() < 1e-12)
-            .count();
-        let halves = got
-            .values
-            .iter()
-            .filter(|&&x| (x - 0.5).abs() < 1e-12)
-            .count();
+        let copies = |v: f64| {
+            got.values
+                .iter()
+                .filter(|&&x| (x - v).abs() < 1e-12)
+                .count()
+        };
+        let (ones, halves) = (copies(1.0), copies(0.5));
         assert_eq!(ones + halves, 12, "{:?}", got.values);
         assert!((4..=10).contains(&ones), "{:?}", got.values);
         assert!(got.residuals.iter().all(|&r| r < 1e-12));
@@ -779,14 +778,8 @@ mod tests {
     fn deflation_excludes_a_subspace() {
         let n = 200;
         let vals: Vec<f64> = (0..n).map(|i| 1.0 / (1.0 + i as f64)).collect();
-        let op = Diagonal(vals);
         let d = Mat::<f64>::from_fn(n, 3, |i, j| if i == j { 1.0 } else { 0.0 });
-        let params = KrylovSchurParams {
-            block: 4,
-            max_dim: 40,
-            ..Default::default()
-        };
-        let got = largest_magnitude(&op, 5, Some(d.as_ref()), &params).unwrap();
+        let got = run(vals, 5, Some(d.as_ref()), 4, 40).unwrap();
         for j in 0..5 {
             assert!((got.values[j] - 1.0 / (4.0 + j as f64)).abs() < 1e-12);
         }
@@ -825,14 +818,8 @@ mod tests {
 
     #[test]
     fn too_small_a_basis_is_an_error() {
-        let op = Diagonal(vec![1.0; 20]);
-        let params = KrylovSchurParams {
-            block: 4,
-            max_dim: 16,
-            ..Default::default()
-        };
         assert!(matches!(
-            largest_magnitude(&op, 14, None, &params),
+            run(vec![1.0; 20], 14, None, 4, 16),
             Err(KrylovSchurError::TooLarge { .. })
         ));
     }

@@ -128,6 +128,11 @@ pub enum SpectralError {
         /// Dimension.
         n: usize,
     },
+    /// The number of coefficients to keep is out of range for the mesh.
+    ///
+    /// Fix: a count in `1..=n` or a percentage in (0, 100] ([`project::Keep`]).
+    #[error(transparent)]
+    Keep(#[from] project::KeepError),
     /// A sparse matrix could not be built (index out of range; kept from faer).
     #[error("cannot build the sparse matrix")]
     SparseCreation(#[source] faer::sparse::CreationError),
@@ -230,6 +235,18 @@ pub enum FactorizationFailure {
 #[cfg(test)]
 pub(crate) mod test_util {
     use crate::mesh::{builtin, TriMesh};
+    use crate::operator::OperatorKind;
+
+    /// The kinds with a real spectrum on every mesh (symmetric, or the TL through its
+    /// diagonal symmetrizer; the cotangent operator with its mass).
+    pub const REAL_SPECTRUM_KINDS: [OperatorKind; 6] = [
+        OperatorKind::Kirchhoff,
+        OperatorKind::Tutte,
+        OperatorKind::Graph,
+        OperatorKind::Sql,
+        OperatorKind::Sstl,
+        OperatorKind::Cotan,
+    ];
 
     /// An icosphere with three faces removed far apart: irregular valences, three
     /// holes and no symmetry left, so its combinatorial spectra are simple.

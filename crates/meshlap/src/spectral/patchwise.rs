@@ -3,8 +3,58 @@
 //! positive semi-definite.
 
 use crate::mesh::topology::Topology;
-use crate::mesh::TriMesh;
+use crate::mesh::{MeshError, TriMesh};
+use crate::operator::OperatorError;
 use crate::partition::Partition;
+use crate::spectral::SpectralError;
+
+/// Why [`patchwise_positions`] failed; every cause is kept as the source.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum PatchwiseError {
+    /// The fraction of coefficients to keep is not in (0, 1].
+    ///
+    /// Fix: pass `m / n` for `1 ≤ m ≤ n` (a `Keep` resolved against the mesh).
+    #[error("keep fraction must be in (0, 1], got {0}")]
+    KeepFraction(f64),
+    /// A patch's submesh has no valid connectivity.
+    ///
+    /// Cause: a degenerate patch of a mesh that was not cleaned. Fix: clean the mesh
+    /// (`crate::input::open` does) before partitioning it.
+    #[error("patch {patch}: cannot build its connectivity")]
+    Topology {
+        /// The patch.
+        patch: usize,
+        /// Why.
+        #[source]
+        source: MeshError,
+    },
+    /// The operator cannot be assembled on a patch.
+    ///
+    /// Cause: e.g. the SQL on a patch with a non-manifold edge. Fix: split the mesh
+    /// (`meshlap clean --split-nonmanifold`) or choose another kind.
+    #[error("patch {patch}: cannot assemble the operator")]
+    Operator {
+        /// The patch.
+        patch: usize,
+        /// Why.
+        #[source]
+        source: OperatorError,
+    },
+    /// A patch's spectrum cannot be computed.
+    ///
+    /// Cause: a kind that is neither symmetric nor diagonally symmetrizable
+    /// ([`SpectralError::NoRealSpectrum`], e.g. the mean-value operator), or an
+    /// invalid mass. Fix: use a symmetric or symmetrizable kind.
+    #[error("patch {patch}: cannot compute its spectrum")]
+    Spectral {
+        /// The patch.
+        patch: usize,
+        /// Why.
+        #[source]
+        source: SpectralError,
+    },
+}
 
 /// Truncated ED reconstruction patch by patch (the JPEG-like transform of Zhang 2004
 /// Fig. 1 on a partitioned mesh, after Karni & Gotsman 2000): every patch's
@@ -16,39 +66,44 @@ use crate::partition::Partition;
 /// coefficients, `x⁽ᵐ⁾ = V_m X_m`. Patches run in parallel (rayon); each vertex is
 /// rebuilt by its own patch only. `keep_fraction` in (0, 1]; 1 reproduces the mesh.
 /// `progress(done, total)` is called as patches finish.
-pub fn patchwise_reconstruction(
+///
+/// # Errors
+/// [`PatchwiseError`]: a keep fraction outside (0, 1], or the first patch (in patch
+/// order) whose connectivity, operator or spectrum fails, with the cause as source.
+pub fn patchwise_positions(
     mesh: &TriMesh,
     part: &Partition,
     kind: crate::operator::OperatorKind,
     keep_fraction: f64,
     progress: &(dyn Fn(usize, usize) + Sync),
-) -> crate::Result<Vec<[f64; 3]>> {
+) -> Result<Vec<[f64; 3]>, PatchwiseError> {
     use crate::operator::{Operator, OperatorOptions};
     use crate::spectral::partial::{partial_spectrum, PartialParams, SymmetricProblem};
     use rayon::prelude::*;
     if !(keep_fraction > 0.0 && keep_fraction <= 1.0) {
-        return Err(crate::Error::InvalidArgument(format!(
-            "keep fraction must be in (0, 1], got {keep_fraction}"
-        )));
+        return Err(PatchwiseError::KeepFraction(keep_fraction));
     }
     let total = part.n_patches();
     let done = std::sync::atomic::AtomicUsize::new(0);
-    type PatchResult = crate::Result<(Vec<u32>, Vec<[f64; 3]>)>;
+    type PatchResult = Result<(Vec<u32>, Vec<[f64; 3]>), PatchwiseError>;
     let patches: Vec<PatchResult> = (0..total)
         .into_par_iter()
         .map(|p| {
             let sub = part.submesh(mesh, p);
-            let topo = Topology::new(&sub.mesh)?;
-            let op = Operator::assemble(kind, &sub.mesh, &topo, &OperatorOptions::default())?;
-            let prob = SymmetricProblem::from_operator(&op, true)?;
+            let topo = Topology::new(&sub.mesh)
+                .map_err(|source| PatchwiseError::Topology { patch: p, source })?;
+            let op = Operator::assemble(kind, &sub.mesh, &topo, &OperatorOptions::default())
+                .map_err(|source| PatchwiseError::Operator { patch: p, source })?;
+            let spectral = |source| PatchwiseError::Spectral { patch: p, source };
+            let prob = SymmetricProblem::from_operator(&op, true).map_err(spectral)?;
             let n = sub.vertices.len();
             let m = ((keep_fraction * n as f64).ceil() as usize).clamp(1, n);
             let opts = PartialParams {
                 dense_below: usize::MAX,
                 ..PartialParams::new(m)
             };
-            let ps =
-                partial_spectrum(&prob.stiffness, prob.mass.as_deref(), &opts, &mut |_, _| {})?;
+            let ps = partial_spectrum(&prob.stiffness, prob.mass.as_deref(), &opts, &mut |_, _| {})
+                .map_err(spectral)?;
             let mass = |i: usize| prob.mass.as_ref().map_or(1.0, |w| w[i]);
             let v = &ps.eigenvectors;
             let mut out = vec![[0.0f64; 3]; n];
@@ -81,6 +136,25 @@ pub fn patchwise_reconstruction(
     Ok(positions)
 }
 
+/// [`patchwise_positions`] with its error wrapped in the crate-wide
+/// [`crate::Error::Patchwise`] (the source chain kept), for callers whose closures
+/// return [`crate::Result`] (the Python extension's `project`).
+pub fn patchwise_reconstruction(
+    mesh: &TriMesh,
+    part: &Partition,
+    kind: crate::operator::OperatorKind,
+    keep_fraction: f64,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> crate::Result<Vec<[f64; 3]>> {
+    Ok(patchwise_positions(
+        mesh,
+        part,
+        kind,
+        keep_fraction,
+        progress,
+    )?)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -98,7 +172,7 @@ mod tests {
             OperatorKind::Tutte,
             OperatorKind::Kirchhoff,
         ] {
-            let full = patchwise_reconstruction(&mesh, &part, kind, 1.0, &|_, _| {}).unwrap();
+            let full = patchwise_positions(&mesh, &part, kind, 1.0, &|_, _| {}).unwrap();
             let err = full
                 .iter()
                 .zip(&mesh.positions)
@@ -108,7 +182,7 @@ mod tests {
             // One coefficient per patch: each patch collapses to a constant for the
             // GSMLs (zero row sums: the lowest eigenvector is constant) — its centroid
             // for the KL/SQL, its degree-weighted centroid for the TL.
-            let low = patchwise_reconstruction(&mesh, &part, kind, 1e-9, &|_, _| {}).unwrap();
+            let low = patchwise_positions(&mesh, &part, kind, 1e-9, &|_, _| {}).unwrap();
             for p in 0..part.n_patches() {
                 let vs = part.patch_vertices(p);
                 let first = low[vs[0] as usize];
@@ -129,6 +203,10 @@ mod tests {
                 }
             }
         }
+        assert!(matches!(
+            patchwise_positions(&mesh, &part, OperatorKind::Sql, 0.0, &|_, _| {}),
+            Err(PatchwiseError::KeepFraction(_))
+        ));
         assert!(
             patchwise_reconstruction(&mesh, &part, OperatorKind::Sql, 0.0, &|_, _| {}).is_err()
         );

@@ -11,7 +11,7 @@
 //! Whole-mesh projection uses the dense eigenbasis (n ≤ [`super::DENSE_LIMIT`]);
 //! with a patch size the mesh is split into METIS patches ([`crate::partition`]) and
 //! each keeps the same fraction m/n of its coefficients
-//! ([`super::patchwise::patchwise_reconstruction`]), in parallel, at any n.
+//! ([`super::patchwise::patchwise_positions`]), in parallel, at any n.
 
 use super::basis::{BasisOptions, EigenBasis, EigenPath};
 use super::compaction::energy_compaction;
@@ -128,15 +128,13 @@ pub fn project(
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> crate::Result<Projection> {
     let n = mesh.n_vertices();
-    let m = keep
-        .resolve(n)
-        .map_err(|e| crate::Error::InvalidArgument(e.to_string()))?;
+    let m = keep.resolve(n).map_err(super::SpectralError::from)?;
     let diag = mesh.bbox_diagonal();
     if let Some(p) = params.patch_size {
         let part = partition_mesh(mesh, topo, &PartitionOptions::new(p))?;
         let fraction = m as f64 / n as f64;
         let positions =
-            super::patchwise::patchwise_reconstruction(mesh, &part, kind, fraction, progress)?;
+            super::patchwise::patchwise_positions(mesh, &part, kind, fraction, progress)?;
         let errors = vertex_errors(&mesh.positions, &positions, diag);
         return Ok(Projection {
             positions,

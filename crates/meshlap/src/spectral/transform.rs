@@ -172,14 +172,7 @@ mod tests {
         for m in &meshes {
             let x = positions_to_mat(&m.positions);
             let scale = m.bbox_diagonal();
-            for kind in [
-                OperatorKind::Kirchhoff,
-                OperatorKind::Tutte,
-                OperatorKind::Graph,
-                OperatorKind::Sql,
-                OperatorKind::Sstl,
-                OperatorKind::Cotan,
-            ] {
+            for kind in crate::spectral::test_util::REAL_SPECTRUM_KINDS {
                 let (_, b) = basis(m, kind, EigenPath::Auto);
                 let y = truncated(&b, x.as_ref(), b.len()).unwrap();
                 let err = max_diff(x.as_ref(), y.as_ref());

@@ -7,7 +7,7 @@
 //! streams (the key mixed with two different domain constants), so the chips are
 //! independent, uniformly distributed ±1 values **whatever slots the permutation
 //! picks**: the hypothesis under which the false-positive probability of
-//! [`super::detect`] is a rigorous bound.
+//! [`super::detect()`] is a rigorous bound.
 
 use crate::rng::{mix, SplitMix64};
 

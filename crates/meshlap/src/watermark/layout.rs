@@ -1,6 +1,6 @@
 //! Where the watermark lives: the patches, their low-frequency eigenvectors and the
-//! key's assignment of chips to coefficient slots (shared by [`super::embed`] and
-//! [`super::detect`], which must build exactly the same layout from the original).
+//! key's assignment of chips to coefficient slots (shared by [`super::embed()`] and
+//! [`super::detect()`], which must build exactly the same layout from the original).
 //!
 //! ## Patches and bases (Ohbuchi et al. GI 2001 §3, CGF 2002 §3)
 //! The mesh is split into connected patches of about `patch_size` vertices by

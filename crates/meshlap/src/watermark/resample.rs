@@ -8,7 +8,7 @@
 //! marked **missing** and keeps its original position, so it adds nothing to the
 //! residual instead of a large, meaningless offset to the crop border. This only
 //! depends on the two meshes, never on the key, so the false-positive bound of
-//! [`super::detect`] still holds.
+//! [`super::detect()`] still holds.
 
 use crate::mesh::TriMesh;
 use crate::metric::bvh::Bvh;

@@ -1,10 +1,9 @@
 //! `meshlap watermark attack`.
 
-use crate::common::{print_json, MeshArgs};
+use crate::common::{print_json, MeshInOut};
 use meshlap::io::{write_mesh, WriteOptions};
 use meshlap::watermark::attack::{attack, AttackKind, AttackOptions, SubdivisionScheme};
 use serde::Serialize;
-use std::path::PathBuf;
 
 /// Apply one attack of the 3D mesh watermarking benchmark (Wang, Lavoué, Denis,
 /// Baskurt, SMI 2010) and write the attacked mesh.
@@ -21,10 +20,7 @@ use std::path::PathBuf;
 #[derive(clap::Args, Debug)]
 pub struct Args {
     #[command(flatten)]
-    pub mesh: MeshArgs,
-    /// Output mesh.
-    #[arg(long, short)]
-    pub output: PathBuf,
+    pub io: MeshInOut,
     /// The attack.
     #[arg(long)]
     pub kind: AttackKind,
@@ -38,7 +34,7 @@ pub struct Args {
     #[arg(long, default_value_t = AttackOptions::DEFAULT_LAMBDA)]
     pub lambda: f64,
     /// Seed of the noise, the similarity and the cropping side.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = AttackOptions::DEFAULT_SEED)]
     pub seed: u64,
     /// Print machine-readable JSON.
     #[arg(long)]
@@ -58,7 +54,7 @@ struct AttackJson {
 }
 
 pub fn run(args: &Args) -> meshlap::Result<()> {
-    let input = args.mesh.open()?;
+    let input = args.io.mesh.open()?;
     let options = AttackOptions {
         scheme: args.scheme,
         lambda: args.lambda,
@@ -68,7 +64,7 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
     let t = std::time::Instant::now();
     let out = attack(&input.mesh, &options)?;
     let seconds = t.elapsed().as_secs_f64();
-    write_mesh(&args.output, &out, &WriteOptions::default())?;
+    write_mesh(&args.io.output, &out, &WriteOptions::default())?;
     let report = AttackJson {
         options,
         vertices_before: input.mesh.n_vertices(),
@@ -76,7 +72,7 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         vertices_after: out.n_vertices(),
         faces_after: out.n_faces(),
         seconds,
-        output: args.output.display().to_string(),
+        output: args.io.output.display().to_string(),
     };
     if args.json {
         return print_json(&report);

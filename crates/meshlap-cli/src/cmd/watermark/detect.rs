@@ -25,7 +25,7 @@ pub struct Args {
     #[arg(long, value_parser = parse_key)]
     pub key: u64,
     /// Message length in bits.
-    #[arg(long, default_value_t = 64)]
+    #[arg(long, default_value_t = DetectParams::default().bits)]
     pub bits: usize,
     /// Expected message (hex): report bit_errors and ber.
     #[arg(long)]

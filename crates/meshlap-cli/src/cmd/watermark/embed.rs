@@ -1,10 +1,9 @@
 //! `meshlap watermark embed`.
 
-use crate::common::{print_json, MeshArgs};
+use crate::common::{print_json, MeshInOut};
 use meshlap::io::{write_mesh, WriteOptions};
 use meshlap::operator::OperatorKind;
 use meshlap::watermark::{embed, EmbedParams, LayoutParams, Message};
-use std::path::PathBuf;
 
 /// A 64-bit key: decimal, or hexadecimal with a `0x` prefix.
 pub fn parse_key(s: &str) -> Result<u64, String> {
@@ -20,7 +19,7 @@ pub fn parse_key(s: &str) -> Result<u64, String> {
 pub struct LayoutArgs {
     /// Operator of the patch bases (F = D − W): kirchhoff (the papers'), sql, sstl,
     /// tutte.
-    #[arg(long, default_value = "kirchhoff",
+    #[arg(long, default_value_t = LayoutParams::default().operator,
           value_parser = crate::common::one_of::<OperatorKind>(["kirchhoff", "sql", "sstl", "tutte"]))]
     pub operator: OperatorKind,
     /// Target vertices per patch.
@@ -54,10 +53,7 @@ impl LayoutArgs {
 #[derive(clap::Args, Debug)]
 pub struct Args {
     #[command(flatten)]
-    pub mesh: MeshArgs,
-    /// Output mesh.
-    #[arg(long, short)]
-    pub output: PathBuf,
+    pub io: MeshInOut,
     /// Secret key (64-bit; decimal or 0x-hex).
     #[arg(long, value_parser = parse_key)]
     pub key: u64,
@@ -77,7 +73,7 @@ pub struct Args {
 pub fn run(args: &Args) -> meshlap::Result<()> {
     let message =
         Message::from_hex(&args.message).map_err(meshlap::watermark::WatermarkError::from)?;
-    let input = args.mesh.open()?;
+    let input = args.io.mesh.open()?;
     let params = EmbedParams {
         key: args.key,
         message,
@@ -86,7 +82,7 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         measure_msdm2: true,
     };
     let (marked, report) = embed(&input.mesh, &params)?;
-    write_mesh(&args.output, &marked, &WriteOptions::default())?;
+    write_mesh(&args.io.output, &marked, &WriteOptions::default())?;
     if args.json {
         return print_json(&report);
     }
@@ -102,6 +98,10 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
             .msdm2
             .map_or(String::new(), |m| format!(", MSDM2 {m:.4}"))
     );
-    println!("wrote {} ({:.2} s)", args.output.display(), report.seconds);
+    println!(
+        "wrote {} ({:.2} s)",
+        args.io.output.display(),
+        report.seconds
+    );
     Ok(())
 }

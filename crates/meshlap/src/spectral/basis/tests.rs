@@ -1,6 +1,7 @@
 use super::*;
 use crate::mesh::{builtin, topology::Topology, TriMesh};
 use crate::operator::{OperatorKind, OperatorOptions};
+use crate::spectral::test_util::REAL_SPECTRUM_KINDS;
 
 fn op(m: &TriMesh, kind: OperatorKind) -> Operator {
     let t = Topology::new(m).unwrap();
@@ -65,15 +66,7 @@ fn residuals_and_orthonormality() {
         builtin::torus(8, 5).unwrap(),
     ];
     for m in &meshes {
-        for kind in [
-            OperatorKind::Kirchhoff,
-            OperatorKind::Tutte,
-            OperatorKind::Graph,
-            OperatorKind::Sql,
-            OperatorKind::Sstl,
-            OperatorKind::Cotan,
-            OperatorKind::Sdl,
-        ] {
+        for kind in REAL_SPECTRUM_KINDS.into_iter().chain([OperatorKind::Sdl]) {
             let o = op(m, kind);
             for norm in [Normalization::Unit, Normalization::Weighted] {
                 let b = EigenBasis::compute(

@@ -145,6 +145,8 @@ pub struct AttackOptions {
 impl AttackOptions {
     /// The benchmark's smoothing step λ.
     pub const DEFAULT_LAMBDA: f64 = 0.1;
+    /// The default seed of the random attacks.
+    pub const DEFAULT_SEED: u64 = 0;
 
     /// `kind` at strength `amount`, with the library's defaults: midpoint scheme,
     /// λ = 0.1, seed 0.
@@ -154,7 +156,7 @@ impl AttackOptions {
             amount,
             scheme: SubdivisionScheme::default(),
             lambda: Self::DEFAULT_LAMBDA,
-            seed: 0,
+            seed: Self::DEFAULT_SEED,
         }
     }
 
