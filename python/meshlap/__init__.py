@@ -350,22 +350,16 @@ def project(V: Any, F: Any, kind: str, keep: Union[int, str], patch_size: Option
     """Spectral projection (Zhang 2004 Fig. 1; Karni & Gotsman 2000): the positions
     rebuilt from the ``keep`` lowest-frequency coefficients of the operator's
     ED-transform, ``x⁽ᵐ⁾ = e₁X₁ + … + e_mX_m``. ``keep`` is a count m (1 ≤ m ≤ n) or a
-    percentage string like ``"10%"``. With ``patch_size`` the mesh is split into METIS
+    percentage string like ``"10%"`` (of n, rounded half away from zero, at least 1).
+    With ``patch_size`` the mesh is split into METIS
     patches of about that many vertices and each keeps the fraction m/n. Dense basis
     (n ≤ 5000 without patches). Returns V′ float64 (n, 3)."""
     v, f = _mesh(V, F)
-    n = v.shape[0]
-    if isinstance(keep, str) and keep.strip().endswith("%"):
-        try:
-            p = float(keep.strip()[:-1])
-        except ValueError:
-            raise SpectralError(f"keep must be a count or a percentage like '10%', got {keep!r}") from None
-        if not 0 < p <= 100:
-            raise SpectralError(f"keep percentage must be in (0, 100], got {keep!r}")
-        m = max(1, int(round(p / 100.0 * n)))
+    if isinstance(keep, str):
+        text = keep
     else:
-        m = _count(keep)
-    return _meshlap.project(v, f, kind, m, patch_size)
+        text = str(_count(keep))
+    return _meshlap.project(v, f, kind, text, patch_size)
 
 
 def compaction(V: Any, F: Any, kind: str, *, centre: bool = False) -> np.ndarray:

@@ -246,9 +246,11 @@ fn csc_in(
         .map_err(|e| bad(format!("{name} could not be assembled: {e}")))
 }
 
-/// `project(V, F, kind, keep, patch_size)` → V′ (n, 3): the truncated ED-transform
-/// reconstruction from the `keep` lowest-frequency coefficients (dense basis), or
-/// patch by patch keeping the fraction keep/n of each patch's.
+/// `project(V, F, kind, keep, patch_size)` → V′ (n, 3): the library's
+/// [`meshlap::spectral::project::project`] (the truncated ED-transform reconstruction
+/// from the `keep` lowest-frequency coefficients, dense basis, or patch by patch
+/// keeping the fraction m/n of each patch's); `keep` is parsed by the library's
+/// [`Keep`](meshlap::spectral::project::Keep) (`"m"` or `"P%"`).
 #[pyfunction]
 #[pyo3(signature = (v, f, kind, keep, patch_size=None))]
 fn project<'py>(
@@ -256,46 +258,34 @@ fn project<'py>(
     v: PyReadonlyArray2<'_, f64>,
     f: PyReadonlyArray2<'_, u32>,
     kind: &str,
-    keep: usize,
+    keep: &str,
     patch_size: Option<usize>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    use meshlap::spectral::{
-        mat_to_positions, positions_to_mat, truncated, BasisOptions, EigenBasis,
-    };
+    use meshlap::spectral::project::{project, Keep, ProjectParams};
     let input = mesh_of(py, &v, &f)?;
     let n = input.mesh.n_vertices();
-    if keep == 0 || keep > n {
-        return Err(raise_as(
-            py,
-            "SpectralError",
-            format!("keep must be in 1..={n}, got {keep}"),
-        ));
-    }
-    let positions = if let Some(p) = patch_size {
-        let kind = kind_of(py, kind)?;
-        compute(py, || -> meshlap::Result<_> {
-            use meshlap::partition::{partition_mesh, PartitionOptions};
-            let part = partition_mesh(&input.mesh, &input.topology, &PartitionOptions::new(p))?;
-            let fraction = keep as f64 / n as f64;
-            meshlap::spectral::patchwise::patchwise_reconstruction(
-                &input.mesh,
-                &part,
-                kind,
-                fraction,
-                &|_, _| {},
-            )
-        })
-        .or_raise(py)?
-    } else {
-        let op = assemble(py, &input, kind, "zero-row-sum", "voronoi")?;
-        compute(py, || -> meshlap::Result<_> {
-            let basis = EigenBasis::compute(&op, &BasisOptions::default())?;
-            let x = positions_to_mat(&input.mesh.positions);
-            let y = truncated(&basis, x.as_ref(), keep)?;
-            Ok(mat_to_positions(y.as_ref())?)
-        })
-        .or_raise(py)?
+    let kind = kind_of(py, kind)?;
+    let keep: Keep = keep
+        .parse()
+        .map_err(|e: meshlap::spectral::project::KeepError| {
+            crate::raise(py, meshlap::spectral::SpectralError::from(e))
+        })?;
+    let params = ProjectParams {
+        patch_size,
+        ..ProjectParams::default()
     };
+    let positions = compute(py, || {
+        project(
+            &input.mesh,
+            &input.topology,
+            kind,
+            keep,
+            &params,
+            &|_, _| {},
+        )
+    })
+    .or_raise(py)?
+    .positions;
     let flat: Vec<f64> = positions.iter().flatten().copied().collect();
     PyArray1::from_vec(py, flat).reshape([n, 3])
 }
@@ -343,7 +333,7 @@ fn compaction<'py>(
 /// kpb, order, passband, preserve, dense_limit)` → `(V′, report JSON)`; `None` takes
 /// the library's default (`Filter::new`).
 #[pyfunction]
-#[pyo3(signature = (v, f, filter="implicit", operator="tutte", lam=None, steps=None, solver=None,
+#[pyo3(signature = (v, f, filter="implicit", operator="sql", lam=None, steps=None, solver=None,
     stop=None, tol=None, max_iterations=None, kpb=None, order=None, passband=None,
     preserve="none", dense_limit=None))]
 #[allow(clippy::too_many_arguments)]

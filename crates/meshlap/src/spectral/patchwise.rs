@@ -136,25 +136,6 @@ pub fn patchwise_positions(
     Ok(positions)
 }
 
-/// [`patchwise_positions`] with its error wrapped in the crate-wide
-/// [`crate::Error::Patchwise`] (the source chain kept), for callers whose closures
-/// return [`crate::Result`] (the Python extension's `project`).
-pub fn patchwise_reconstruction(
-    mesh: &TriMesh,
-    part: &Partition,
-    kind: crate::operator::OperatorKind,
-    keep_fraction: f64,
-    progress: &(dyn Fn(usize, usize) + Sync),
-) -> crate::Result<Vec<[f64; 3]>> {
-    Ok(patchwise_positions(
-        mesh,
-        part,
-        kind,
-        keep_fraction,
-        progress,
-    )?)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -162,7 +143,7 @@ mod tests {
     use crate::partition::{partition, PartitionOptions};
 
     #[test]
-    fn patchwise_reconstruction_is_exact_at_full_keep_and_smooths_below() {
+    fn patchwise_positions_are_exact_at_full_keep_and_smooth_below() {
         use crate::operator::OperatorKind;
         let mesh = builtin::step(14).unwrap();
         let topo = Topology::new(&mesh).unwrap();
@@ -207,8 +188,5 @@ mod tests {
             patchwise_positions(&mesh, &part, OperatorKind::Sql, 0.0, &|_, _| {}),
             Err(PatchwiseError::KeepFraction(_))
         ));
-        assert!(
-            patchwise_reconstruction(&mesh, &part, OperatorKind::Sql, 0.0, &|_, _| {}).is_err()
-        );
     }
 }
