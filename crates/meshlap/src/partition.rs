@@ -146,7 +146,7 @@ pub struct Submesh {
 
 /// A well-spread colour for patch `p` (golden-ratio hue walk, HSV with s = 0.65,
 /// v = 0.95), as `meshlap partition --output` paints the patches.
-pub fn patch_colour(p: u32) -> [u8; 3] {
+pub fn patch_color(p: u32) -> [u8; 3] {
     let h = (p as f64 * 0.618_033_988_75).fract() * 6.0;
     let (s, v) = (0.65, 0.95);
     let c = v * s;
@@ -168,9 +168,9 @@ impl Partition {
     pub fn patch_of(&self) -> &[u32] {
         &self.patch_of
     }
-    /// The [`patch_colour`] of every vertex's patch (length n).
-    pub fn vertex_colours(&self) -> Vec<[u8; 3]> {
-        self.patch_of.iter().map(|&p| patch_colour(p)).collect()
+    /// The [`patch_color`] of every vertex's patch (length n).
+    pub fn vertex_colors(&self) -> Vec<[u8; 3]> {
+        self.patch_of.iter().map(|&p| patch_color(p)).collect()
     }
     /// Number of patches.
     pub fn n_patches(&self) -> usize {

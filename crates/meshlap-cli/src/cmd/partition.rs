@@ -57,7 +57,7 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
     };
     let part = partition_mesh(&input.mesh, &input.topology, &opts)?;
     if let Some(out) = &args.output {
-        let colours = part.vertex_colours();
+        let colours = part.vertex_colors();
         let scalar: Vec<f64> = part.patch_of().iter().map(|&p| p as f64).collect();
         write_mesh(
             out,
