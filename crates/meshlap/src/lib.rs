@@ -50,6 +50,7 @@
 
 pub mod analysis;
 pub mod codec;
+pub mod cpu;
 pub mod error;
 #[cfg(feature = "experiments")]
 pub mod experiment;

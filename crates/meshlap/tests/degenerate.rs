@@ -6,6 +6,7 @@
 
 use meshlap::io::{write_mesh, Format, IoError, WriteOptions};
 use meshlap::mesh::{builtin, topology::Topology};
+use meshlap::metric::msdm2::{msdm2, Msdm2Params};
 use meshlap::metric::{compare, CompareOptions};
 use meshlap::operator::{Operator, OperatorError, OperatorKind, OperatorOptions};
 use meshlap::TriMesh;
@@ -232,6 +233,98 @@ fn metrics_are_finite_on_degenerate_meshes() {
             Ok(())
         })
         .unwrap();
+}
+
+/// MSDM2 (through `compare`, as `meshlap compare` computes it) on the same damaged
+/// meshes: a finite score in [0, 1.2), zero for a mesh against itself, or the one
+/// documented error (a reference collapsed to a point).
+#[test]
+fn msdm2_is_finite_on_degenerate_meshes() {
+    let opts = CompareOptions {
+        samples: 100,
+        msdm2: true,
+    };
+    let seen = std::cell::Cell::new(0usize);
+    runner(18, 60)
+        .run(&degenerate_mesh(), |(m, reference)| {
+            for (a, b) in [(&m, &reference), (&reference, &m), (&m, &m)] {
+                match compare(a, b, None, &opts) {
+                    Ok(c) => {
+                        let v = c.msdm2.expect("msdm2 was asked for");
+                        prop_assert!(v.is_finite() && (0.0..1.2).contains(&v), "msdm2 = {v}");
+                        if std::ptr::eq(a, b) {
+                            prop_assert_eq!(v, 0.0, "against itself");
+                        }
+                        seen.set(seen.get() + 1);
+                    }
+                    Err(e) => prop_assert!(a.bbox_diagonal() == 0.0, "{e}"),
+                }
+            }
+            Ok(())
+        })
+        .unwrap();
+    assert!(seen.get() > 100, "{}", seen.get());
+}
+
+/// Each kind of damage alone, on a fine sphere (so the balls hold several edges), at
+/// scales far beyond the property test's (10⁻²⁰⁰ … 10²⁰⁰: the squared radius and the
+/// Gaussian weights would underflow or overflow in the input's units; `msdm2` itself
+/// there, as `compare` refuses such diagonals): finite, and the same score at every
+/// scale.
+#[test]
+fn msdm2_of_each_damage_and_at_extreme_scales() {
+    let sphere = builtin::icosphere(3).unwrap();
+    let opts = CompareOptions {
+        samples: 100,
+        msdm2: true,
+    };
+    let score = |a: &TriMesh, b: &TriMesh| compare(a, b, None, &opts).unwrap().msdm2.unwrap();
+    for d in [
+        Damage::Collapse(5, 6),
+        Damage::Collapse(0, 1),
+        Damage::Flatten(3, 0.5),
+        Damage::Flatten(7, 1.0),
+        Damage::Needle(9, 0.3, 12),
+        Damage::Needle(11, 0.7, 23),
+        Damage::Isolated([0.1, 0.2, 0.3]),
+        Damage::Isolated([5.0, 0.0, 0.0]),
+    ] {
+        let mut m = sphere.clone();
+        apply(&mut m, &d);
+        let v = score(&sphere, &m);
+        assert!(v.is_finite() && (0.0..1.2).contains(&v), "{d:?}: {v}");
+        assert_eq!(score(&m, &m), 0.0, "{d:?} against itself");
+        for e in [-200, -160, -20, 20, 160, 200] {
+            let (mut a, mut b) = (sphere.clone(), m.clone());
+            apply(&mut a, &Damage::Scale(e));
+            apply(&mut b, &Damage::Scale(e));
+            // `compare` refuses a diagonal whose square leaves f64 (its other measures
+            // need it); MSDM2 itself works in units of the bounding box.
+            let w = if e.abs() <= 20 {
+                score(&a, &b)
+            } else {
+                msdm2(&a, &b, &Msdm2Params::default()).unwrap()
+            };
+            // 10^e is not exact: the same score up to the rounding of the scaled
+            // coordinates (a vertex on a ball's sphere may fall either side).
+            assert!(
+                (w - v).abs() <= 1e-3 * v + 1e-12,
+                "{d:?} at 1e{e}: {w} vs {v}"
+            );
+        }
+    }
+    // A face with a repeated corner cannot be walked: a typed error naming the face.
+    let mut bad = sphere.clone();
+    bad.faces[4][1] = bad.faces[4][0];
+    let e = compare(&sphere, &bad, None, &opts).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            meshlap::metric::MetricError::Topology { which: "test", .. }
+        ),
+        "{e}"
+    );
+    assert!(e.to_string().contains('4'), "{e}");
 }
 
 /// A point at distance 1 from a degenerate (collinear or collapsed) triangle is at

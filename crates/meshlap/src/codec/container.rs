@@ -2,7 +2,12 @@
 //!
 //! ```text
 //! magic      4 bytes  "MLZ\x1a"
-//! version    u16 LE   (5: the optional re-join section (kind 5) of meshes cut for
+//! version    u16 LE   (6: as 5, but the spectral coder's coefficient products and
+//!                     inter-patch predictor use fixed-order arithmetic, so files
+//!                     encode and decode to the same bits on every CPU (with or
+//!                     without AVX2/FMA); 5 and 4 are decoded with faer's kernels,
+//!                     as they were written;
+//!                     5: the optional re-join section (kind 5) of meshes cut for
 //!                     the connectivity coder, see `rejoin`; otherwise as 4, which is
 //!                     still read;
 //!                     4: patch partition and patch eigenbases changed (METIS with
@@ -12,7 +17,7 @@
 //! sections   u16 LE   count (≤ 16)
 //! per section:
 //!   kind     u8       1 header, 2 connectivity, 3 permutation, 4 geometry,
-//!                     5 re-join (version 5 only)
+//!                     5 re-join (version 5 on)
 //!   length   u32 LE   payload bytes
 //!   crc32    u32 LE   of the kind byte and the payload (IEEE, `crc32fast`)
 //!   payload  `length` bytes
@@ -28,7 +33,7 @@ use super::CodecError;
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"MLZ\x1a";
 /// Current format version (what [`write()`] writes).
-pub const VERSION: u16 = 5;
+pub const VERSION: u16 = 6;
 /// Oldest format version [`read`] accepts (its files decode as they always did).
 pub const MIN_VERSION: u16 = 4;
 const MAX_SECTIONS: u16 = 16;
@@ -45,7 +50,7 @@ pub enum SectionKind {
     Permutation = 3,
     /// Range-coded geometry.
     Geometry = 4,
-    /// Which vertices of the cut mesh are copies of which (optional; version 5).
+    /// Which vertices of the cut mesh are copies of which (optional; version 5 on).
     Rejoin = 5,
 }
 
@@ -252,8 +257,12 @@ mod tests {
         old[4..6].copy_from_slice(&3u16.to_le_bytes());
         let e = read(&old).unwrap_err();
         assert!(matches!(e, CodecError::Version { found: 3, .. }));
-        assert!(e.to_string().contains("reads versions 4 to 5"), "{e}");
-        // Version 4 is still read, but without the section version 5 added.
+        assert!(e.to_string().contains("reads versions 4 to 6"), "{e}");
+        // Versions 4 and 5 are still read; version 4 without the section version 5
+        // added.
+        let mut v5 = img.clone();
+        v5[4..6].copy_from_slice(&5u16.to_le_bytes());
+        assert!(read(&v5).is_ok());
         let mut v4 = img.clone();
         v4[4..6].copy_from_slice(&4u16.to_le_bytes());
         assert!(read(&v4).is_ok());

@@ -133,11 +133,16 @@ fn spatial_section(
     })
 }
 
-/// Decodes a geometry section for the decoded connectivity `topo`.
-pub(super) fn decode(topo: &Topology, section: &[u8]) -> Result<Vec<[f64; 3]>, CodecError> {
+/// Decodes a geometry section of a file of format `version` for the decoded
+/// connectivity `topo`.
+pub(super) fn decode(
+    topo: &Topology,
+    section: &[u8],
+    version: u16,
+) -> Result<Vec<[f64; 3]>, CodecError> {
     match section.split_first() {
         None => Err(CodecError::Truncated("geometry header")),
-        Some((&MODE_SPECTRAL, rest)) => spectral::decode(topo, rest),
+        Some((&MODE_SPECTRAL, rest)) => spectral::decode(topo, rest, version),
         Some((&MODE_SPATIAL, rest)) => spatial::decode(topo, rest),
         Some(_) => Err(CodecError::Corrupt("unknown geometry mode")),
     }

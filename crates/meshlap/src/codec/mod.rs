@@ -33,8 +33,9 @@
 //! `meshlap compress` reads its input through `clean`, so the CLI's files hold the
 //! cleaned mesh.
 //!
-//! File layout (`.mlz` version [`container::VERSION`]; version 4 files, which never
-//! have a re-join section, are still read): a header section (vertex and face counts,
+//! File layout (`.mlz` version [`container::VERSION`]; versions 4 and 5 are still
+//! read and decode as they always did — version 4 files never have a re-join
+//! section): a header section (vertex and face counts,
 //! `u32` LE each), the connectivity section (of the cut mesh), the optional re-join
 //! section, the optional permutation section (the input vertex order) and the geometry
 //! section — a mode byte (0 spectral, 1 spatial) then that coder's stream.
@@ -412,7 +413,7 @@ pub fn compress(
     })
 }
 
-/// Decompresses an `.mlz` file image (version 4 or 5). Connectivity is rebuilt
+/// Decompresses an `.mlz` file image (version 4, 5 or 6). Connectivity is rebuilt
 /// exactly (a cut mesh re-joined); geometry to the coded precision; the vertex order
 /// is the input's if it was stored.
 ///
@@ -422,6 +423,8 @@ pub fn compress(
 /// present before anything is allocated.
 pub fn decompress(bytes: &[u8]) -> Result<TriMesh, CodecError> {
     let secs = container::read(bytes)?;
+    // `read` checked the magic and a supported version.
+    let version = u16::from_le_bytes([bytes[4], bytes[5]]);
     let need = |k: SectionKind| {
         container::section(&secs, k).ok_or(CodecError::Corrupt("a required section is missing"))
     };
@@ -455,7 +458,7 @@ pub fn decompress(bytes: &[u8]) -> Result<TriMesh, CodecError> {
         }
     };
     let topo = Topology::from_faces(n, &faces).map_err(CodecError::CorruptFaces)?;
-    let pos = geometry::decode(&topo, need(SectionKind::Geometry)?)?;
+    let pos = geometry::decode(&topo, need(SectionKind::Geometry)?, version)?;
     match container::section(&secs, SectionKind::Permutation) {
         None => Ok(TriMesh::new(pos, faces)),
         Some(p) => Ok(permutation::apply(

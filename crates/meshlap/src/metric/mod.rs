@@ -44,6 +44,16 @@ pub enum MetricError {
     /// vertex at one point) or too large for `f64`: nothing to normalise by.
     #[error("mesh {0} has no faces or a zero (or overflowing) bounding box")]
     Empty(&'static str),
+    /// A mesh's connectivity cannot be built (MSDM2 walks the surface: e.g. a face
+    /// with a repeated corner).
+    #[error("mesh {which}: {source}")]
+    Topology {
+        /// "reference" or "test".
+        which: &'static str,
+        /// Why.
+        #[source]
+        source: crate::mesh::MeshError,
+    },
     /// The vertex map does not fit.
     #[error("vertex map has {got} entries, the meshes have {n}")]
     BadMap {

@@ -38,6 +38,25 @@
 //! 5. **Symmetry.** As published, MSDM2 = ½ (score(test → reference) +
 //!    score(reference → test)).
 //!
+//! ## Degenerate input
+//! Everything is computed in units of `D` (both meshes translated and scaled by a
+//! power of two), so the result does not depend on the magnitude of the coordinates
+//! (tested from 10⁻²⁰⁰ to 10²⁰⁰). A zero-area face (collinear or coincident corners,
+//! to rounding: `‖ab × ac‖ ≤ ε·ℓ²`, ℓ its longest edge, as for the operators, or a
+//! height within four roundings of the input coordinates) has no normal: its edges get no dihedral angle and add no curvature, and matching
+//! onto it measures its edges (`bvh::closest_on_triangle`) and interpolates at its
+//! centroid. A zero-length edge (coincident vertices) has no direction and adds
+//! nothing. A needle has the finite normal its rounding gives, so its edges add a
+//! crease of bounded angle (|β| ≤ π). A vertex on no face is its own neighbourhood
+//! (curvature 0) and is left out of the pooling: it is not part of the surface (and
+//! matched onto the other surface it would make a mesh differ from itself). Of several
+//! coincident vertices of the other mesh, a vertex is matched to its namesake (same
+//! index) when that one is among them, so a damaged mesh is at 0 from itself. The
+//! score is always finite and in [0, 1.2); the errors are
+//! [`MetricError::Empty`] (no faces, or a zero or overflowing reference bounding box)
+//! and [`MetricError::Topology`] (the connectivity cannot be built, e.g. a face with a
+//! repeated corner, named in the source error). Tested in `tests/degenerate.rs`.
+//!
 //! The parameters are [`Msdm2Params`] (defaults: the published ones). The statistics
 //! follow the MEPP platform's reference implementation in spirit (neighbourhoods,
 //! Gaussian weights, constants); the tensor and neighbourhood code here is our own.
@@ -102,15 +121,36 @@ struct Side<'a> {
     /// Per edge: unit direction and signed dihedral angle (0 off interior edges).
     edge_shape: Vec<(DVec3, f64)>,
     bvh: Bvh,
+    /// Per vertex: a face it is a corner of (`u32::MAX`: none).
+    incident: Vec<u32>,
 }
 
 impl<'a> Side<'a> {
-    fn new(mesh: &'a TriMesh) -> Result<Self, MetricError> {
-        let topo = Topology::new(mesh).map_err(|_| MetricError::Empty("input"))?;
+    /// `rounding`: the rounding of the input coordinates in `mesh`'s units (`ε` times
+    /// their largest magnitude before normalisation).
+    fn new(mesh: &'a TriMesh, which: &'static str, rounding: f64) -> Result<Self, MetricError> {
+        let topo = Topology::new(mesh).map_err(|source| MetricError::Topology { which, source })?;
         let pos: Vec<DVec3> = mesh.positions.iter().map(|&p| DVec3::from(p)).collect();
+        // A face that is zero-area to rounding has no normal: otherwise the normal of
+        // a flattened face would be the direction of its rounding errors, and its
+        // edges would add arbitrary creases that change with the scale. To rounding:
+        // `‖ab × ac‖ ≤ ε·ℓ²` (ℓ the longest edge; the rule of the operators and of
+        // `bvh::closest_on_triangle`), or a height `‖ab × ac‖/ℓ` within a few
+        // roundings of the coordinates (a corner placed on the line of the other two
+        // is off it by the rounding of its coordinates, not of the edge lengths).
         let normal = |f: usize| {
             let [a, b, c] = mesh.faces[f].map(|v| pos[v as usize]);
-            (b - a).cross(c - a).normalize_or_zero()
+            let n = (b - a).cross(c - a);
+            let longest2 = (b - a)
+                .length_squared()
+                .max((c - a).length_squared())
+                .max((c - b).length_squared());
+            let area2 = n.length();
+            if area2 <= f64::EPSILON * longest2 || area2 <= 4.0 * rounding * longest2.sqrt() {
+                DVec3::ZERO
+            } else {
+                n.normalize_or_zero()
+            }
         };
         let edge_shape = (0..topo.n_edges())
             .map(|e| {
@@ -127,8 +167,15 @@ impl<'a> Side<'a> {
                 (dir, n1.cross(n2).dot(dir).atan2(n1.dot(n2)))
             })
             .collect();
+        let mut incident = vec![u32::MAX; mesh.n_vertices()];
+        for (f, face) in mesh.faces.iter().enumerate().rev() {
+            for &v in face {
+                incident[v as usize] = f as u32;
+            }
+        }
         Ok(Side {
             mesh,
+            incident,
             bvh: Bvh::new(mesh),
             pos,
             topo,
@@ -233,12 +280,23 @@ impl<'a> Side<'a> {
     }
 
     /// Matches every vertex of `self` onto `other`: closest point and the barycentric
-    /// coordinates in its face.
+    /// coordinates in its face. A vertex whose namesake in `other` (same index, on a
+    /// face) sits at exactly its position is matched to it: among the points at
+    /// distance 0 — several when vertices coincide — the one meshes sharing their
+    /// vertex order mean (so a mesh with coincident vertices is at 0 from itself).
     fn matches(&self, other: &Side) -> Vec<(DVec3, u32, [f64; 3])> {
         self.mesh
             .positions
             .par_iter()
-            .map(|p| {
+            .enumerate()
+            .map(|(i, p)| {
+                if let (Some(&q), Some(&f)) = (other.mesh.positions.get(i), other.incident.get(i)) {
+                    if f != u32::MAX && q == *p {
+                        let face = other.mesh.faces[f as usize];
+                        let w = [0, 1, 2].map(|k| if face[k] as usize == i { 1.0 } else { 0.0 });
+                        return (DVec3::from(q), f, w);
+                    }
+                }
                 let (f, q, _) = other.bvh.closest_face(p);
                 let corners = other.mesh.faces[f].map(|v| other.mesh.positions[v as usize]);
                 (DVec3::from(q), f as u32, barycentric(q, corners))
@@ -403,8 +461,39 @@ pub fn msdm2(
     if !d.is_finite() || d <= 0.0 {
         return Err(MetricError::Empty("reference"));
     }
-    let a = Side::new(reference)?;
-    let b = Side::new(test)?;
+    // Work in units of D: both meshes translated by the reference's lowest bounding-box
+    // corner and scaled by a power of two (exact) close to 1/D. MSDM2 is invariant
+    // under a common translation and scale, and every squared length, ball area and
+    // Gaussian weight below then stays far from overflow and underflow whatever the
+    // input's magnitude (at D = 10⁻¹⁶⁰ the squared radius underflows and the weights
+    // become NaN otherwise).
+    let (lo, _) = reference
+        .bounding_box()
+        .ok_or(MetricError::Empty("reference"))?;
+    let exp = (((d.to_bits() >> 52) & 0x7ff) as i32 - 1023).clamp(-1000, 1000);
+    let s = f64::from_bits(((1023 - exp) as u64) << 52);
+    let normalized = |m: &TriMesh| {
+        TriMesh::new(
+            m.positions
+                .iter()
+                .map(|p| [0, 1, 2].map(|k| (p[k] - lo[k]) * s))
+                .collect(),
+            m.faces.clone(),
+        )
+    };
+    let rounding = |m: &TriMesh| {
+        let big = m
+            .positions
+            .iter()
+            .flatten()
+            .fold(0.0f64, |a, x| a.max(x.abs()));
+        f64::EPSILON * big * s
+    };
+    let (ra, rb) = (rounding(reference), rounding(test));
+    let (reference, test) = (normalized(reference), normalized(test));
+    let d = d * s;
+    let a = Side::new(&reference, "reference", ra)?;
+    let b = Side::new(&test, "test", rb)?;
     let radii: Vec<f64> = (0..params.scales.max(1))
         .map(|i| (params.first_radius + params.radius_step * i as f64) * d)
         .collect();
@@ -415,12 +504,26 @@ pub fn msdm2(
             .collect()
     };
     let (ca, cb) = (curv(&a), curv(&b));
-    let pool = |ld: Vec<f64>| -> f64 {
+    // Minkowski mean over the vertices on a face: a vertex on no face is not part of
+    // the surface (nothing of it is seen), and would otherwise be matched onto the
+    // other mesh's surface even against itself.
+    let pool = |ld: Vec<f64>, m: &TriMesh| -> f64 {
         let e = params.minkowski;
-        (ld.iter().map(|x| x.powf(e)).sum::<f64>() / ld.len().max(1) as f64).powf(1.0 / e)
+        let mut on_face = vec![false; m.n_vertices()];
+        for f in &m.faces {
+            for &v in f {
+                on_face[v as usize] = true;
+            }
+        }
+        let (sum, count) = ld
+            .iter()
+            .zip(&on_face)
+            .filter(|(_, &o)| o)
+            .fold((0.0, 0usize), |(s, c), (x, _)| (s + x.powf(e), c + 1));
+        (sum / count.max(1) as f64).powf(1.0 / e)
     };
-    let test_to_ref = pool(local(&b, &a, &cb, &ca, &radii, params));
-    let ref_to_test = pool(local(&a, &b, &ca, &cb, &radii, params));
+    let test_to_ref = pool(local(&b, &a, &cb, &ca, &radii, params), &test);
+    let ref_to_test = pool(local(&a, &b, &ca, &cb, &radii, params), &reference);
     Ok(0.5 * (test_to_ref + ref_to_test))
 }
 
@@ -489,7 +592,7 @@ mod tests {
         // On a fine sphere of radius 2 with a ball holding many edges, κ₁ ≈ κ₂ ≈ 1/2.
         let mut m = builtin::icosphere(5).unwrap();
         m.positions.iter_mut().for_each(|p| *p = p.map(|x| 2.0 * x));
-        let s = Side::new(&m).unwrap();
+        let s = Side::new(&m, "test", 0.0).unwrap();
         let c = s.curvature(0.3, 1.0);
         let mean = c.iter().sum::<f64>() / c.len() as f64;
         assert!((mean - 0.5).abs() < 0.05, "{mean}");

@@ -11,7 +11,8 @@
 //! fused `mul_add`), in a fixed order (no reassociation, reductions in a fixed
 //! four-lane order), so the result is the same bit for bit on any CPU and thread
 //! count. On x86-64 with AVX2+FMA the same code is compiled with those features
-//! enabled (elementwise loops vectorise without changing a bit); elsewhere it runs
+//! enabled (elementwise loops vectorise without changing a bit; [`crate::cpu`]
+//! decides, and `MESHLAP_PORTABLE=1` forces the portable build); elsewhere it runs
 //! the identical portable code, where `mul_add` without hardware FMA is a C-library
 //! call: an order of magnitude slower, and bit-identical only if that `fma` is
 //! correctly rounded (glibc's is; some Windows runtimes' were not). Above n ≈ 1000
@@ -94,23 +95,18 @@ fn pow2(e: i32) -> f64 {
     f64::from_bits(((e + 1023) as u64) << 52)
 }
 
-#[cfg(target_arch = "x86_64")]
+/// [`evd`] on the build `crate::cpu::dispatch` picks: compiled with AVX2 + FMA (the
+/// same operations, vectorised without changing a bit) or for the baseline target.
 fn dispatch(w: &mut [f64], n: usize) -> Option<(Vec<f64>, Vec<f64>)> {
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn fma(w: &mut [f64], n: usize) -> Option<(Vec<f64>, Vec<f64>)> {
-        evd(w, n)
+    struct Evd<'a>(&'a mut [f64], usize);
+    impl crate::cpu::Kernel for Evd<'_> {
+        type Output = Option<(Vec<f64>, Vec<f64>)>;
+        #[inline(always)]
+        fn portable(self) -> Self::Output {
+            evd(self.0, self.1)
+        }
     }
-    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
-        // SAFETY: the features were detected just above.
-        unsafe { fma(w, n) }
-    } else {
-        evd(w, n)
-    }
-}
-
-#[cfg(not(target_arch = "x86_64"))]
-fn dispatch(w: &mut [f64], n: usize) -> Option<(Vec<f64>, Vec<f64>)> {
-    evd(w, n)
+    crate::cpu::dispatch(Evd(w, n))
 }
 
 /// The whole decomposition of the full symmetric `w` (destroyed); eigenvectors

@@ -16,11 +16,16 @@
 //! streaming sum; `examples`-style measurement in BENCHMARKS.md); these loops reach
 //! the streaming rate. They are written with fixed-width accumulator arrays that
 //! LLVM vectorises, compiled for AVX2 + FMA when the CPU has them (dispatched at run
-//! time, as faer does), and fall back to faer's `matmul` for strided views.
+//! time by `crate::cpu::dispatch`; `MESHLAP_PORTABLE=1` forces the portable
+//! build), and fall back to faer's `matmul` for strided views.
 //!
 //! Rounding: each thread sums its rows in its own order and the halves are added, so
 //! results depend on the thread count at the level of rounding (as any parallel
-//! reduction does).
+//! reduction does). They also depend on the build at that level: the AVX2 + FMA
+//! kernels fuse each multiply-add, the portable ones (a CPU without them, or
+//! `MESHLAP_PORTABLE=1`) round the product first, because a `mul_add` without
+//! hardware FMA is a C-library call an order of magnitude slower. Only the
+//! eigensolvers use these kernels; the `.mlz` codec does not.
 
 use faer::linalg::matmul::matmul;
 use faer::reborrow::{Reborrow, ReborrowMut};
@@ -136,38 +141,52 @@ fn sub_nn_seq(mut w: MatMut<'_, f64>, v: MatRef<'_, f64>, c: MatRef<'_, f64>) {
     }
 }
 
-fn dispatch_tn<const G: usize>(v: MatRef<'_, f64>, w: MatRef<'_, f64>, c: MatMut<'_, f64>) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        #[target_feature(enable = "avx2,fma")]
-        fn avx2<const G: usize>(v: MatRef<'_, f64>, w: MatRef<'_, f64>, c: MatMut<'_, f64>) {
-            x86::tn_kernel::<G>(v, w, c)
-        }
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-        {
-            // SAFETY: the CPU supports the features `avx2` is compiled for.
-            unsafe { avx2::<G>(v, w, c) };
-            return;
-        }
+/// `C += Vᵀ W` for `G` columns of `W`, on the build `crate::cpu::dispatch` picks.
+struct Tn<'a, 'b, const G: usize> {
+    v: MatRef<'a, f64>,
+    w: MatRef<'a, f64>,
+    c: MatMut<'b, f64>,
+}
+
+impl<const G: usize> crate::cpu::Kernel for Tn<'_, '_, G> {
+    type Output = ();
+    #[inline(always)]
+    fn portable(self) {
+        tn_kernel::<G, false>(self.v, self.w, self.c)
     }
-    tn_kernel::<G, false>(v, w, c)
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn avx2_fma(self) {
+        x86::tn_kernel::<G>(self.v, self.w, self.c)
+    }
+}
+
+/// `W −= V C` for `G` columns of `W`, on the build `crate::cpu::dispatch` picks.
+struct Nn<'a, 'b, const G: usize> {
+    w: MatMut<'b, f64>,
+    v: MatRef<'a, f64>,
+    c: MatRef<'a, f64>,
+}
+
+impl<const G: usize> crate::cpu::Kernel for Nn<'_, '_, G> {
+    type Output = ();
+    #[inline(always)]
+    fn portable(self) {
+        nn_kernel::<G, false>(self.w, self.v, self.c)
+    }
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn avx2_fma(self) {
+        x86::nn_kernel::<G>(self.w, self.v, self.c)
+    }
+}
+
+fn dispatch_tn<const G: usize>(v: MatRef<'_, f64>, w: MatRef<'_, f64>, c: MatMut<'_, f64>) {
+    crate::cpu::dispatch(Tn::<G> { v, w, c })
 }
 
 fn dispatch_nn<const G: usize>(w: MatMut<'_, f64>, v: MatRef<'_, f64>, c: MatRef<'_, f64>) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        #[target_feature(enable = "avx2,fma")]
-        fn avx2<const G: usize>(w: MatMut<'_, f64>, v: MatRef<'_, f64>, c: MatRef<'_, f64>) {
-            x86::nn_kernel::<G>(w, v, c)
-        }
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-        {
-            // SAFETY: the CPU supports the features `avx2` is compiled for.
-            unsafe { avx2::<G>(w, v, c) };
-            return;
-        }
-    }
-    nn_kernel::<G, false>(w, v, c)
+    crate::cpu::dispatch(Nn::<G> { w, v, c })
 }
 
 #[inline(always)]

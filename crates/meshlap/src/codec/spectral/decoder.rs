@@ -3,7 +3,7 @@
 
 use super::coefficients::Models;
 use super::header::Header;
-use super::patches::{bases, border_and_loose};
+use super::patches::{bases, border_and_loose, Arithmetic};
 use super::residuals::Residuals;
 use crate::codec::container::ByteReader;
 use crate::codec::entropy::RangeDecoder;
@@ -11,12 +11,15 @@ use crate::codec::CodecError;
 use crate::mesh::topology::Topology;
 use rayon::prelude::*;
 
-/// Decodes a spectral geometry stream (header and payload, after the mode byte) for
-/// the decoded connectivity `topo`: the positions (n×3) in the decoded vertex order.
-pub fn decode(topo: &Topology, data: &[u8]) -> Result<Vec<[f64; 3]>, CodecError> {
+/// Decodes a spectral geometry stream (header and payload, after the mode byte) of
+/// an `.mlz` file of format `version` for the decoded connectivity `topo`: the
+/// positions (n×3) in the decoded vertex order. Version 6 on, the coefficient
+/// products and the predictor are computed in fixed-order arithmetic (the same bits
+/// on every CPU); versions 4 and 5 with faer's, as they were written.
+pub fn decode(topo: &Topology, data: &[u8], version: u16) -> Result<Vec<[f64; 3]>, CodecError> {
     let mut r = ByteReader::new(data, "geometry header");
     let Header { params, step } = Header::read(&mut r)?;
-    let bases = bases(topo, &params)?;
+    let bases = bases(topo, &params, Arithmetic::for_version(version))?;
     let mut dec = RangeDecoder::new(r.rest());
     let mut models = Models::new();
     let n = topo.n_vertices();

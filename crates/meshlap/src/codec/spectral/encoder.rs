@@ -4,7 +4,7 @@
 use super::coefficients::{octave, Models, FREQ_BANDS};
 use super::header::Header;
 use super::params::SpectralParams;
-use super::patches::{bases, border_and_loose, PatchBasis};
+use super::patches::{bases, border_and_loose, Arithmetic, PatchBasis};
 use super::residuals::Residuals;
 use crate::codec::entropy::RangeEncoder;
 use crate::codec::quantize::{dead_zone, nearest};
@@ -69,7 +69,8 @@ impl<'a> SpectralEncoder<'a> {
         params: SpectralParams,
     ) -> Result<Self, CodecError> {
         params.validate()?;
-        let bases = bases(topo, &params)?;
+        // The current format (version 6): fixed-order products, the same on every CPU.
+        let bases = bases(topo, &params, Arithmetic::Fixed)?;
         let coefs = bases
             .par_iter()
             .map(|b| {

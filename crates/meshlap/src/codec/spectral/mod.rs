@@ -45,11 +45,20 @@
 //! **Eigensolver.** Bases come from [`crate::spectral::dense_evd`] (selected by
 //! [`crate::spectral::DenseSolver::Reproducible`]) and the canonicalization in
 //! `spectral::basis` (plain loops in index order): the arithmetic is fixed-order and
-//! correctly rounded, so the bases are the same bit for bit on every CPU with FMA,
-//! and the solver is faster than faer's at these sizes. The coefficient products
-//! (`forward`/`inverse`) and the prediction's Cholesky use faer, whose kernels depend
-//! on the CPU, so decoded coordinates can differ in their last bits between machines
-//! (at rounding level: the integers are in the file).
+//! correctly rounded, so the bases are the same bit for bit on every CPU (with or
+//! without AVX2/FMA: `mul_add` is correctly rounded in hardware and in the C
+//! library's `fma`), and the solver is faster than faer's at these sizes.
+//!
+//! **Arithmetic of the products** (`patches::Arithmetic`). Since format version 6 the
+//! coefficient products (`X = E⁻¹x`, `x̃ = E_m X̃`) and the predictor's Cholesky are
+//! plain loops in index order (no fused operations), so a file encodes to the same
+//! bytes and decodes to the same coordinates on every CPU, whatever its SIMD width
+//! and whatever `MESHLAP_PORTABLE` says (tested in `meshlap-cli`'s
+//! `tests/portable.rs`, and under an emulated CPU without AVX2/FMA, RELIABILITY.md).
+//! Versions 4 and 5 used faer's kernels there, which `pulp` picks at run time (AVX2 +
+//! FMA or scalar, different summation orders): they are still decoded that way, so
+//! their coordinates can differ in the last bits between machines (at rounding
+//! level: the integers are in the file).
 
 mod coefficients;
 mod decoder;

@@ -12,9 +12,85 @@ use crate::codec::CodecError;
 use crate::mesh::topology::Topology;
 use crate::mesh::TriMesh;
 use crate::operator::{Operator, OperatorKind, OperatorOptions};
-use crate::spectral::{forward, inverse, BasisOptions, DenseSolver, EigenBasis};
+use crate::spectral::{forward, inverse, BasisOptions, DenseSolver, EigenBasis, EigenPath};
 use faer::Mat;
 use rayon::prelude::*;
+
+/// How the coefficient products `X = E⁻¹x`, `x̃ = E_m X̃` and the predictor's Cholesky
+/// are computed. The bases themselves are bit-reproducible either way
+/// ([`crate::spectral::dense_evd`], plain loops in the canonicalization).
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub(crate) enum Arithmetic {
+    /// faer's products and Cholesky, whose kernels (picked by `pulp` at run time:
+    /// AVX2 + FMA or scalar) sum in CPU-dependent orders, so decoded coordinates can
+    /// differ in their last bits between machines. Format versions 4 and 5 were
+    /// written with it and are decoded with it (their golden hashes pin it).
+    Faer,
+    /// Plain loops in index order with correctly rounded `+ − × ÷ √` only (no fused
+    /// operations, no reassociation): the same bits on every IEEE-754 CPU, with or
+    /// without AVX2/FMA, and every thread count. Format version 6 on.
+    Fixed,
+}
+
+impl Arithmetic {
+    /// The arithmetic files of format `version` were written with.
+    pub fn for_version(version: u16) -> Self {
+        if version >= 6 {
+            Arithmetic::Fixed
+        } else {
+            Arithmetic::Faer
+        }
+    }
+}
+
+/// `X = g ∘ Eᵀ(s ∘ x)` (m×3, the first `m` coefficients) in index order: what
+/// [`forward`] computes for the symmetric and symmetrized paths, without faer.
+fn forward_fixed(b: &EigenBasis, x: &Mat<f64>, m: usize) -> Mat<f64> {
+    let (n, e, s, g) = (b.n(), b.vectors(), b.weights(), b.coefficient_scale());
+    let sx: Vec<[f64; 3]> = (0..n)
+        .map(|i| {
+            let w = s.map_or(1.0, |s| s[i]);
+            let r = [x[(i, 0)], x[(i, 1)], x[(i, 2)]];
+            if s.is_some() {
+                r.map(|v| w * v)
+            } else {
+                r
+            }
+        })
+        .collect();
+    let mut out = Mat::<f64>::zeros(m, 3);
+    for j in 0..m {
+        let col = e.col(j);
+        let mut acc = [0.0f64; 3];
+        for (i, r) in sx.iter().enumerate() {
+            let v = col[i];
+            for k in 0..3 {
+                acc[k] += v * r[k];
+            }
+        }
+        for k in 0..3 {
+            out[(j, k)] = if g[j] != 1.0 { acc[k] * g[j] } else { acc[k] };
+        }
+    }
+    out
+}
+
+/// `x̃ = E_m X̃` (n×3) summed over the coefficients in index order, without faer.
+fn inverse_fixed(b: &EigenBasis, c: &Mat<f64>) -> Mat<f64> {
+    let (n, e) = (b.n(), b.vectors());
+    let mut acc = vec![[0.0f64; 3]; n];
+    for j in 0..c.nrows() {
+        let col = e.col(j);
+        let cj = [c[(j, 0)], c[(j, 1)], c[(j, 2)]];
+        for (i, a) in acc.iter_mut().enumerate() {
+            let v = col[i];
+            for k in 0..3 {
+                a[k] += v * cj[k];
+            }
+        }
+    }
+    Mat::from_fn(n, 3, |i, k| acc[i][k])
+}
 
 /// Patches of about `p` vertices from the multilevel partitioner
 /// ([`crate::partition`]: METIS k-way with a fixed seed, connected patches,
@@ -43,6 +119,8 @@ pub(super) struct PatchBasis {
     pub m: usize,
     /// The predictor from earlier patches (with inter-patch prediction on).
     pub pred: Option<Prediction>,
+    /// How the coefficient products are computed.
+    pub arith: Arithmetic,
 }
 
 impl PatchBasis {
@@ -50,6 +128,9 @@ impl PatchBasis {
     pub fn analyze(&self, x: &Mat<f64>) -> Result<Mat<f64>, CodecError> {
         match &self.basis {
             None => Ok(Mat::zeros(0, 3)),
+            Some(b) if self.arith == Arithmetic::Fixed && b.path() != EigenPath::General => {
+                Ok(forward_fixed(b, x, self.m))
+            }
             Some(b) => {
                 let all = forward(b, x.as_ref()).map_err(CodecError::PatchBasis)?;
                 Ok(all.subrows(0, self.m).to_owned())
@@ -61,6 +142,9 @@ impl PatchBasis {
     pub fn synthesize(&self, c: &Mat<f64>) -> Result<Mat<f64>, CodecError> {
         match &self.basis {
             None => Ok(Mat::zeros(0, 3)),
+            Some(b) if self.arith == Arithmetic::Fixed && c.nrows() <= b.len() => {
+                Ok(inverse_fixed(b, c))
+            }
             Some(b) => inverse(b, c.as_ref()).map_err(CodecError::PatchBasis),
         }
     }
@@ -83,7 +167,12 @@ impl PatchBasis {
 
 /// The basis of one patch given its submesh connectivity `pt` (local numbering);
 /// vertices on no face of the patch are left out (`verts` lists the kept ones, local).
-fn patch_basis(pt: &Topology, kind: OperatorKind, keep: Keep) -> Result<PatchBasis, CodecError> {
+fn patch_basis(
+    pt: &Topology,
+    kind: OperatorKind,
+    keep: Keep,
+    arith: Arithmetic,
+) -> Result<PatchBasis, CodecError> {
     let mut on_face = vec![false; pt.n_vertices()];
     for f in pt.faces() {
         for &x in f {
@@ -110,6 +199,7 @@ fn patch_basis(pt: &Topology, kind: OperatorKind, keep: Keep) -> Result<PatchBas
             basis: None,
             m: 0,
             pred: None,
+            arith,
         });
     }
     let sub = TriMesh::new(vec![[0.0; 3]; np], faces);
@@ -126,14 +216,17 @@ fn patch_basis(pt: &Topology, kind: OperatorKind, keep: Keep) -> Result<PatchBas
         basis: Some(basis),
         m: keep.count(np),
         pred: None,
+        arith,
     })
 }
 
 /// The bases of every patch, in coding order (in parallel; each decomposition is
-/// sequential), with their predictors when `params.predicted`.
+/// sequential), with their predictors when `params.predicted`; `arith` says how
+/// their products are computed (the format version's).
 pub(super) fn bases(
     topo: &Topology,
     params: &SpectralParams,
+    arith: Arithmetic,
 ) -> Result<Vec<PatchBasis>, CodecError> {
     let patches = partition(topo, params.patch_size)?;
     let n = topo.n_vertices();
@@ -168,12 +261,13 @@ pub(super) fn bases(
                     .collect::<Vec<_>>(),
             )
             .map_err(CodecError::PatchTopology)?;
-            let b = patch_basis(&ft, params.operator, params.keep)?;
+            let b = patch_basis(&ft, params.operator, params.keep, arith)?;
             Ok(PatchBasis {
                 verts: b.verts.iter().map(|&i| patch[i as usize]).collect(),
                 basis: b.basis,
                 m: b.m,
                 pred: None,
+                arith,
             })
         })
         .collect::<Result<Vec<_>, CodecError>>()?;
@@ -185,7 +279,7 @@ pub(super) fn bases(
                 let b = &bases[p];
                 b.basis
                     .as_ref()
-                    .and_then(|_| patch_prediction(topo, &owner, &b.verts, p as u32))
+                    .and_then(|_| patch_prediction(topo, &owner, &b.verts, p as u32, arith))
             })
             .collect();
         for (b, pr) in bases.iter_mut().zip(preds) {

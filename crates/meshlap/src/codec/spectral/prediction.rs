@@ -11,6 +11,7 @@
 //! position, orientation and the part of its shape its neighbours already imply
 //! (figures in BENCHMARKS.md, Compression).
 
+use super::patches::Arithmetic;
 use crate::mesh::topology::Topology;
 use faer::Mat;
 
@@ -49,15 +50,15 @@ impl Prediction {
 /// neighbourhood into the patch, the minimizer of the discrete thin-plate energy
 /// `‖L_U x_U + L_S y‖²` (affine continuations cost nearly nothing):
 /// `x̂_U = G y` with `G = −(L_UᵀL_U)⁻¹ L_UᵀL_S` (n_p × |S|), a dense Cholesky
-/// (sequential, so encoder and decoder get the same `G` bit for bit).
+/// (sequential, so encoder and decoder get the same `G` bit for bit; with
+/// [`Arithmetic::Fixed`] the same on every CPU too, [`cholesky_solve_fixed`]).
 pub(super) fn patch_prediction(
     topo: &Topology,
     owner: &[u32],
     verts: &[u32],
     p: u32,
+    arith: Arithmetic,
 ) -> Option<Prediction> {
-    use faer::dyn_stack::{MemBuffer, MemStack};
-    use faer::linalg::cholesky::llt;
     let np = verts.len();
     let known = |w: u32| owner[w as usize] < p;
     let mut local = std::collections::HashMap::with_capacity(np);
@@ -123,10 +124,26 @@ pub(super) fn patch_prediction(
     for i in 0..np {
         m[(i, i)] += 1e-10 * tr;
     }
+    match arith {
+        Arithmetic::Faer => cholesky_solve_faer(&mut m, &mut g)?,
+        Arithmetic::Fixed => cholesky_solve_fixed(&m, &mut g)?,
+    }
+    if (0..g.ncols()).any(|c| g.col(c).iter().any(|x| !x.is_finite())) {
+        return None;
+    }
+    Some(Prediction { src, g })
+}
+
+/// `G ← M⁻¹G` by faer's dense Cholesky (format versions 4 and 5); `None` when `M` is
+/// not numerically positive definite.
+fn cholesky_solve_faer(m: &mut Mat<f64>, g: &mut Mat<f64>) -> Option<()> {
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::linalg::cholesky::llt;
+    let np = m.nrows();
     let par = faer::Par::Seq;
     let mut mem = MemBuffer::new(
         llt::factor::cholesky_in_place_scratch::<f64>(np, par, Default::default()).or(
-            llt::solve::solve_in_place_scratch::<f64>(np, src.len(), par),
+            llt::solve::solve_in_place_scratch::<f64>(np, g.ncols(), par),
         ),
     );
     let stack = MemStack::new(&mut mem);
@@ -139,8 +156,75 @@ pub(super) fn patch_prediction(
     )
     .ok()?;
     llt::solve::solve_in_place(m.as_ref(), g.as_mut(), par, stack);
-    if (0..g.ncols()).any(|c| g.col(c).iter().any(|x| !x.is_finite())) {
-        return None;
+    Some(())
+}
+
+/// `Σ a_k b_k` in a fixed order: four interleaved partial sums (lane `k mod 4`), added
+/// as `(s₀ + s₁) + (s₂ + s₃)`. Correctly rounded `×` and `+` only, so the same bits on
+/// every CPU; the four independent sums let the compiler vectorise without changing
+/// a bit.
+#[inline]
+fn dot4(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
+    let mut s = [0.0f64; 4];
+    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for l in 0..4 {
+            s[l] += x[l] * y[l];
+        }
     }
-    Some(Prediction { src, g })
+    for l in 0..ra.len() {
+        s[l] += ra[l] * rb[l];
+    }
+    (s[0] + s[1]) + (s[2] + s[3])
+}
+
+/// `G ← M⁻¹G` for the symmetric `M` (lower triangle read) by a Cholesky factorization
+/// `M = LLᵀ` and two triangular solves per column of `G`, in fixed-order arithmetic
+/// (the dot products by [`dot4`], the back substitution as row updates in a fixed
+/// order) with correctly rounded `+ − × ÷ √` only (no fused operations), so the result
+/// is the same bit for bit on every CPU (format version 6). `None` when a pivot is not
+/// positive (`M` not numerically positive definite).
+pub(super) fn cholesky_solve_fixed(m: &Mat<f64>, g: &mut Mat<f64>) -> Option<()> {
+    let n = m.nrows();
+    // L row-major: row i is l[i·n .. i·n + i + 1], so the dot products of the
+    // factorization and of the forward solve run over contiguous rows.
+    let mut l = vec![0.0f64; n * n];
+    for j in 0..n {
+        let (rowj, below) = l[j * n..].split_at_mut(n);
+        let d = m[(j, j)] - dot4(&rowj[..j], &rowj[..j]);
+        if !(d > 0.0 && d.is_finite()) {
+            return None;
+        }
+        let djj = d.sqrt();
+        rowj[j] = djj;
+        let lj = &rowj[..j];
+        for (r, li) in below.chunks_exact_mut(n).enumerate() {
+            li[j] = (m[(j + 1 + r, j)] - dot4(&li[..j], lj)) / djj;
+        }
+    }
+    let mut y = vec![0.0f64; n];
+    for c in 0..g.ncols() {
+        // L y = g.
+        for i in 0..n {
+            y[i] = (g[(i, c)] - dot4(&l[i * n..i * n + i], &y[..i])) / l[i * n + i];
+        }
+        // Lᵀ x = y, x overwriting y from the bottom up: once x_i is known, subtract
+        // its multiple of row i of L from the entries above (each entry receives its
+        // updates in the fixed order i = n−1, n−2, …).
+        for i in (0..n).rev() {
+            let xi = y[i] / l[i * n + i];
+            y[i] = xi;
+            let (head, _) = y.split_at_mut(i);
+            for (yk, &lik) in head.iter_mut().zip(&l[i * n..i * n + i]) {
+                *yk -= lik * xi;
+            }
+        }
+        for i in 0..n {
+            g[(i, c)] = y[i];
+        }
+    }
+    Some(())
 }

@@ -36,7 +36,7 @@ fn decoder_reproduces_encoder_exactly_with_repeated_eigenvalues() {
                 decoded: rec,
                 ..
             } = enc.encode(step).unwrap();
-            let dec = decode(&topo, &data).unwrap();
+            let dec = decode(&topo, &data, crate::codec::container::VERSION).unwrap();
             assert_eq!(dec, rec, "{spec} {op}");
         }
     }
@@ -130,7 +130,10 @@ fn prediction_shrinks_the_stream_and_keeps_the_error() {
             decoded: rec,
             stats: st,
         } = enc.encode(step).unwrap();
-        assert_eq!(decode(&topo, &data).unwrap(), rec);
+        assert_eq!(
+            decode(&topo, &data, crate::codec::container::VERSION).unwrap(),
+            rec
+        );
         assert!(st.patches >= 8);
         (data.len(), rms(&rec, &m.positions))
     };
@@ -156,6 +159,33 @@ fn corrupt_geometry_never_panics() {
         .bytes;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
     for _ in 0..200 {
-        let _ = decode(&topo, &corrupt(&data, &mut rng));
+        let _ = decode(
+            &topo,
+            &corrupt(&data, &mut rng),
+            crate::codec::container::VERSION,
+        );
     }
+}
+
+#[test]
+fn fixed_order_cholesky_matches_faer() {
+    use super::prediction::cholesky_solve_fixed;
+    use faer::Mat;
+    let mut rng = crate::rng::SplitMix64::new(7);
+    for &(n, c) in &[(1usize, 1usize), (5, 3), (37, 8), (120, 41)] {
+        let b = Mat::from_fn(n, n, |_, _| rng.next_f64() - 0.5);
+        let mut m = b.transpose() * &b;
+        for i in 0..n {
+            m[(i, i)] += 0.1;
+        }
+        let g0 = Mat::from_fn(n, c, |_, _| rng.next_f64() - 0.5);
+        let mut g = g0.clone();
+        cholesky_solve_fixed(&m, &mut g).unwrap();
+        let residual = (&m * &g - &g0).norm_max();
+        assert!(residual < 1e-10, "n = {n}: residual {residual}");
+    }
+    // Not positive definite: refused.
+    let mut m = Mat::<f64>::identity(3, 3);
+    m[(1, 1)] = -1.0;
+    assert!(cholesky_solve_fixed(&m, &mut Mat::zeros(3, 1)).is_none());
 }

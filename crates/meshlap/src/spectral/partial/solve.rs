@@ -108,8 +108,9 @@ impl ShiftInvert<'_> {
         }
     }
 
-    /// [`Self::solve_fixed`] compiled for AVX2 + FMA when the CPU has them (the
-    /// default x86-64 target has only SSE2; faer dispatches the same way at run time).
+    /// [`Self::solve_fixed`] compiled for AVX2 + FMA when [`crate::cpu::avx2_fma`]
+    /// allows it (the CPU has them and `MESHLAP_PORTABLE` is not set; the default
+    /// x86-64 target has only SSE2; faer dispatches the same way at run time).
     fn solve_dispatch<const W: usize>(
         &self,
         sym: &faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky<usize>,
@@ -125,10 +126,8 @@ impl ShiftInvert<'_> {
             ) {
                 this.solve_fixed::<W>(sym, out)
             }
-            if std::arch::is_x86_feature_detected!("avx2")
-                && std::arch::is_x86_feature_detected!("fma")
-            {
-                // SAFETY: the CPU supports the features `avx2` is compiled for.
+            if crate::cpu::avx2_fma() {
+                // SAFETY: `avx2_fma()` is only true when the CPU has AVX2 and FMA.
                 unsafe { avx2::<W>(self, sym, out) };
                 return;
             }
