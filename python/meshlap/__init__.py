@@ -497,7 +497,7 @@ def render(
     colormap: str = "viridis",
     azimuth: float = 0.0,
     elevation: float = 0.0,
-    size: Tuple[int, int] = (800, 800),
+    size: Optional[Tuple[int, int]] = None,
     *,
     smooth: bool = False,
     wireframe: bool = False,
@@ -506,13 +506,14 @@ def render(
     """A picture of the mesh by meshlap's software rasterizer (orthographic, framed
     to fill the picture, two-sided Lambert shading). ``scalars``: one value per
     vertex (e.g. an eigenvector) through ``colormap`` (``viridis`` or ``coolwarm``),
-    with a color bar unless ``legend=False``. ``size`` is (width, height).
+    with a color bar unless ``legend=False``. ``size`` is (width, height), by default
+    the library's (800, 800).
 
     Returns an (H, W, 3) uint8 RGB array."""
     v, f = _mesh(V, F)
     s = None if scalars is None else _vector(scalars, "scalars", v.shape[0])
-    w, h = size
-    return _meshlap.render(v, f, s, colormap, float(azimuth), float(elevation), int(w), int(h), smooth, wireframe, legend)
+    w, h = (None, None) if size is None else (int(size[0]), int(size[1]))
+    return _meshlap.render(v, f, s, colormap, float(azimuth), float(elevation), w, h, smooth, wireframe, legend)
 
 
 # ----------------------------------------------------------------------------------

@@ -111,6 +111,17 @@ fn failures_leave_no_output_file() {
     ]);
     assert_eq!(o.status.code(), Some(1));
     assert!(dir_is_empty(dir.path()));
+    // Patch colours need PLY: refused by the writer, nothing written.
+    let o = meshlap(&[
+        "partition",
+        "builtin:icosphere:2",
+        "-p",
+        "40",
+        "-o",
+        dir.path().join("p.obj").to_str().unwrap(),
+    ]);
+    assert_one_line_error(&o, "need a PLY file");
+    assert!(dir_is_empty(dir.path()));
 }
 
 #[test]

@@ -14,6 +14,15 @@ use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2, PyUntypedArray
 use pyo3::prelude::*;
 use std::sync::{Arc, RwLock};
 
+/// Adds each `#[pyfunction]` named to the module `m`: `add_functions!(m; f, g)`.
+macro_rules! add_functions {
+    ($m:expr; $($f:ident),+ $(,)?) => {{
+        $( $m.add_function(pyo3::wrap_pyfunction!($f, $m)?)?; )+
+        Ok(())
+    }};
+}
+pub(crate) use add_functions;
+
 mod mesh_fns;
 mod spectral_fns;
 mod watermark_fns;

@@ -260,7 +260,7 @@ fn compare(
 /// wireframe, legend)` → `(H, W, 3)` uint8.
 #[pyfunction]
 #[pyo3(signature = (v, f, scalars=None, colormap=None, azimuth=0.0, elevation=0.0,
-    width=800, height=800, smooth=false, wireframe=false, legend=true))]
+    width=None, height=None, smooth=false, wireframe=false, legend=true))]
 #[allow(clippy::too_many_arguments)]
 fn render<'py>(
     py: Python<'py>,
@@ -270,8 +270,8 @@ fn render<'py>(
     colormap: Option<&str>,
     azimuth: f64,
     elevation: f64,
-    width: u32,
-    height: u32,
+    width: Option<u32>,
+    height: Option<u32>,
     smooth: bool,
     wireframe: bool,
     legend: bool,
@@ -302,8 +302,8 @@ fn render<'py>(
         None => Coloring::Clay,
     };
     let opts = RenderOptions {
-        width,
-        height,
+        width: width.unwrap_or(RenderOptions::DEFAULT_SIZE),
+        height: height.unwrap_or(RenderOptions::DEFAULT_SIZE),
         azimuth,
         elevation,
         smooth,
@@ -318,15 +318,5 @@ fn render<'py>(
 }
 
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    m.add_function(wrap_pyfunction!(read_mesh, m)?)?;
-    m.add_function(wrap_pyfunction!(write_mesh, m)?)?;
-    m.add_function(wrap_pyfunction!(info, m)?)?;
-    m.add_function(wrap_pyfunction!(clean, m)?)?;
-    m.add_function(wrap_pyfunction!(repair_sql, m)?)?;
-    m.add_function(wrap_pyfunction!(partition, m)?)?;
-    m.add_function(wrap_pyfunction!(compress, m)?)?;
-    m.add_function(wrap_pyfunction!(decompress, m)?)?;
-    m.add_function(wrap_pyfunction!(compare, m)?)?;
-    m.add_function(wrap_pyfunction!(render, m)?)?;
-    Ok(())
+    crate::add_functions!(m; read_mesh, write_mesh, info, clean, repair_sql, partition, compress, decompress, compare, render)
 }

@@ -472,15 +472,5 @@ fn wks<'py>(
 }
 
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    m.add_function(wrap_pyfunction!(operator, m)?)?;
-    m.add_function(wrap_pyfunction!(mass_matrix, m)?)?;
-    m.add_function(wrap_pyfunction!(properties, m)?)?;
-    m.add_function(wrap_pyfunction!(eigs, m)?)?;
-    m.add_function(wrap_pyfunction!(eigsh, m)?)?;
-    m.add_function(wrap_pyfunction!(project, m)?)?;
-    m.add_function(wrap_pyfunction!(compaction, m)?)?;
-    m.add_function(wrap_pyfunction!(smooth, m)?)?;
-    m.add_function(wrap_pyfunction!(hks, m)?)?;
-    m.add_function(wrap_pyfunction!(wks, m)?)?;
-    Ok(())
+    crate::add_functions!(m; operator, mass_matrix, properties, eigs, eigsh, project, compaction, smooth, hks, wks)
 }

@@ -107,7 +107,5 @@ fn watermark_detect(
 }
 
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    m.add_function(wrap_pyfunction!(watermark_embed, m)?)?;
-    m.add_function(wrap_pyfunction!(watermark_detect, m)?)?;
-    Ok(())
+    crate::add_functions!(m; watermark_embed, watermark_detect)
 }

@@ -92,11 +92,14 @@ pub struct PartitionOptions {
 }
 
 impl PartitionOptions {
-    /// Defaults for patches of about `patch_size` vertices (seed 0).
+    /// METIS's default seed (`meshlap partition --seed`).
+    pub const DEFAULT_SEED: i32 = 0;
+
+    /// Defaults for patches of about `patch_size` vertices (seed [`Self::DEFAULT_SEED`]).
     pub fn new(patch_size: usize) -> Self {
         Self {
             patch_size,
-            seed: 0,
+            seed: Self::DEFAULT_SEED,
             min_fragment: None,
             max_patch: None,
         }

@@ -302,4 +302,17 @@ fn ply_with_scalar_and_colours() {
         Err(IoError::InvalidData(_))
     ));
     assert!(!dir.path().join("x.ply").exists());
+    // Properties are refused, not dropped, for formats without them.
+    for ext in ["obj", "off", "stl"] {
+        let path = dir.path().join(format!("x.{ext}"));
+        let colors_only = WriteOptions {
+            vertex_colors: Some(&c),
+            ..Default::default()
+        };
+        assert!(matches!(
+            write_mesh(&path, &m, &colors_only),
+            Err(IoError::PropertiesNeedPly { .. })
+        ));
+        assert!(!path.exists());
+    }
 }

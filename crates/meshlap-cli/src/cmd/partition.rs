@@ -20,7 +20,7 @@ pub struct Args {
     #[arg(long, short = 'p', value_name = "P")]
     pub patch_size: usize,
     /// METIS random seed.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = PartitionOptions::DEFAULT_SEED)]
     pub seed: i32,
     /// Write the mesh as PLY with per-vertex colours by patch and a `patch` scalar.
     #[arg(long, short, value_name = "OUT.ply")]
@@ -41,15 +41,6 @@ struct Report<'a> {
 }
 
 pub fn run(args: &Args) -> meshlap::Result<()> {
-    if let Some(out) = &args.output {
-        let ext = out.extension().and_then(|e| e.to_str()).unwrap_or("");
-        if !ext.eq_ignore_ascii_case("ply") {
-            return Err(meshlap::Error::InvalidArgument(format!(
-                "--output must be a .ply file (patch colours), got {}",
-                out.display()
-            )));
-        }
-    }
     let input = args.mesh.open()?;
     let opts = PartitionOptions {
         seed: args.seed,

@@ -4,7 +4,7 @@ use super::spectrum::BasisArgs;
 use crate::common::print_json;
 use meshlap::io::{write_mesh, WriteOptions};
 use meshlap::operator::OperatorKind;
-use meshlap::spectral::project::{project, Keep, ProjectParams};
+use meshlap::spectral::project::{project, Keep, KeepError, ProjectParams};
 use meshlap::spectral::EigenPath;
 use serde::Serialize;
 use std::path::PathBuf;
@@ -68,14 +68,10 @@ struct ProjectJson<'a> {
 pub fn run(args: &Args) -> meshlap::Result<()> {
     let input = args.basis.mesh.open()?;
     let n = input.mesh.n_vertices();
-    let bad_keep = || {
-        meshlap::Error::InvalidArgument(format!(
-            "--keep must be a count in 1..={n} or a percentage like 10%, got `{}`",
-            args.keep
-        ))
-    };
-    let keep: Keep = args.keep.parse().map_err(|_| bad_keep())?;
-    keep.resolve(n).map_err(|_| bad_keep())?;
+    // The library's message names the value; the hint names the flag.
+    let hint = |e: KeepError| meshlap::Error::InvalidArgument(format!("--{e}"));
+    let keep: Keep = args.keep.parse().map_err(hint)?;
+    keep.resolve(n).map_err(hint)?;
     let params = ProjectParams {
         operator: super::operator::options(args.basis.sql_diagonal, args.basis.mass),
         basis: args.basis.options(),

@@ -48,10 +48,10 @@ pub struct Args {
     #[command(flatten)]
     pub io: MeshInOut,
     /// Image width in pixels.
-    #[arg(long, default_value_t = 800)]
+    #[arg(long, default_value_t = RenderOptions::DEFAULT_SIZE)]
     pub width: u32,
     /// Image height in pixels.
-    #[arg(long, default_value_t = 800)]
+    #[arg(long, default_value_t = RenderOptions::DEFAULT_SIZE)]
     pub height: u32,
     /// Rotation about the vertical axis, degrees.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]

@@ -285,27 +285,18 @@ pub fn cost(
             }
         }
     }
-    let mut t = Table::new(
+    let mut t = Table::from_columns(
         "Cost of the ED-transform (Zhang 2004 Fig. 3), seconds",
+        &rows,
         &[
-            "mesh",
-            "n",
-            "operator",
-            "path",
-            "eigendecomposition",
-            "coefficients",
+            ("mesh", &|r: &&CostRow| r.mesh.clone()),
+            ("n", &|r| r.n.to_string()),
+            ("operator", &|r| r.operator.clone()),
+            ("path", &|r| r.path.name().into()),
+            ("eigendecomposition", &|r| sig(Some(r.eigen_seconds), 3)),
+            ("coefficients", &|r| sig(Some(r.coefficient_seconds), 3)),
         ],
     );
-    for r in &rows {
-        t.push(vec![
-            r.mesh.clone(),
-            r.n.to_string(),
-            r.operator.clone(),
-            r.path.name().into(),
-            sig(Some(r.eigen_seconds), 3),
-            sig(Some(r.coefficient_seconds), 3),
-        ]);
-    }
     t.notes.push(format!(
         "BFS patches from vertex 0; medians of {} run(s). tl = the TL through its GL \
          similarity (symmetric solver, D-weighted projection); tl-general = non-symmetric \
@@ -477,35 +468,22 @@ pub fn compaction(
             )
         })
         .collect();
-    let mut t = Table::new(
+    let mut t = Table::from_columns(
         "Energy compaction (transform efficiency η, Zhang 2004 §4.9), centred positions",
+        &rows,
         &[
-            "model",
-            "smooth",
-            "n",
-            "operator",
-            "mean η",
-            "1−η(2% n)",
-            "1−η(5% n)",
-            "1−η(10% n)",
-            "m for 99%",
-            "m for 99.9%",
+            ("model", &|r: &&CompactionRow| r.model.clone()),
+            ("smooth", &|r| if r.smooth { "yes" } else { "no" }.into()),
+            ("n", &|r| r.n.to_string()),
+            ("operator", &|r| r.operator.clone()),
+            ("mean η", &|r| format!("{:.6}", r.mean_efficiency)),
+            ("1−η(2% n)", &|r| sig(Some(r.residual_at[0]), 3)),
+            ("1−η(5% n)", &|r| sig(Some(r.residual_at[1]), 3)),
+            ("1−η(10% n)", &|r| sig(Some(r.residual_at[2]), 3)),
+            ("m for 99%", &|r| r.m_99.to_string()),
+            ("m for 99.9%", &|r| r.m_999.to_string()),
         ],
     );
-    for r in &rows {
-        t.push(vec![
-            r.model.clone(),
-            if r.smooth { "yes" } else { "no" }.into(),
-            r.n.to_string(),
-            r.operator.clone(),
-            format!("{:.6}", r.mean_efficiency),
-            sig(Some(r.residual_at[0]), 3),
-            sig(Some(r.residual_at[1]), 3),
-            sig(Some(r.residual_at[2]), 3),
-            r.m_99.to_string(),
-            r.m_999.to_string(),
-        ]);
-    }
     for (m, ops) in &order {
         t.notes.push(format!(
             "{m}: {} (best first, by mean η)",

@@ -17,12 +17,33 @@ pub struct Table {
     pub notes: Vec<String>,
 }
 
+/// A column of [`Table::from_columns`]: its name and how a row formats its cell.
+pub type Column<'a, R> = (&'a str, &'a dyn Fn(&R) -> String);
+
 impl Table {
     /// An empty table with a caption and column names.
     pub fn new(title: impl Into<String>, header: &[&str]) -> Self {
         Table {
             title: title.into(),
             header: header.iter().map(|s| s.to_string()).collect(),
+            ..Default::default()
+        }
+    }
+
+    /// A table of `rows`, one column per `(name, cell)`: each column's name beside
+    /// the function that formats its cell, so the two cannot drift apart.
+    pub fn from_columns<R>(
+        title: impl Into<String>,
+        rows: impl IntoIterator<Item = R>,
+        columns: &[Column<'_, R>],
+    ) -> Self {
+        Table {
+            title: title.into(),
+            header: columns.iter().map(|(name, _)| name.to_string()).collect(),
+            rows: rows
+                .into_iter()
+                .map(|r| columns.iter().map(|(_, cell)| cell(&r)).collect())
+                .collect(),
             ..Default::default()
         }
     }
@@ -136,6 +157,21 @@ mod tests {
         );
         assert!(md.ends_with("\nnote\n"));
         assert_eq!(t.to_csv(), "a,b|c\n1,\"x,y\"\n22,\n");
+    }
+
+    #[test]
+    fn columns_pair_names_with_cells() {
+        let rows = [(1, "x"), (22, "y")];
+        let t = Table::from_columns(
+            "T",
+            &rows,
+            &[
+                ("n", &|r: &&(i32, &str)| r.0.to_string()),
+                ("s", &|r| r.1.to_uppercase()),
+            ],
+        );
+        assert_eq!(t.header, ["n", "s"]);
+        assert_eq!(t.to_csv(), "n,s\n1,X\n22,Y\n");
     }
 
     #[test]

@@ -366,42 +366,31 @@ pub fn table(attacks: &[AttackResult]) -> Table {
 
 /// The distortion and false-positive table.
 pub fn summary_table(s: &[MeshSummary]) -> Table {
-    let mut t = Table::new(
+    Table::from_columns(
         "Distortion and false-positive checks (timings taken under load)",
+        s,
         &[
-            "mesh",
-            "n",
-            "operator",
-            "patches",
-            "chips/bit",
-            "MRMS",
-            "MSDM2",
-            "embed s",
-            "detect s",
-            "unmarked min log10 p",
-            "wrong key min log10 p",
-            "false detections",
-            "attacks without errors",
+            ("mesh", &|r: &&MeshSummary| r.mesh.clone()),
+            ("n", &|r| r.vertices.to_string()),
+            ("operator", &|r| r.operator.name().into()),
+            ("patches", &|r| r.patches.to_string()),
+            ("chips/bit", &|r| r.coefficients_per_bit.to_string()),
+            ("MRMS", &|r| sig(Some(r.mrms), 3)),
+            ("MSDM2", &|r| sig(r.msdm2, 3)),
+            ("embed s", &|r| format!("{:.2}", r.embed_seconds)),
+            ("detect s", &|r| format!("{:.2}", r.detect_seconds)),
+            ("unmarked min log10 p", &|r| {
+                format!("{:.1}", r.unmarked_min_log10_p)
+            }),
+            ("wrong key min log10 p", &|r| {
+                format!("{:.1}", r.wrong_key_min_log10_p)
+            }),
+            ("false detections", &|r| r.false_detections.to_string()),
+            ("attacks without errors", &|r| {
+                format!("{}/{}", r.attacks_without_errors, r.attacks)
+            }),
         ],
-    );
-    for r in s {
-        t.push(vec![
-            r.mesh.clone(),
-            r.vertices.to_string(),
-            r.operator.name().into(),
-            r.patches.to_string(),
-            r.coefficients_per_bit.to_string(),
-            sig(Some(r.mrms), 3),
-            sig(r.msdm2, 3),
-            format!("{:.2}", r.embed_seconds),
-            format!("{:.2}", r.detect_seconds),
-            format!("{:.1}", r.unmarked_min_log10_p),
-            format!("{:.1}", r.wrong_key_min_log10_p),
-            r.false_detections.to_string(),
-            format!("{}/{}", r.attacks_without_errors, r.attacks),
-        ]);
-    }
-    t
+    )
 }
 
 fn write(

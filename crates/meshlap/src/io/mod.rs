@@ -132,6 +132,16 @@ pub enum IoError {
         #[source]
         source: faer::sparse::CreationError,
     },
+    /// Per-vertex scalars or colours were given for a format that cannot store them
+    /// (only PLY has vertex properties): nothing is written rather than dropping them
+    /// silently. Fix: write a `.ply` file (or pass no scalars and colours).
+    #[error("{path}: per-vertex scalars and colours need a PLY file, not {format}")]
+    PropertiesNeedPly {
+        /// The path that was to be written.
+        path: PathBuf,
+        /// The format it names.
+        format: Format,
+    },
     /// A mesh to write has a NaN or infinite coordinate (an upstream computation
     /// diverged), or for STL one beyond the `f32` range: nothing is written. Fix: the step that produced the mesh (a
     /// degenerate face, too large a smoothing step) — the vertex is named.
@@ -346,6 +356,12 @@ pub fn write_mesh(path: &Path, mesh: &TriMesh, opts: &WriteOptions) -> Result<()
         return Err(IoError::NonFiniteOutput {
             path: path.to_path_buf(),
             vertex,
+        });
+    }
+    if format != Format::Ply && (opts.vertex_scalar.is_some() || opts.vertex_colors.is_some()) {
+        return Err(IoError::PropertiesNeedPly {
+            path: path.to_path_buf(),
+            format,
         });
     }
     let n = mesh.n_vertices();

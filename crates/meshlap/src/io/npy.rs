@@ -59,6 +59,18 @@ pub fn read_npy(path: &Path) -> Result<Mat<f64>, IoError> {
                 what: format!("a header of {header_end} bytes"),
             });
         }
+        // npyz parses the header's dict literal with backtracking that takes time
+        // exponential in the depth of nested `{`/`[` (21 levels: hours; found by the
+        // `npy` fuzz target). A NumPy header nests at most a few levels (dict, a
+        // structured dtype's list and tuples, the shape tuple).
+        let start = if bytes[6] == 1 { 10 } else { 12 };
+        let depth = nesting_depth(&bytes[start..header_end as usize]);
+        if depth > MAX_HEADER_NESTING {
+            return Err(header_error(format!(
+                "brackets nested {depth} deep in the header (an array header nests at most \
+                 {MAX_HEADER_NESTING})"
+            )));
+        }
     }
     let npy = NpyFile::new(&bytes[..]).map_err(|e| header_error(e.to_string()))?;
     let (n, k) = match *npy.shape() {
@@ -123,6 +135,27 @@ pub fn read_npy(path: &Path) -> Result<Mat<f64>, IoError> {
 /// Byte offset of the array data: magic (6) + version (2) + header length (2 bytes for
 /// version 1, 4 for versions 2 and 3) + the header text. Only called on at least 12
 /// bytes that start with the magic, so the fields exist.
+/// Deepest nesting of brackets a header may have: `{'descr': [('f', '<f8', (3,))],
+/// 'shape': (2,)}` nests 4 deep.
+const MAX_HEADER_NESTING: usize = 6;
+
+/// The deepest nesting of `{`, `[` and `(` in `header` (quotes ignored: a bracket in a
+/// field name counts too, which only refuses structured dtypes, unsupported anyway).
+fn nesting_depth(header: &[u8]) -> usize {
+    let (mut depth, mut deepest) = (0usize, 0usize);
+    for &b in header {
+        match b {
+            b'{' | b'[' | b'(' => {
+                depth += 1;
+                deepest = deepest.max(depth);
+            }
+            b'}' | b']' | b')' => depth = depth.saturating_sub(1),
+            _ => {}
+        }
+    }
+    deepest
+}
+
 fn data_offset(bytes: &[u8]) -> u64 {
     match bytes.get(6) {
         Some(1) => 10 + u16::from_le_bytes([bytes[8], bytes[9]]) as u64,
@@ -253,6 +286,20 @@ mod tests {
             read_bytes(&hostile),
             Err(IoError::Truncated { .. })
         ));
+        // Brackets nested deeper than any array header: refused at once instead of
+        // npyz's exponential backtracking (the fuzz target's timeout finding, whose
+        // input is in tests/data/fuzz/npy/).
+        let nested = handmade(
+            "<f8",
+            false,
+            &format!("{}3,{}", "[".repeat(21), "]".repeat(21)),
+            &[0; 8],
+        );
+        let t = std::time::Instant::now();
+        assert!(matches!(read_bytes(&nested), Err(IoError::Header { .. })));
+        assert!(t.elapsed().as_secs_f64() < 0.5);
+        let ok = handmade("<f8", false, "(1,)", &[0; 8]);
+        assert_eq!(nesting_depth(&ok[10..]), 2);
         let rank3 = handmade("<f8", false, "(1, 1, 1)", &[0; 8]);
         assert!(matches!(read_bytes(&rank3), Err(IoError::Header { .. })));
         assert!(matches!(

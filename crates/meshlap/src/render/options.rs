@@ -42,11 +42,16 @@ pub struct RenderOptions {
 /// The smallest width and height, in pixels, of a picture that gets a legend.
 pub const LEGEND_MIN_SIZE: (u32, u32) = (160, 120);
 
+impl RenderOptions {
+    /// Default width and height in pixels (`meshlap render` and `meshlap.render`).
+    pub const DEFAULT_SIZE: u32 = 800;
+}
+
 impl Default for RenderOptions {
     fn default() -> Self {
         RenderOptions {
-            width: 640,
-            height: 640,
+            width: Self::DEFAULT_SIZE,
+            height: Self::DEFAULT_SIZE,
             azimuth: 0.0,
             elevation: 0.0,
             smooth: false,

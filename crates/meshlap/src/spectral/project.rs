@@ -34,12 +34,24 @@ pub enum Keep {
 
 /// A `--keep` value that is neither a count nor a percentage in range.
 #[derive(Debug, thiserror::Error)]
-#[error("keep must be a count in 1..={n} or a percentage like 10%, got `{given}`")]
+#[error(
+    "keep must be a count in {} or a percentage in (0, 100] such as 10%, got `{given}`",
+    count_range(*.n)
+)]
 pub struct KeepError {
     /// The text or value given.
     pub given: String,
     /// The vertex count it was checked against (0 when parsed without a mesh).
     pub n: usize,
+}
+
+/// `1..=n`, or `1..` when parsed without a mesh (`n = 0`).
+fn count_range(n: usize) -> String {
+    if n == 0 {
+        "1..".into()
+    } else {
+        format!("1..={n}")
+    }
 }
 
 impl FromStr for Keep {

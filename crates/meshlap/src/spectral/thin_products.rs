@@ -52,7 +52,7 @@ pub fn tn(v: MatRef<'_, f64>, w: MatRef<'_, f64>) -> Mat<f64> {
     fn go(v: MatRef<'_, f64>, w: MatRef<'_, f64>, threads: usize) -> Mat<f64> {
         if threads <= 1 {
             let mut c = Mat::<f64>::zeros(v.ncols(), w.ncols());
-            tn_seq(v, w, c.as_mut());
+            product_seq::<true>(v, w, c.as_mut());
             return c;
         }
         let h = v.nrows() / 2;
@@ -75,7 +75,7 @@ pub fn sub_nn(w: MatMut<'_, f64>, v: MatRef<'_, f64>, c: MatRef<'_, f64>) {
     assert_eq!(w.ncols(), c.ncols(), "sub_nn: column counts differ");
     fn go(w: MatMut<'_, f64>, v: MatRef<'_, f64>, c: MatRef<'_, f64>, threads: usize) {
         if threads <= 1 {
-            sub_nn_seq(w, v, c);
+            product_seq::<false>(v, c, w);
             return;
         }
         let h = v.nrows() / 2;
@@ -99,94 +99,64 @@ fn group_width(left: usize) -> usize {
     }
 }
 
-/// One thread's `C += Vᵀ W`.
-fn tn_seq(v: MatRef<'_, f64>, w: MatRef<'_, f64>, mut c: MatMut<'_, f64>) {
-    if !unit_rows(v) || !unit_rows(w) || v.ncols() == 0 || w.ncols() == 0 {
-        matmul(c, Accum::Add, v.transpose(), w, 1.0, Par::Seq);
+/// One thread's `C += Vᵀ W` (`TN`, `thin` = `W`, `out` = `C`) or `W −= V C`
+/// (`!TN`, `thin` = `C`, `out` = `W`), in groups of 8, 4, 2 or 1 columns of `out`.
+fn product_seq<const TN: bool>(
+    v: MatRef<'_, f64>,
+    thin: MatRef<'_, f64>,
+    mut out: MatMut<'_, f64>,
+) {
+    let tall = if TN { thin } else { out.rb() };
+    if !unit_rows(v) || !unit_rows(tall) || v.ncols() == 0 || out.ncols() == 0 {
+        if TN {
+            matmul(out, Accum::Add, v.transpose(), thin, 1.0, Par::Seq);
+        } else {
+            matmul(out, Accum::Add, v, thin, -1.0, Par::Seq);
+        }
         return;
     }
     let mut j0 = 0;
-    while j0 < w.ncols() {
-        let g = group_width(w.ncols() - j0);
-        let wg = w.subcols(j0, g);
-        let cg = c.rb_mut().subcols_mut(j0, g);
+    while j0 < out.ncols() {
+        let g = group_width(out.ncols() - j0);
+        let thin = thin.subcols(j0, g);
+        let out = out.rb_mut().subcols_mut(j0, g);
         match g {
-            8 => dispatch_tn::<8>(v, wg, cg),
-            4 => dispatch_tn::<4>(v, wg, cg),
-            2 => dispatch_tn::<2>(v, wg, cg),
-            _ => dispatch_tn::<1>(v, wg, cg),
+            8 => crate::cpu::dispatch(Group::<8, TN> { v, thin, out }),
+            4 => crate::cpu::dispatch(Group::<4, TN> { v, thin, out }),
+            2 => crate::cpu::dispatch(Group::<2, TN> { v, thin, out }),
+            _ => crate::cpu::dispatch(Group::<1, TN> { v, thin, out }),
         }
         j0 += g;
     }
 }
 
-/// One thread's `W −= V C`.
-fn sub_nn_seq(mut w: MatMut<'_, f64>, v: MatRef<'_, f64>, c: MatRef<'_, f64>) {
-    if !unit_rows(v) || !unit_rows(w.rb()) || v.ncols() == 0 || w.ncols() == 0 {
-        matmul(w, Accum::Add, v, c, -1.0, Par::Seq);
-        return;
-    }
-    let mut j0 = 0;
-    while j0 < w.ncols() {
-        let g = group_width(w.ncols() - j0);
-        let wg = w.rb_mut().subcols_mut(j0, g);
-        let cg = c.subcols(j0, g);
-        match g {
-            8 => dispatch_nn::<8>(wg, v, cg),
-            4 => dispatch_nn::<4>(wg, v, cg),
-            2 => dispatch_nn::<2>(wg, v, cg),
-            _ => dispatch_nn::<1>(wg, v, cg),
+/// One kernel call on `G` columns of `out`, on the build `crate::cpu::dispatch`
+/// picks: `C += Vᵀ W` when `TN`, `W −= V C` otherwise (see [`product_seq`]).
+struct Group<'a, 'b, const G: usize, const TN: bool> {
+    v: MatRef<'a, f64>,
+    thin: MatRef<'a, f64>,
+    out: MatMut<'b, f64>,
+}
+
+impl<const G: usize, const TN: bool> crate::cpu::Kernel for Group<'_, '_, G, TN> {
+    type Output = ();
+    #[inline(always)]
+    fn portable(self) {
+        if TN {
+            tn_kernel::<G, false>(self.v, self.thin, self.out)
+        } else {
+            nn_kernel::<G, false>(self.out, self.v, self.thin)
         }
-        j0 += g;
-    }
-}
-
-/// `C += Vᵀ W` for `G` columns of `W`, on the build `crate::cpu::dispatch` picks.
-struct Tn<'a, 'b, const G: usize> {
-    v: MatRef<'a, f64>,
-    w: MatRef<'a, f64>,
-    c: MatMut<'b, f64>,
-}
-
-impl<const G: usize> crate::cpu::Kernel for Tn<'_, '_, G> {
-    type Output = ();
-    #[inline(always)]
-    fn portable(self) {
-        tn_kernel::<G, false>(self.v, self.w, self.c)
     }
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     fn avx2_fma(self) {
-        x86::tn_kernel::<G>(self.v, self.w, self.c)
+        if TN {
+            x86::tn_kernel::<G>(self.v, self.thin, self.out)
+        } else {
+            x86::nn_kernel::<G>(self.out, self.v, self.thin)
+        }
     }
-}
-
-/// `W −= V C` for `G` columns of `W`, on the build `crate::cpu::dispatch` picks.
-struct Nn<'a, 'b, const G: usize> {
-    w: MatMut<'b, f64>,
-    v: MatRef<'a, f64>,
-    c: MatRef<'a, f64>,
-}
-
-impl<const G: usize> crate::cpu::Kernel for Nn<'_, '_, G> {
-    type Output = ();
-    #[inline(always)]
-    fn portable(self) {
-        nn_kernel::<G, false>(self.w, self.v, self.c)
-    }
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    fn avx2_fma(self) {
-        x86::nn_kernel::<G>(self.w, self.v, self.c)
-    }
-}
-
-fn dispatch_tn<const G: usize>(v: MatRef<'_, f64>, w: MatRef<'_, f64>, c: MatMut<'_, f64>) {
-    crate::cpu::dispatch(Tn::<G> { v, w, c })
-}
-
-fn dispatch_nn<const G: usize>(w: MatMut<'_, f64>, v: MatRef<'_, f64>, c: MatRef<'_, f64>) {
-    crate::cpu::dispatch(Nn::<G> { w, v, c })
 }
 
 #[inline(always)]
@@ -196,6 +166,20 @@ fn fma<const FMA: bool>(a: f64, b: f64, c: f64) -> f64 {
     } else {
         a * b + c
     }
+}
+
+/// The row ranges `r0..r1` of [`CHUNK`] rows (the last one shorter) covering `0..n`.
+#[inline(always)]
+fn chunks(n: usize) -> impl Iterator<Item = (usize, usize)> {
+    (0..n)
+        .step_by(CHUNK)
+        .map(move |r0| (r0, (r0 + CHUNK).min(n)))
+}
+
+/// Columns `0..G` of a unit-row-stride view, rows `r0..r1`.
+#[inline(always)]
+fn col_slices<const G: usize>(m: MatRef<'_, f64>, r0: usize, r1: usize) -> [&[f64]; G] {
+    std::array::from_fn(|j| col_slice(m, j, r0, r1))
 }
 
 /// Column `j` of a unit-row-stride view, rows `r0..r1`.
@@ -215,14 +199,11 @@ fn tn_kernel<const G: usize, const FMA: bool>(
     w: MatRef<'_, f64>,
     mut c: MatMut<'_, f64>,
 ) {
-    let n = v.nrows();
     let s = v.ncols();
-    let mut r0 = 0;
-    while r0 < n {
-        let r1 = (r0 + CHUNK).min(n);
+    for (r0, r1) in chunks(v.nrows()) {
         let len = r1 - r0;
         let quads = len / 4 * 4;
-        let ws: [&[f64]; G] = std::array::from_fn(|j| col_slice(w, j, r0, r1));
+        let ws = col_slices::<G>(w, r0, r1);
         for i in 0..s {
             let vi = col_slice(v, i, r0, r1);
             let mut acc = [[0.0f64; 4]; G];
@@ -245,7 +226,6 @@ fn tn_kernel<const G: usize, const FMA: bool>(
                 c[(i, j)] += t;
             }
         }
-        r0 = r1;
     }
 }
 
@@ -256,11 +236,8 @@ fn nn_kernel<const G: usize, const FMA: bool>(
     v: MatRef<'_, f64>,
     c: MatRef<'_, f64>,
 ) {
-    let n = v.nrows();
     let s = v.ncols();
-    let mut r0 = 0;
-    while r0 < n {
-        let r1 = (r0 + CHUNK).min(n);
+    for (r0, r1) in chunks(v.nrows()) {
         let len = r1 - r0;
         let mut i = 0;
         while i < s {
@@ -290,14 +267,13 @@ fn nn_kernel<const G: usize, const FMA: bool>(
             }
             i += t;
         }
-        r0 = r1;
     }
 }
 
 /// The AVX2 + FMA kernels (4 doubles per register), same loops as the portable ones.
 #[cfg(target_arch = "x86_64")]
 mod x86 {
-    use super::{col_slice, CHUNK};
+    use super::{chunks, col_slice, col_slices};
     use faer::reborrow::ReborrowMut;
     use faer::{MatMut, MatRef};
     use std::arch::x86_64::*;
@@ -312,14 +288,11 @@ mod x86 {
         w: MatRef<'_, f64>,
         mut c: MatMut<'_, f64>,
     ) {
-        let n = v.nrows();
         let s = v.ncols();
-        let mut r0 = 0;
-        while r0 < n {
-            let r1 = (r0 + CHUNK).min(n);
+        for (r0, r1) in chunks(v.nrows()) {
             let len = r1 - r0;
             let quads = len / 4 * 4;
-            let ws: [&[f64]; G] = std::array::from_fn(|j| col_slice(w, j, r0, r1));
+            let ws = col_slices::<G>(w, r0, r1);
             let mut i = 0;
             while i < s {
                 let t = (s - i).min(4);
@@ -363,7 +336,6 @@ mod x86 {
                 }
                 i += t;
             }
-            r0 = r1;
         }
     }
 
@@ -373,11 +345,8 @@ mod x86 {
         v: MatRef<'_, f64>,
         c: MatRef<'_, f64>,
     ) {
-        let n = v.nrows();
         let s = v.ncols();
-        let mut r0 = 0;
-        while r0 < n {
-            let r1 = (r0 + CHUNK).min(n);
+        for (r0, r1) in chunks(v.nrows()) {
             let len = r1 - r0;
             let quads = len / 4 * 4;
             let mut i = 0;
@@ -418,7 +387,6 @@ mod x86 {
                 }
                 i += t;
             }
-            r0 = r1;
         }
     }
 }

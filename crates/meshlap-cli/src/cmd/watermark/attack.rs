@@ -28,7 +28,7 @@ pub struct Args {
     #[arg(long, allow_negative_numbers = true)]
     pub amount: f64,
     /// Subdivision scheme (subdivide).
-    #[arg(long, default_value = "midpoint")]
+    #[arg(long, value_enum, default_value_t = SubdivisionScheme::default())]
     pub scheme: SubdivisionScheme,
     /// Smoothing step λ in (0, 1] (smooth).
     #[arg(long, default_value_t = AttackOptions::DEFAULT_LAMBDA)]
