@@ -149,3 +149,47 @@ def test_filter_errors(tet):
         meshlap.project(V, F, "kirchhoff", 5)
     with pytest.raises(meshlap.PartitionError):
         meshlap.partition(V, F, 0)
+
+
+def test_index_dtypes_and_layouts_give_the_same_operator(tet):
+    V, F = tet
+    ref = meshlap.operator(V, F, "cotan").toarray()
+    for f in [F.astype(np.uint32), F.astype(np.int32), F.astype(np.uint64), np.asfortranarray(F), F[:, :]]:
+        assert np.array_equal(meshlap.operator(V, f, "cotan").toarray(), ref)
+    for v in [V.astype(np.float32).astype(np.float64), np.asfortranarray(V), V.astype(np.float32)]:
+        got = meshlap.operator(v, F, "kirchhoff").toarray()
+        assert np.array_equal(got, meshlap.operator(V, F, "kirchhoff").toarray())
+    # An index beyond the uint32 range is out of range, not wrapped.
+    big = F.copy()
+    big[1, 2] = 2**33
+    with pytest.raises(meshlap.MeshError, match=r"F\[1\] = \[.*8589934592\] refers to a vertex >= 4"):
+        meshlap.operator(V, big, "kirchhoff")
+
+
+def test_two_mesh_functions_name_their_arguments(tet):
+    V, F = tet
+    bad = V.copy()
+    bad[3, 0] = np.nan
+    with pytest.raises(meshlap.MeshError, match="Vb has a NaN or infinite coordinate at vertex 3"):
+        meshlap.compare(V, F, bad, F)
+    with pytest.raises(meshlap.MeshError, match=r"Fa\[0\] = \[0, 1, 9\] refers to a vertex >= 4, but Va has 4"):
+        meshlap.compare(V, np.array([[0, 1, 9]]), V, F)
+
+
+def test_operators_are_the_csr_arrays_scipy_builds(tet):
+    # meshlap builds its csr_array without scipy's argument checks when, on this
+    # scipy, that gives the same object; either way the result is a canonical CSR.
+    from meshlap import _csr_checked, _csr_direct_works, _meshlap
+
+    V, F = meshlap.read_mesh("builtin:icosphere:2")
+    L = meshlap.operator(V, F, "cotan")
+    parts = _meshlap.operator(V, F, "cotan", "zero-row-sum", "voronoi")
+    ref = _csr_checked(parts)
+    assert _csr_direct_works()
+    assert type(L) is type(ref) and L.shape == ref.shape and L.nnz == ref.nnz
+    assert L.has_canonical_format and L.has_sorted_indices
+    assert (L != ref).nnz == 0
+    x = np.arange(V.shape[0], dtype=float)
+    assert np.array_equal(L @ x, ref @ x)
+    assert abs(L - L.T).max() < 1e-12
+    assert np.allclose((L + sp.eye_array(V.shape[0])).toarray(), ref.toarray() + np.eye(V.shape[0]))

@@ -113,15 +113,43 @@ pub(crate) fn slice2<'a, T: numpy::Element>(
     Ok((s, r, c))
 }
 
-/// The mesh of `(V, F)`: V float64 (n, 3), F uint32 (m, 3), as given (validated,
-/// not cleaned: NaN/inf coordinates, out-of-range indices, repeated corners and an
-/// empty mesh are errors), with its connectivity.
+/// Face indices as the Python layer passes them: int64 (numpy's default integer) or
+/// uint32, shape (m, 3), C-contiguous.
+#[derive(FromPyObject)]
+pub(crate) enum FaceArray<'py> {
+    /// int64 indices (checked for negatives while converting).
+    I64(PyReadonlyArray2<'py, i64>),
+    /// uint32 indices.
+    U32(PyReadonlyArray2<'py, u32>),
+}
+
+/// The names of a mesh's two arguments, for error messages: `("V", "F")`, or
+/// `("Va", "Fa")` when a function takes two meshes.
+pub(crate) type Names = (&'static str, &'static str);
+
+/// `("V", "F")`.
+pub(crate) const VF: Names = ("V", "F");
+
+/// The mesh of `(V, F)`: V float64 (n, 3), F int64 or uint32 (m, 3), as given
+/// (validated, not cleaned: NaN/inf coordinates, out-of-range indices, repeated
+/// corners, duplicate faces and an empty mesh are errors), with its connectivity.
 pub(crate) fn mesh_of(
     py: Python<'_>,
     v: &PyReadonlyArray2<'_, f64>,
-    f: &PyReadonlyArray2<'_, u32>,
+    f: &FaceArray<'_>,
 ) -> PyResult<meshlap::input::Input> {
-    let raw = raw_mesh(py, v, f)?;
+    mesh_named(py, v, f, VF)
+}
+
+/// [`mesh_of`] with the arguments' names for the messages.
+pub(crate) fn mesh_named(
+    py: Python<'_>,
+    v: &PyReadonlyArray2<'_, f64>,
+    f: &FaceArray<'_>,
+    names: Names,
+) -> PyResult<meshlap::input::Input> {
+    let raw = raw_named(py, v, f, names)?;
+    let fname = names.1;
     // The library's operators assume what cleaning guarantees; refuse (never drop
     // silently) faces with a repeated corner and duplicate faces.
     if let Some((i, t)) = raw
@@ -133,7 +161,7 @@ pub(crate) fn mesh_of(
         return Err(raise_as(
             py,
             "MeshError",
-            format!("F[{i}] = {t:?} repeats a vertex; clean the mesh first (meshlap.clean)"),
+            format!("{fname}[{i}] = {t:?} repeats a vertex; clean the mesh first (meshlap.clean)"),
         ));
     }
     let mut seen = std::collections::HashMap::with_capacity(raw.faces.len());
@@ -144,7 +172,7 @@ pub(crate) fn mesh_of(
             return Err(raise_as(
                 py,
                 "MeshError",
-                format!("F[{i}] = {t:?} repeats face F[{j}]; clean the mesh first (meshlap.clean)"),
+                format!("{fname}[{i}] = {t:?} repeats face {fname}[{j}]; clean the mesh first (meshlap.clean)"),
             ));
         }
     }
@@ -156,18 +184,74 @@ pub(crate) fn mesh_of(
     compute(py, || meshlap::input::from_mesh("array", raw, None, &keep)).or_raise(py)
 }
 
-/// The mesh of `(V, F)` exactly as given (no check, no connectivity).
+/// The mesh of `(V, F)` exactly as given, checked by [`meshlap::TriMesh::validate`]
+/// (finite coordinates, indices in range, at least one face) with the arguments
+/// named in the message; no connectivity.
 pub(crate) fn raw_mesh(
     py: Python<'_>,
     v: &PyReadonlyArray2<'_, f64>,
-    f: &PyReadonlyArray2<'_, u32>,
+    f: &FaceArray<'_>,
 ) -> PyResult<meshlap::TriMesh> {
-    let (vs, _, _) = slice2(py, v, "V", Some(3))?;
-    let (fs, _, _) = slice2(py, f, "F", Some(3))?;
-    Ok(meshlap::TriMesh::new(
-        vs.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
-        fs.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
-    ))
+    raw_named(py, v, f, VF)
+}
+
+fn raw_named(
+    py: Python<'_>,
+    v: &PyReadonlyArray2<'_, f64>,
+    f: &FaceArray<'_>,
+    (vname, fname): Names,
+) -> PyResult<meshlap::TriMesh> {
+    let (vs, n, _) = slice2(py, v, vname, Some(3))?;
+    let positions: Vec<[f64; 3]> = vs.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    let bad_face = |i: usize, t: [i64; 3], what: &str| {
+        raise_as(
+            py,
+            "MeshError",
+            format!("{fname}[{i}] = [{}, {}, {}] {what}", t[0], t[1], t[2]),
+        )
+    };
+    let out_of_range = format!("refers to a vertex >= {n}, but {vname} has {n} vertices");
+    let faces: Vec<[u32; 3]> = match f {
+        FaceArray::U32(a) => {
+            let (fs, _, _) = slice2(py, a, fname, Some(3))?;
+            fs.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
+        }
+        FaceArray::I64(a) => {
+            let (fs, _, _) = slice2(py, a, fname, Some(3))?;
+            let mut out = Vec::with_capacity(fs.len() / 3);
+            for (i, c) in fs.chunks_exact(3).enumerate() {
+                let t = [c[0], c[1], c[2]];
+                if t.iter().any(|&x| x < 0) {
+                    return Err(bad_face(i, t, "has a negative vertex index"));
+                }
+                match t.map(u32::try_from) {
+                    [Ok(a), Ok(b), Ok(c)] => out.push([a, b, c]),
+                    _ => return Err(bad_face(i, t, &out_of_range)),
+                }
+            }
+            out
+        }
+    };
+    let mesh = meshlap::TriMesh::new(positions, faces);
+    match mesh.validate() {
+        Ok(()) => Ok(mesh),
+        Err(meshlap::mesh::MeshError::Empty) => Err(raise_as(
+            py,
+            "MeshError",
+            format!("{fname} is empty (shape (0, 3)): the mesh has no faces"),
+        )),
+        Err(meshlap::mesh::MeshError::NonFinite { vertex }) => Err(raise_as(
+            py,
+            "MeshError",
+            format!("{vname} has a NaN or infinite coordinate at vertex {vertex}"),
+        )),
+        Err(meshlap::mesh::MeshError::IndexOutOfRange { face, .. }) => Err(bad_face(
+            face,
+            mesh.faces[face].map(i64::from),
+            &out_of_range,
+        )),
+        Err(e) => Err(raise(py, e)),
+    }
 }
 
 /// A mesh as numpy arrays: V float64 (n, 3), F int64 (m, 3).

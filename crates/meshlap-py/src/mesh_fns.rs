@@ -2,7 +2,9 @@
 //! compression, comparison and rendering. Each mirrors one CLI command and calls the
 //! same library function with the same defaults.
 
-use crate::{compute, json, mesh_arrays, mesh_of, raise_as, raw_mesh, slice2, OrRaise};
+use crate::{
+    compute, json, mesh_arrays, mesh_named, mesh_of, raise_as, raw_mesh, slice2, FaceArray, OrRaise,
+};
 use meshlap::codec::{CompressOptions, GeometryMode, Keep, Quantization};
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
@@ -59,7 +61,7 @@ fn write_mesh(
     py: Python<'_>,
     path: &str,
     v: PyReadonlyArray2<'_, f64>,
-    f: PyReadonlyArray2<'_, u32>,
+    f: FaceArray<'_>,
     scalars: Option<PyReadonlyArray1<'_, f64>>,
     scalar_name: &str,
     colors: Option<PyReadonlyArray2<'_, u8>>,
@@ -91,11 +93,7 @@ fn write_mesh(
 /// `info(V, F)` → JSON of `meshlap info --json` (`Input::info`; the mesh is cleaned
 /// first, as the CLI does, and the dropped counts reported; source `array`).
 #[pyfunction]
-fn info(
-    py: Python<'_>,
-    v: PyReadonlyArray2<'_, f64>,
-    f: PyReadonlyArray2<'_, u32>,
-) -> PyResult<String> {
+fn info(py: Python<'_>, v: PyReadonlyArray2<'_, f64>, f: FaceArray<'_>) -> PyResult<String> {
     let raw = raw_mesh(py, &v, &f)?;
     let input = compute(py, || {
         meshlap::input::from_mesh("array", raw, None, &Default::default())
@@ -111,7 +109,7 @@ fn info(
 fn clean<'py>(
     py: Python<'py>,
     v: PyReadonlyArray2<'_, f64>,
-    f: PyReadonlyArray2<'_, u32>,
+    f: FaceArray<'_>,
     split_nonmanifold: bool,
 ) -> PyResult<MeshReport<'py>> {
     let raw = raw_mesh(py, &v, &f)?;
@@ -130,7 +128,7 @@ fn clean<'py>(
 fn repair_sql<'py>(
     py: Python<'py>,
     v: PyReadonlyArray2<'_, f64>,
-    f: PyReadonlyArray2<'_, u32>,
+    f: FaceArray<'_>,
     method: &str,
     max_dihedral: Option<f64>,
 ) -> PyResult<MeshReport<'py>> {
@@ -152,7 +150,7 @@ fn repair_sql<'py>(
 fn partition<'py>(
     py: Python<'py>,
     v: PyReadonlyArray2<'_, f64>,
-    f: PyReadonlyArray2<'_, u32>,
+    f: FaceArray<'_>,
     patch_size: usize,
     seed: i32,
 ) -> PyResult<(Bound<'py, PyArray1<i32>>, String)> {
@@ -177,7 +175,7 @@ fn partition<'py>(
 fn compress<'py>(
     py: Python<'py>,
     v: PyReadonlyArray2<'_, f64>,
-    f: PyReadonlyArray2<'_, u32>,
+    f: FaceArray<'_>,
     bits: Option<f64>,
     target_bpv: Option<f64>,
     mode: Option<&str>,
@@ -236,14 +234,14 @@ fn decompress<'py>(py: Python<'py>, data: &[u8]) -> PyResult<Mesh<'py>> {
 fn compare(
     py: Python<'_>,
     va: PyReadonlyArray2<'_, f64>,
-    fa: PyReadonlyArray2<'_, u32>,
+    fa: FaceArray<'_>,
     vb: PyReadonlyArray2<'_, f64>,
-    fb: PyReadonlyArray2<'_, u32>,
+    fb: FaceArray<'_>,
     map: Option<PyReadonlyArray1<'_, u32>>,
     samples: usize,
 ) -> PyResult<String> {
-    let a = mesh_of(py, &va, &fa)?;
-    let b = mesh_of(py, &vb, &fb)?;
+    let a = mesh_named(py, &va, &fa, ("Va", "Fa"))?;
+    let b = mesh_named(py, &vb, &fb, ("Vb", "Fb"))?;
     let map = slice1(py, map.as_ref(), "map")?;
     let c = compute(py, || {
         let opts = meshlap::metric::CompareOptions {
@@ -265,7 +263,7 @@ fn compare(
 fn render<'py>(
     py: Python<'py>,
     v: PyReadonlyArray2<'_, f64>,
-    f: PyReadonlyArray2<'_, u32>,
+    f: FaceArray<'_>,
     scalars: Option<PyReadonlyArray1<'_, f64>>,
     colormap: Option<&str>,
     azimuth: f64,

@@ -3,7 +3,7 @@
 //! spectral projection and compaction, filtering, and HKS/WKS. Operators are
 //! positive semi-definite, `F = D − W` (Zhang 2004).
 
-use crate::{compute, csr_out, json, mat_out, mesh_of, raise_as, CsrParts, OrRaise};
+use crate::{compute, csr_out, json, mat_out, mesh_of, raise_as, CsrParts, FaceArray, OrRaise};
 use faer::MatRef;
 use meshlap::operator::{Operator, OperatorKind, OperatorOptions};
 use meshlap::spectral::descriptors;
@@ -57,7 +57,7 @@ fn assemble(
 fn operator<'py>(
     py: Python<'py>,
     v: PyReadonlyArray2<'_, f64>,
-    f: PyReadonlyArray2<'_, u32>,
+    f: FaceArray<'_>,
     kind: &str,
     sql_diagonal: &str,
     mass: &str,
@@ -74,7 +74,7 @@ fn operator<'py>(
 fn mass_matrix<'py>(
     py: Python<'py>,
     v: PyReadonlyArray2<'_, f64>,
-    f: PyReadonlyArray2<'_, u32>,
+    f: FaceArray<'_>,
     kind: &str,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let input = mesh_of(py, &v, &f)?;
@@ -90,7 +90,7 @@ fn mass_matrix<'py>(
 fn properties(
     py: Python<'_>,
     v: PyReadonlyArray2<'_, f64>,
-    f: PyReadonlyArray2<'_, u32>,
+    f: FaceArray<'_>,
     kind: &str,
     dense_limit: Option<usize>,
     sql_diagonal: &str,
@@ -128,7 +128,7 @@ fn partial_out<'py>(
 fn eigs<'py>(
     py: Python<'py>,
     v: PyReadonlyArray2<'_, f64>,
-    f: PyReadonlyArray2<'_, u32>,
+    f: FaceArray<'_>,
     k: usize,
     kind: &str,
     tol: Option<f64>,
@@ -256,7 +256,7 @@ fn csc_in(
 fn project<'py>(
     py: Python<'py>,
     v: PyReadonlyArray2<'_, f64>,
-    f: PyReadonlyArray2<'_, u32>,
+    f: FaceArray<'_>,
     kind: &str,
     keep: &str,
     patch_size: Option<usize>,
@@ -297,7 +297,7 @@ fn project<'py>(
 fn compaction<'py>(
     py: Python<'py>,
     v: PyReadonlyArray2<'_, f64>,
-    f: PyReadonlyArray2<'_, u32>,
+    f: FaceArray<'_>,
     kind: &str,
     centre: bool,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
@@ -340,7 +340,7 @@ fn compaction<'py>(
 fn smooth<'py>(
     py: Python<'py>,
     v: PyReadonlyArray2<'_, f64>,
-    f: PyReadonlyArray2<'_, u32>,
+    f: FaceArray<'_>,
     filter: &str,
     operator: &str,
     lam: Option<f64>,

@@ -1,7 +1,7 @@
 //! Spectral watermarking (Ohbuchi et al. 2001/2002; `meshlap::watermark`): embed and
 //! detect. Operators are PSD, `F = D − W` (libigl and pmp use the negative).
 
-use crate::{compute, json, mesh_arrays, mesh_of, OrRaise};
+use crate::{compute, json, mesh_arrays, mesh_named, mesh_of, FaceArray, OrRaise};
 use meshlap::operator::OperatorKind;
 use meshlap::watermark::layout::LayoutParams;
 use meshlap::watermark::message::Message;
@@ -39,7 +39,7 @@ fn layout(
 fn watermark_embed<'py>(
     py: Python<'py>,
     v: PyReadonlyArray2<'_, f64>,
-    f: PyReadonlyArray2<'_, u32>,
+    f: FaceArray<'_>,
     key: u64,
     message: &str,
     operator: Option<&str>,
@@ -75,9 +75,9 @@ fn watermark_embed<'py>(
 fn watermark_detect(
     py: Python<'_>,
     vs: PyReadonlyArray2<'_, f64>,
-    fs: PyReadonlyArray2<'_, u32>,
+    fs: FaceArray<'_>,
     vo: PyReadonlyArray2<'_, f64>,
-    fo: PyReadonlyArray2<'_, u32>,
+    fo: FaceArray<'_>,
     key: u64,
     bits: usize,
     expect: Option<&str>,
@@ -91,8 +91,8 @@ fn watermark_detect(
         .transpose()
         .map_err(WatermarkError::from)
         .or_raise(py)?;
-    let suspect = mesh_of(py, &vs, &fs)?;
-    let original = mesh_of(py, &vo, &fo)?;
+    let suspect = mesh_named(py, &vs, &fs, ("Vs", "Fs"))?;
+    let original = mesh_named(py, &vo, &fo, ("Vo", "Fo"))?;
     let layout = layout(py, operator, patch_size, band, chip_rate)?;
     let report = compute(py, || {
         let params = DetectParams {
