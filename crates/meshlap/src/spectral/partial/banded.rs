@@ -3,6 +3,7 @@
 
 use super::factor::{count_below, factor_at, negative_pivots, symbolic_of, ShiftedPattern};
 use super::mass::Metric;
+use super::polish::polish;
 use super::residuals::finish;
 use super::solve::ShiftInvert;
 use super::{BandInfo, PartialParams, PartialSpectrum};
@@ -206,6 +207,15 @@ pub(super) fn banded(
                 found: n_in,
                 expected,
             });
+        }
+        // Refinement (see `polish`): kept only if the window still holds exactly the
+        // inertia's count (the refined eigenvalues move by far less than `delta`).
+        if opts.refine {
+            if let Some(refined) = polish(&op, k, metric, &found) {
+                if refined.iter().filter(|(l, _)| in_window(*l)).count() == expected {
+                    found = refined;
+                }
+            }
         }
         // Mean eigenvalue spacing in this band, for the next shift.
         let (lo, hi) = found

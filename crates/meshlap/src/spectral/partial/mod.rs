@@ -56,7 +56,11 @@
 //!    miss copies of a repeated eigenvalue; missing ones are then searched for in the
 //!    complement of the band's vectors (deflated operator `PA_σP`), and a mismatch
 //!    that remains is an error, never a silently wrong spectrum.
-//! 4. Each eigenvalue is recomputed as the Rayleigh quotient `vᵀKv / vᵀMv`, and its
+//! 4. **Refinement** (`PartialParams::refine`, on by default): each band's pairs get
+//!    one step of subspace iteration with the band's factorization and a
+//!    Rayleigh–Ritz step with the symmetric operator itself, which removes the
+//!    high-frequency error that the tolerance on `A_σ` leaves (`polish`).
+//! 5. Each eigenvalue is recomputed as the Rayleigh quotient `vᵀKv / vᵀMv`, and its
 //!    **residual** `‖M^{-1/2}(K v − λ M v)‖` is reported for the `M`-normalised `v`
 //!    (`vᵀMv = 1`): the residual of the symmetric problem `M^{-1/2}KM^{-1/2} w = λ w`
 //!    with `‖w‖ = 1`, which for `M = I` is `‖F v − λ v‖` with `‖v‖ = 1`.
@@ -81,6 +85,7 @@
 //! - `ordering`: METIS nested dissection for large n;
 //! - `solve`: the interleaved supernodal solves (`A_σ` as a block operator);
 //! - `banded`: the band driver;
+//! - `polish`: the refinement of a band's pairs (subspace iteration + Rayleigh–Ritz);
 //! - `residuals`: Rayleigh quotients, residuals and the canonical vectors.
 
 mod banded;
@@ -90,6 +95,7 @@ mod mass;
 #[cfg(test)]
 mod mass_tests;
 mod ordering;
+mod polish;
 mod problem;
 mod residuals;
 mod solve;
@@ -130,6 +136,11 @@ pub struct PartialParams {
     pub dense_below: usize,
     /// Seed of the starting blocks.
     pub seed: u64,
+    /// Refine each band's pairs by one step of subspace iteration with the band's
+    /// factorization and a Rayleigh–Ritz step with the operator itself (`polish`):
+    /// residuals near ARPACK's (about 10⁻¹⁵ on the bunny's SQL instead of 10⁻¹³) for
+    /// b more solves per band.
+    pub refine: bool,
 }
 
 impl PartialParams {
@@ -143,6 +154,7 @@ impl PartialParams {
             max_restarts: 1000,
             dense_below: 600,
             seed: 0x5eed,
+            refine: true,
         }
     }
 }

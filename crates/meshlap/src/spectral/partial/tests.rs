@@ -303,3 +303,54 @@ fn bad_input_is_an_error() {
         Err(SpectralError::NoRealSpectrum(OperatorKind::MeanValue))
     ));
 }
+
+#[test]
+fn refinement_lowers_the_residuals_and_keeps_the_spectrum() {
+    // SQL of a sphere (M = I, several bands) and the cotangent operator with its
+    // lumped mass: the refined pairs have residuals at least 5x smaller (17x and more
+    // measured), the same eigenvalues, and still pass the dense comparison; for M = I
+    // the reported residual is ‖Fv − λv‖ computed here.
+    let cases = [
+        (OperatorKind::Sql, builtin::icosphere(4).unwrap(), 60, 25),
+        (OperatorKind::Cotan, builtin::torus(40, 18).unwrap(), 50, 50),
+    ];
+    for (kind, mesh, count, band) in cases {
+        let op = assemble(kind, &mesh);
+        let mass = op.mass.clone();
+        let mut opts = PartialParams::new(count);
+        opts.dense_below = 0;
+        opts.band_size = band;
+        opts.tolerance = 1e-10;
+        let refined = operator_partial_spectrum(&op, true, &opts, &mut |_, _| {}).unwrap();
+        opts.refine = false;
+        let plain = operator_partial_spectrum(&op, true, &opts, &mut |_, _| {}).unwrap();
+        check_against_dense(&op.matrix, mass.as_deref(), &refined);
+        let worst = |r: &[f64]| r.iter().fold(0.0f64, |a, &b| a.max(b));
+        let (rr, rp) = (worst(&refined.residuals), worst(&plain.residuals));
+        assert!(rr < rp / 5.0, "{kind:?}: refined {rr:e} vs plain {rp:e}");
+        for j in 0..count {
+            let scale = refined.eigenvalues[j].abs().max(1.0);
+            assert!(
+                (refined.eigenvalues[j] - plain.eigenvalues[j]).abs() < 1e-9 * scale,
+                "{kind:?} λ_{j}"
+            );
+        }
+        if mass.is_none() {
+            let n = mesh.n_vertices();
+            for j in 0..count {
+                let v = refined.eigenvectors.col(j);
+                let fv = op.matrix.as_ref() * v;
+                let r: f64 = (0..n)
+                    .map(|i| (fv[i] - refined.eigenvalues[j] * v[i]).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                // The reported residual is this norm (cross-check of the two ways).
+                let reported = refined.residuals[j];
+                assert!(
+                    (r - reported).abs() <= 0.01 * reported + 1e-15,
+                    "{kind:?} pair {j}: ‖Fv − λv‖ = {r:e}, reported {reported:e}"
+                );
+            }
+        }
+    }
+}
