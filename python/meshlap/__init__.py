@@ -290,6 +290,7 @@ def eigs(
     tol: Optional[float] = None,
     sql_diagonal: str = "zero-row-sum",
     mass: str = "voronoi",
+    refine: bool = True,
     return_residuals: bool = False,
 ):
     """The k smallest eigenpairs of a mesh operator, ascending: ``evals`` (k,) and
@@ -300,7 +301,7 @@ def eigs(
     below 600 vertices). Signs (and the bases of repeated eigenvalues) are canonical:
     the crate's one rule, v · r0 >= 0 for a fixed probe vector r0, as on the dense path."""
     v, f = _mesh(V, F)
-    evals, evecs, res = _meshlap.eigs(v, f, _count(k), kind, tol, sql_diagonal, mass)
+    evals, evecs, res = _meshlap.eigs(v, f, _count(k), kind, tol, sql_diagonal, mass, bool(refine))
     return (evals, evecs, res) if return_residuals else (evals, evecs)
 
 
@@ -338,7 +339,7 @@ def _mass(M: Any, n: int):
     )
 
 
-def eigsh(A: Any, k: int, M: Any = None, tol: float = 1e-10, *, return_residuals: bool = False):
+def eigsh(A: Any, k: int, M: Any = None, tol: float = 1e-10, *, refine: bool = True, return_residuals: bool = False):
     """The k smallest eigenpairs of ANY symmetric positive semi-definite matrix ``A``
     (scipy sparse, or dense), optionally of ``A v = λ M v`` with a symmetric positive
     definite ``M``: a lumped mass (the (n,) diagonal, or a diagonal matrix) or any
@@ -350,7 +351,9 @@ def eigsh(A: Any, k: int, M: Any = None, tol: float = 1e-10, *, return_residuals
     factors of ``A − σM`` proves no eigenvalue inside the returned range is skipped.
     Robust on singular A (the shifts never sit on an eigenvalue, unlike scipy's
     ``sigma=0``); dense below 600 rows. ``tol`` is the relative Ritz residual of the
-    shift-inverted operator. A non-symmetric A or M, or an M that is not positive
+    shift-inverted operator. ``refine`` (default on) adds one step of subspace
+    iteration with each band's factorization and a Rayleigh–Ritz step with ``A``
+    itself: residuals about 20x lower for a few more solves. A non-symmetric A or M, or an M that is not positive
     definite, raises :class:`SpectralError` (a ``ValueError``). Sign convention: the
     paper's operators are ``F = D − W`` (positive semi-definite); pass ``-L`` for
     libigl's or pmp's negative semi-definite cotangent matrix.
@@ -386,6 +389,7 @@ def eigsh(A: Any, k: int, M: Any = None, tol: float = 1e-10, *, return_residuals
         mass,
         mass_csc,
         float(tol),
+        bool(refine),
     )
     return (evals, evecs, res) if return_residuals else (evals, evecs)
 

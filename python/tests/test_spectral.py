@@ -203,3 +203,19 @@ def test_compaction_is_the_cumulative_coefficient_energy(sphere):
     np.testing.assert_allclose(c[15, :3], ref[15], atol=1e-10)
     np.testing.assert_allclose(c[-1], 1.0, atol=1e-12)
     assert np.all(np.diff(c[:, 3]) >= -1e-15)
+
+
+def test_eigsh_refinement_lowers_the_residuals(big_sphere):
+    V, F = big_sphere
+    S = meshlap.operator(V, F, "sql")
+    L, M = meshlap.operator(V, F, "cotan"), meshlap.mass_matrix(V, F)
+    for A, B in [(S, None), (L, M)]:
+        w1, v1 = meshlap.eigsh(A, 40, B)
+        w0, v0 = meshlap.eigsh(A, 40, B, refine=False)
+        Bd = sp.eye_array(A.shape[0]) if B is None else B
+        worst = lambda w, v: np.linalg.norm(A @ v - (Bd @ v) * w, axis=0).max()
+        assert worst(w1, v1) < worst(w0, v0)
+        np.testing.assert_allclose(w1, w0, rtol=1e-9, atol=1e-12)
+        check_pairs(A, B, w1, v1)
+    with pytest.raises(meshlap.SpectralError, match="tolerance must be in"):
+        meshlap.eigsh(S, 5, tol=0.0)

@@ -321,3 +321,50 @@ fn descriptors_write_hks_and_wks_columns() {
     ]);
     assert_one_line_error(&out, "hks + wks columns");
 }
+
+#[test]
+fn spectrum_refinement_and_tolerance_flags() {
+    // 10,242 vertices: above the dense limit, so the shift-invert path runs.
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "spectrum",
+            "builtin:icosphere:5",
+            "--kind",
+            "sql",
+            "--count",
+            "30",
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        json(&meshlap(&args))
+    };
+    let refined = run(&[]);
+    let plain = run(&["--no-refine"]);
+    assert_eq!(refined["path"], "shift-invert");
+    let (r, p) = (
+        refined["max_residual"].as_f64().unwrap(),
+        plain["max_residual"].as_f64().unwrap(),
+    );
+    assert!(r < p, "refined {r:e} vs plain {p:e}");
+    let (a, b) = (
+        refined["eigenvalues"].as_array().unwrap(),
+        plain["eigenvalues"].as_array().unwrap(),
+    );
+    for (x, y) in a.iter().zip(b) {
+        assert!((x.as_f64().unwrap() - y.as_f64().unwrap()).abs() < 1e-10);
+    }
+    for bad in ["0", "-1e-3", "NaN", "2"] {
+        assert_one_line_error(
+            &meshlap(&[
+                "spectrum",
+                "builtin:icosphere:5",
+                "--kind",
+                "sql",
+                "--count",
+                "5",
+                &format!("--tol={bad}"),
+            ]),
+            "tolerance",
+        );
+    }
+}

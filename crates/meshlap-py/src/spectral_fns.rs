@@ -119,11 +119,11 @@ fn partial_out<'py>(
     ))
 }
 
-/// `eigs(V, F, k, kind, tol, sql_diagonal, mass)` → the k smallest eigenpairs
+/// `eigs(V, F, k, kind, tol, sql_diagonal, mass, refine)` → the k smallest eigenpairs
 /// `(evals, evecs, residuals)` of a mesh operator (the cotangent one with its lumped
 /// mass, the TL through its diagonal symmetrizer).
 #[pyfunction]
-#[pyo3(signature = (v, f, k, kind="sql", tol=None, sql_diagonal="zero-row-sum", mass="voronoi"))]
+#[pyo3(signature = (v, f, k, kind="sql", tol=None, sql_diagonal="zero-row-sum", mass="voronoi", refine=true))]
 #[allow(clippy::too_many_arguments)]
 fn eigs<'py>(
     py: Python<'py>,
@@ -134,10 +134,12 @@ fn eigs<'py>(
     tol: Option<f64>,
     sql_diagonal: &str,
     mass: &str,
+    refine: bool,
 ) -> PyResult<Eigen<'py>> {
     let input = mesh_of(py, &v, &f)?;
     let op = assemble(py, &input, kind, sql_diagonal, mass)?;
     let mut opts = PartialParams::new(k);
+    opts.refine = refine;
     if let Some(t) = tol {
         opts.tolerance = t;
     }
@@ -148,13 +150,13 @@ fn eigs<'py>(
     partial_out(py, ps)
 }
 
-/// `eigsh(indptr, indices, data, n, k, mass, mass_csc, tol)`: the k smallest
+/// `eigsh(indptr, indices, data, n, k, mass, mass_csc, tol, refine)`: the k smallest
 /// eigenpairs of `A v = λ M v` for a symmetric sparse A given by its compressed
 /// columns; M is the identity, a positive diagonal (`mass`, (n,)) or a sparse
 /// symmetric positive definite matrix (`mass_csc`: its indptr, indices, data). The
 /// library checks symmetry and positivity.
 #[pyfunction]
-#[pyo3(signature = (indptr, indices, data, n, k, mass=None, mass_csc=None, tol=None))]
+#[pyo3(signature = (indptr, indices, data, n, k, mass=None, mass_csc=None, tol=None, refine=true))]
 #[allow(clippy::too_many_arguments)]
 fn eigsh<'py>(
     py: Python<'py>,
@@ -166,6 +168,7 @@ fn eigsh<'py>(
     mass: Option<PyReadonlyArray1<'_, f64>>,
     mass_csc: Option<CscIn<'_>>,
     tol: Option<f64>,
+    refine: bool,
 ) -> PyResult<Eigen<'py>> {
     let a = csc_in(py, "A", &indptr, &indices, &data, n)?;
     let contiguous = |name: &str| raise_as(py, "Error", format!("{name} must be contiguous"));
@@ -183,6 +186,7 @@ fn eigsh<'py>(
         (None, None) => Mass::Identity,
     };
     let mut opts = PartialParams::new(k);
+    opts.refine = refine;
     if let Some(t) = tol {
         opts.tolerance = t;
     }

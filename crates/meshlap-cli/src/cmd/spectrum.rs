@@ -6,6 +6,7 @@ use meshlap::input::Input;
 use meshlap::operator::cotan::MassKind;
 use meshlap::operator::sql::BoundaryDiagonal;
 use meshlap::operator::{Operator, OperatorKind};
+use meshlap::spectral::partial::PartialParams;
 use meshlap::spectral::{
     smallest, BasisOptions, DenseSolver, EigenPath, Normalization, SmallestParams, SmallestPath,
     SpectralError,
@@ -91,6 +92,13 @@ pub struct Args {
     /// Write the eigenvectors as an n×k float64 NumPy array (column j ↔ eigenvalue j).
     #[arg(long, value_name = "FILE.npy")]
     pub vectors: Option<PathBuf>,
+    /// Shift-invert path: Ritz tolerance relative to each pair's |μ| = 1/|λ − σ|.
+    #[arg(long, default_value_t = PartialParams::new(1).tolerance, allow_negative_numbers = true)]
+    pub tol: f64,
+    /// Shift-invert path: skip the refinement of each band (one subspace-iteration
+    /// step and a Rayleigh–Ritz step with the operator; residuals about 20x lower).
+    #[arg(long)]
+    pub no_refine: bool,
     /// Print machine-readable JSON.
     #[arg(long)]
     pub json: bool,
@@ -119,9 +127,15 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
     let input = args.basis.mesh.open()?;
     let n = input.mesh.n_vertices();
     let op = args.basis.operator(&input)?;
+    let defaults = SmallestParams::default();
     let params = SmallestParams {
         basis: args.basis.options(),
-        ..Default::default()
+        partial: PartialParams {
+            tolerance: args.tol,
+            refine: !args.no_refine,
+            ..defaults.partial
+        },
+        ..defaults
     };
     let bar = if n > params.dense_limit {
         let bar = ProgressBar::new(args.count.unwrap_or(n) as u64);

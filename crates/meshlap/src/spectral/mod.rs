@@ -128,6 +128,12 @@ pub enum SpectralError {
         /// Dimension.
         n: usize,
     },
+    /// The Ritz tolerance of the partial eigensolver is not a positive finite number
+    /// below 1.
+    ///
+    /// Fix: pass a tolerance such as 1e-10 ([`partial::PartialParams::tolerance`]).
+    #[error("the eigensolver tolerance must be in (0, 1), got {0}")]
+    InvalidTolerance(f64),
     /// The number of coefficients to keep is out of range for the mesh.
     ///
     /// Fix: a count in `1..=n` or a percentage in (0, 100] ([`project::Keep`]).

@@ -228,7 +228,8 @@ pub fn partial_spectrum(
 ///
 /// # Errors
 /// [`SpectralError::NotSquare`], [`SpectralError::NonFinite`],
-/// [`SpectralError::NotSymmetricMatrix`] (K or M), [`SpectralError::InvalidMass`] /
+/// [`SpectralError::NotSymmetricMatrix`] (K or M), [`SpectralError::InvalidTolerance`],
+/// [`SpectralError::InvalidMass`] /
 /// [`SpectralError::MassNotPositiveDefinite`], [`SpectralError::TooMany`], and the
 /// solver's failures (see [`SpectralError`]).
 pub fn partial_spectrum_with_mass(
@@ -239,6 +240,9 @@ pub fn partial_spectrum_with_mass(
 ) -> Result<PartialSpectrum, SpectralError> {
     let n = k.nrows();
     let metric = check_problem(k, mass)?;
+    if !(opts.tolerance > 0.0 && opts.tolerance < 1.0) {
+        return Err(SpectralError::InvalidTolerance(opts.tolerance));
+    }
     let count = opts.count;
     if count > n {
         return Err(SpectralError::TooMany { count, n });
