@@ -90,12 +90,53 @@ def max_residual(L, M, evals, evecs):
     return float(np.linalg.norm(R, axis=0).max())
 
 
+def accuracy(rows, row, n_rounds, k):
+    """eigsh variants on the bunny, each alternated with scipy's shift-invert eigsh."""
+    import numpy as np
+    import scipy.sparse.linalg as spla
+
+    import meshlap
+
+    mesh = str(MESHES / "stanford-bunny.obj")
+    V, F = meshlap.read_mesh(mesh)
+    problems = [("SQL", meshlap.operator(V, F, "sql"), None)]
+    try:
+        import robust_laplacian
+
+        L, M = robust_laplacian.mesh_laplacian(V, F)
+        problems.append(("robust_laplacian (L, M)", L.tocsr(), M.tocsr()))
+    except ImportError:
+        print("robust_laplacian missing: skipped", file=sys.stderr)
+    for name, L, M in problems:
+        sigma = -1e-8 * float(abs(L.diagonal()).mean())
+        Lc = L.tocsc()
+        Mc = None if M is None else M.tocsc()
+        for tol, refine in [(1e-10, False), (1e-10, True), (1e-12, True)]:
+            ta, tb, ra, rb = rounds(
+                lambda: meshlap.eigsh(L, k, M, tol=tol, refine=refine),
+                lambda: spla.eigsh(Lc, k, Mc, sigma=sigma, which="LM"),
+                n_rounds,
+            )
+            extra = {
+                "k": k,
+                "tol": tol,
+                "refine": refine,
+                "residual_meshlap": max_residual(L, M, *ra),
+                "residual_scipy": max_residual(L, M, rb[0], rb[1]),
+                "max_eigenvalue_difference": float(abs(ra[0] - np.sort(rb[0])).max()),
+            }
+            row(f"eigsh {name} tol {tol:g}{' refine' if refine else ''}", mesh, ta, tb, extra)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--small", action="store_true")
     ap.add_argument("--rounds", type=int, default=None)
     ap.add_argument("--k", type=int, default=None)
     ap.add_argument("--json-out")
+    ap.add_argument("--accuracy", action="store_true",
+                    help="only eigsh on stanford-bunny.obj: meshlap with and without refinement "
+                         "and at tol 1e-10 / 1e-12 against scipy, alternated, with each side's residual")
     args = ap.parse_args()
     ensure_venv()
 
@@ -120,6 +161,13 @@ def main():
         rows.append(r)
         print(f"{what:34s} {Path(mesh).name:22s} meshlap {ours:9.4f} s  peer {theirs:9.4f} s  x{theirs / ours:6.2f}"
               + ("" if not extra else "  " + json.dumps(extra)))
+
+    if args.accuracy:
+        with threadpool_limits(limits=THREADS):
+            accuracy(rows, row, n_rounds, k)
+        if args.json_out:
+            Path(args.json_out).write_text(json.dumps({"threads": THREADS, "rows": rows}, indent=2))
+        return
 
     with threadpool_limits(limits=THREADS):
         for mesh in meshes:

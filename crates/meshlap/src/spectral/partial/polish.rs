@@ -11,19 +11,24 @@
 //! the new subspace:
 //!
 //! 1. `Y = A_σ W` for the band's vectors `W` (n×b);
-//! 2. `Q` = an orthonormal basis of `Y` (Householder QR, faer);
-//! 3. `H = Qᵀ Â Q` (b×b, symmetrised), `H = U Θ Uᵀ` (faer's dense self-adjoint
-//!    eigensolver), and the pairs `(θᵢ, Q uᵢ)`.
+//! 2. with the columns of `Y` normalised, `G = YᵀY = L Lᵀ` (Cholesky; `Y` is
+//!    nearly orthonormal, so `G` is well conditioned — a Householder QR is the
+//!    fallback) and `H = Yᵀ Â Y`;
+//! 3. `L⁻¹ H L⁻ᵀ = U Θ Uᵀ` (b×b, symmetrised; faer's dense self-adjoint
+//!    eigensolver), and the pairs `(θᵢ, Y L⁻ᵀ uᵢ)` (normalised).
 //!
 //! This is Rayleigh–Ritz refinement as in Saad, *Numerical Methods for Large
 //! Eigenvalue Problems* (2011), §5.2 (subspace iteration with projection). It costs
-//! b solves, two n×b×b products and a b×b eigenproblem per band.
+//! b solves, three n×b×b products and a b×b eigenproblem per band.
 
 use super::mass::Metric;
 use super::solve::ShiftInvert;
 use crate::spectral::krylov_schur::BlockOperator;
 use crate::SparseMatrix;
 use faer::linalg::matmul::matmul;
+use faer::linalg::triangular_solve::{
+    solve_lower_triangular_in_place, solve_upper_triangular_in_place,
+};
 use faer::reborrow::ReborrowMut;
 use faer::{Accum, Col, Mat, Par, Side};
 
@@ -54,9 +59,31 @@ pub(super) fn polish(
         }
         y.col_mut(j).iter_mut().for_each(|x| *x /= nj);
     }
-    let q = y.qr().compute_thin_Q();
-    // Â Q: x = M^{-1/2} Q (C⁻ᵀ Q), K x, then M^{-1/2} (C⁻¹) again.
-    let mut x = q.clone();
+    // Rayleigh–Ritz on span(Y): Y's normalised columns are nearly orthonormal (A_σ
+    // maps the nearly orthonormal W to μ-scaled, nearly orthogonal columns), so the
+    // Gram matrix G = YᵀY is well conditioned and G = L Lᵀ replaces an explicit QR:
+    // Ĥ = L⁻¹ (YᵀÂY) L⁻ᵀ = U Θ Uᵀ and the vectors are Y L⁻ᵀ U. Three n×b×b products
+    // instead of a Householder QR and two products. A Gram matrix whose Cholesky
+    // factorization fails (it cannot, short of a rank-deficient Y) falls back to QR.
+    let mut g = Mat::<f64>::zeros(b, b);
+    matmul(
+        g.as_mut(),
+        Accum::Replace,
+        y.transpose(),
+        y.as_ref(),
+        1.0,
+        Par::rayon(0),
+    );
+    let llt = match g.llt(Side::Lower) {
+        Ok(f) => f,
+        Err(_) => {
+            y = y.qr().compute_thin_Q();
+            Mat::<f64>::identity(b, b).llt(Side::Lower).ok()?
+        }
+    };
+    let l = llt.L();
+    // Â Y: x = M^{-1/2} Y (C⁻ᵀ Y), K x, then M^{-1/2} (C⁻¹) again.
+    let mut x = y.clone();
     scale_or_solve(metric, x.as_mut(), Side::Upper);
     let mut kx = Mat::<f64>::zeros(n, b);
     faer::sparse::linalg::matmul::sparse_dense_matmul(
@@ -72,20 +99,27 @@ pub(super) fn polish(
     matmul(
         h.as_mut(),
         Accum::Replace,
-        q.transpose(),
+        y.transpose(),
         kx.as_ref(),
         1.0,
         Par::rayon(0),
     );
-    let hs = Mat::from_fn(b, b, |i, j| 0.5 * (h[(i, j)] + h[(j, i)]));
+    // Ĥ = L⁻¹ H L⁻ᵀ (H symmetrised), by two triangular solves.
+    let mut hh = Mat::from_fn(b, b, |i, j| 0.5 * (h[(i, j)] + h[(j, i)]));
+    solve_lower_triangular_in_place(l, hh.as_mut(), Par::Seq);
+    let mut hh = hh.transpose().to_owned();
+    solve_lower_triangular_in_place(l, hh.as_mut(), Par::Seq);
+    let hs = Mat::from_fn(b, b, |i, j| 0.5 * (hh[(i, j)] + hh[(j, i)]));
     let evd = hs.self_adjoint_eigen(Side::Lower).ok()?;
-    let u = evd.U();
+    // Coefficients C = L⁻ᵀ U, then the vectors Y C (normalised below).
+    let mut c = evd.U().to_owned();
+    solve_upper_triangular_in_place(l.transpose(), c.as_mut(), Par::Seq);
     let mut wn = Mat::<f64>::zeros(n, b);
     matmul(
         wn.as_mut(),
         Accum::Replace,
-        q.as_ref(),
-        u,
+        y.as_ref(),
+        c.as_ref(),
         1.0,
         Par::rayon(0),
     );
@@ -93,10 +127,12 @@ pub(super) fn polish(
     let mut out = Vec::with_capacity(b);
     for j in 0..b {
         let theta = s[j];
-        let col = wn.col(j).to_owned();
-        if !theta.is_finite() || col.iter().any(|v| !v.is_finite()) {
+        let mut col = wn.col(j).to_owned();
+        let norm = col.norm_l2();
+        if !(theta.is_finite() && norm.is_finite() && norm > 0.0) {
             return None;
         }
+        col.iter_mut().for_each(|v| *v /= norm);
         out.push((theta, col));
     }
     Some(out)
