@@ -90,6 +90,25 @@ def max_residual(L, M, evals, evecs):
     return float(np.linalg.norm(R, axis=0).max())
 
 
+def eigen_problems(V, F):
+    """The eigsh problems of a mesh: (name, L, M, L as CSC, M as CSC, scipy's shift)
+    for the SQL (M = I) and robust_laplacian's (L, M) when it is installed."""
+    import meshlap
+
+    problems = [("SQL", meshlap.operator(V, F, "sql"), None)]
+    try:
+        import robust_laplacian
+
+        L, M = robust_laplacian.mesh_laplacian(V, F)
+        problems.append(("robust_laplacian (L, M)", L.tocsr(), M.tocsr()))
+    except ImportError:
+        print("robust_laplacian missing: skipped", file=sys.stderr)
+    return [
+        (name, L, M, L.tocsc(), None if M is None else M.tocsc(), -1e-8 * float(abs(L.diagonal()).mean()))
+        for name, L, M in problems
+    ]
+
+
 def accuracy(rows, row, n_rounds, k):
     """eigsh variants on the bunny, each alternated with scipy's shift-invert eigsh."""
     import numpy as np
@@ -99,18 +118,7 @@ def accuracy(rows, row, n_rounds, k):
 
     mesh = str(MESHES / "stanford-bunny.obj")
     V, F = meshlap.read_mesh(mesh)
-    problems = [("SQL", meshlap.operator(V, F, "sql"), None)]
-    try:
-        import robust_laplacian
-
-        L, M = robust_laplacian.mesh_laplacian(V, F)
-        problems.append(("robust_laplacian (L, M)", L.tocsr(), M.tocsr()))
-    except ImportError:
-        print("robust_laplacian missing: skipped", file=sys.stderr)
-    for name, L, M in problems:
-        sigma = -1e-8 * float(abs(L.diagonal()).mean())
-        Lc = L.tocsc()
-        Mc = None if M is None else M.tocsc()
+    for name, L, M, Lc, Mc, sigma in eigen_problems(V, F):
         for tol, refine in [(1e-10, False), (1e-10, True), (1e-12, True)]:
             ta, tb, ra, rb = rounds(
                 lambda: meshlap.eigsh(L, k, M, tol=tol, refine=refine),
@@ -172,18 +180,7 @@ def main():
     with threadpool_limits(limits=THREADS):
         for mesh in meshes:
             V, F = meshlap.read_mesh(mesh)
-            problems = [("SQL", meshlap.operator(V, F, "sql"), None)]
-            try:
-                import robust_laplacian
-
-                L, M = robust_laplacian.mesh_laplacian(V, F)
-                problems.append(("robust_laplacian (L, M)", L.tocsr(), M.tocsr()))
-            except ImportError:
-                print("robust_laplacian missing: skipped", file=sys.stderr)
-            for name, L, M in problems:
-                sigma = -1e-8 * float(abs(L.diagonal()).mean())
-                Lc = L.tocsc()
-                Mc = None if M is None else M.tocsc()
+            for name, L, M, Lc, Mc, sigma in eigen_problems(V, F):
                 ta, tb, ra, rb = rounds(
                     lambda: meshlap.eigsh(L, k, M),
                     lambda: spla.eigsh(Lc, k, Mc, sigma=sigma, which="LM"),

@@ -12,7 +12,9 @@ case $target in
   stl_ascii|stl_binary) dict=stl ;; mtx) dict=mtx ;; npy) dict=npy ;; *) dict= ;;
 esac
 mkdir -p "corpus/$target" logs
-args=(-rss_limit_mb=1024 -malloc_limit_mb=1024 -timeout=1 -max_len=8192
+# Suspect meshes of the detector are whole PLY files (8 KB for the seeds).
+maxlen=8192; [ "$target" = watermark_detect ] && maxlen=65536
+args=(-rss_limit_mb=1024 -malloc_limit_mb=1024 -timeout=1 -max_len=$maxlen
       -runs="$runs" -max_total_time="$secs" -print_final_stats=1)
 [ -n "$dict" ] && args+=(-dict="dict/$dict.dict")
 nice -n 10 cargo +nightly fuzz run "$target" "corpus/$target" -- "${args[@]}" \

@@ -17,7 +17,7 @@ use meshlap::TriMesh;
 pub type Target = fn(&[u8]);
 
 /// Every target, by name (the names of the `[[bin]]`s and of the corpus folders).
-pub const TARGETS: [(&str, Target); 9] = [
+pub const TARGETS: [(&str, Target); 10] = [
     ("obj", obj),
     ("off", off),
     ("ply_ascii", ply_ascii),
@@ -27,6 +27,7 @@ pub const TARGETS: [(&str, Target); 9] = [
     ("mlz", mlz),
     ("mtx", mtx),
     ("npy", npy),
+    ("watermark_detect", watermark_detect),
 ];
 
 /// The contract of a mesh that a reader or the decoder returned.
@@ -231,4 +232,45 @@ pub fn npy(data: &[u8]) {
     };
     let _ = meshlap::io::read_npy(&p);
     let _ = std::fs::remove_file(&p);
+}
+
+/// The original of [`watermark_detect`]: builtin:icosphere:2 (162 vertices, small
+/// enough that a detection with resampling stays far below the 1 s timeout).
+fn detect_original() -> &'static TriMesh {
+    static ORIGINAL: std::sync::OnceLock<TriMesh> = std::sync::OnceLock::new();
+    ORIGINAL.get_or_init(|| meshlap::mesh::builtin::icosphere(2).expect("builtin mesh"))
+}
+
+/// The watermark detector's input path (`meshlap watermark detect SUSPECT --original
+/// MESH`): `data` is read as a binary or ASCII PLY suspect and tested against a fixed
+/// original (builtin:icosphere:2, key 7, 8 bits, the library's layout; the
+/// original's bases are computed once per process). Registration, resampling onto the
+/// original's connectivity, the patch transforms and the decision must return a typed
+/// error or a report that keeps its contract: 8 correlations, bits only when found,
+/// probabilities in [0, 1], finite correlations.
+pub fn watermark_detect(data: &[u8]) {
+    use meshlap::watermark::{DetectParams, Detector};
+    static DETECTOR: std::sync::OnceLock<Option<Detector<'static>>> = std::sync::OnceLock::new();
+    let Some(detector) =
+        DETECTOR.get_or_init(|| Detector::new(detect_original(), &DetectParams::new(7, 8)).ok())
+    else {
+        panic!("the detector of the fixed original could not be built");
+    };
+    let Ok(loaded) = read_mesh_from_bytes(data, Format::Ply) else {
+        return;
+    };
+    check_mesh(&loaded.mesh);
+    if let Ok(r) = detector.detect(&loaded.mesh) {
+        assert_eq!(r.correlations.len(), 8, "one correlation per bit");
+        assert!(
+            r.correlations.iter().all(|c| c.is_finite()),
+            "finite correlations"
+        );
+        let p = r.false_positive_probability;
+        assert!((0.0..=1.0).contains(&p), "false-positive probability {p}");
+        assert_eq!(r.bits.is_some(), r.found, "bits exactly when found");
+        if let Some(b) = &r.bits {
+            assert_eq!(b.len(), 8);
+        }
+    }
 }

@@ -151,10 +151,11 @@ impl<const G: usize, const TN: bool> crate::cpu::Kernel for Group<'_, '_, G, TN>
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     fn avx2_fma(self) {
+        let Group { v, thin, out } = self;
         if TN {
-            x86::tn_kernel::<G>(self.v, self.thin, self.out)
+            x86::tn_kernel::<G>(Group { v, thin, out })
         } else {
-            x86::nn_kernel::<G>(self.out, self.v, self.thin)
+            x86::nn_kernel::<G>(Group { v, thin, out })
         }
     }
 }
@@ -273,9 +274,8 @@ fn nn_kernel<const G: usize, const FMA: bool>(
 /// The AVX2 + FMA kernels (4 doubles per register), same loops as the portable ones.
 #[cfg(target_arch = "x86_64")]
 mod x86 {
-    use super::{chunks, col_slice, col_slices};
+    use super::{chunks, col_slice, col_slices, Group};
     use faer::reborrow::ReborrowMut;
-    use faer::{MatMut, MatRef};
     use std::arch::x86_64::*;
 
     /// `C += Vᵀ W` for `G` columns of `W`. Per chunk of rows: four columns of `V`
@@ -283,11 +283,12 @@ mod x86 {
     /// two FMAs and each of `W` four), so `W`'s chunk is re-read from L1 twice per
     /// four columns of `V` rather than once per column.
     #[inline(always)]
-    pub(super) fn tn_kernel<const G: usize>(
-        v: MatRef<'_, f64>,
-        w: MatRef<'_, f64>,
-        mut c: MatMut<'_, f64>,
-    ) {
+    pub(super) fn tn_kernel<const G: usize>(g: Group<'_, '_, G, true>) {
+        let Group {
+            v,
+            thin: w,
+            out: mut c,
+        } = g;
         let s = v.ncols();
         for (r0, r1) in chunks(v.nrows()) {
             let len = r1 - r0;
@@ -340,11 +341,12 @@ mod x86 {
     }
 
     #[inline(always)]
-    pub(super) fn nn_kernel<const G: usize>(
-        mut w: MatMut<'_, f64>,
-        v: MatRef<'_, f64>,
-        c: MatRef<'_, f64>,
-    ) {
+    pub(super) fn nn_kernel<const G: usize>(g: Group<'_, '_, G, false>) {
+        let Group {
+            v,
+            thin: c,
+            out: mut w,
+        } = g;
         let s = v.ncols();
         for (r0, r1) in chunks(v.nrows()) {
             let len = r1 - r0;
