@@ -12,8 +12,7 @@
 //!
 //! 1. `Y = A_σ W` for the band's vectors `W` (n×b);
 //! 2. with the columns of `Y` normalised, `G = YᵀY = L Lᵀ` (Cholesky; `Y` is
-//!    nearly orthonormal, so `G` is well conditioned — a Householder QR is the
-//!    fallback) and `H = Yᵀ Â Y`;
+//!    nearly orthonormal, so `G` is well conditioned) and `H = Yᵀ Â Y`;
 //! 3. `L⁻¹ H L⁻ᵀ = U Θ Uᵀ` (b×b, symmetrised; faer's dense self-adjoint
 //!    eigensolver), and the pairs `(θᵢ, Y L⁻ᵀ uᵢ)` (normalised).
 //!
@@ -29,7 +28,6 @@ use faer::linalg::matmul::matmul;
 use faer::linalg::triangular_solve::{
     solve_lower_triangular_in_place, solve_upper_triangular_in_place,
 };
-use faer::reborrow::ReborrowMut;
 use faer::{Accum, Col, Mat, Par, Side};
 
 /// The refined pairs `(θ, w)` (ascending θ, `‖w‖ = 1`) of the band's pairs `found`
@@ -63,8 +61,8 @@ pub(super) fn polish(
     // maps the nearly orthonormal W to μ-scaled, nearly orthogonal columns), so the
     // Gram matrix G = YᵀY is well conditioned and G = L Lᵀ replaces an explicit QR:
     // Ĥ = L⁻¹ (YᵀÂY) L⁻ᵀ = U Θ Uᵀ and the vectors are Y L⁻ᵀ U. Three n×b×b products
-    // instead of a Householder QR and two products. A Gram matrix whose Cholesky
-    // factorization fails (it cannot, short of a rank-deficient Y) falls back to QR.
+    // instead of a Householder QR and two products. A Cholesky failure (a
+    // rank-deficient Y) keeps the Krylov–Schur pairs.
     let mut g = Mat::<f64>::zeros(b, b);
     matmul(
         g.as_mut(),
@@ -74,17 +72,11 @@ pub(super) fn polish(
         1.0,
         Par::rayon(0),
     );
-    let llt = match g.llt(Side::Lower) {
-        Ok(f) => f,
-        Err(_) => {
-            y = y.qr().compute_thin_Q();
-            Mat::<f64>::identity(b, b).llt(Side::Lower).ok()?
-        }
-    };
+    let llt = g.llt(Side::Lower).ok()?;
     let l = llt.L();
     // Â Y: x = M^{-1/2} Y (C⁻ᵀ Y), K x, then M^{-1/2} (C⁻¹) again.
     let mut x = y.clone();
-    scale_or_solve(metric, x.as_mut(), Side::Upper);
+    metric.solve_ct(x.as_mut());
     let mut kx = Mat::<f64>::zeros(n, b);
     faer::sparse::linalg::matmul::sparse_dense_matmul(
         kx.as_mut(),
@@ -94,7 +86,7 @@ pub(super) fn polish(
         1.0,
         Par::rayon(0),
     );
-    scale_or_solve(metric, kx.as_mut(), Side::Lower);
+    metric.solve_c(kx.as_mut());
     let mut h = Mat::<f64>::zeros(b, b);
     matmul(
         h.as_mut(),
@@ -136,22 +128,4 @@ pub(super) fn polish(
         out.push((theta, col));
     }
     Some(out)
-}
-
-/// `x ← M^{-1/2} x` for a diagonal `M`; for a sparse `M = C Cᵀ`, `x ← C⁻ᵀ x`
-/// (`Side::Upper`, before `K`) or `x ← C⁻¹ x` (`Side::Lower`, after it).
-fn scale_or_solve(metric: &Metric, mut x: faer::MatMut<'_, f64>, side: Side) {
-    match metric.diagonal_sqrt() {
-        Some(msqrt) => {
-            for j in 0..x.ncols() {
-                for (i, v) in x.rb_mut().col_mut(j).iter_mut().enumerate() {
-                    *v /= msqrt[i];
-                }
-            }
-        }
-        None => match side {
-            Side::Upper => metric.solve_ct(x),
-            Side::Lower => metric.solve_c(x),
-        },
-    }
 }
