@@ -23,6 +23,7 @@
 use super::mass::Metric;
 use super::solve::ShiftInvert;
 use crate::spectral::krylov_schur::BlockOperator;
+use crate::spectral::thin_products::tn;
 use crate::SparseMatrix;
 use faer::linalg::matmul::matmul;
 use faer::linalg::triangular_solve::{
@@ -63,15 +64,9 @@ pub(super) fn polish(
     // Ĥ = L⁻¹ (YᵀÂY) L⁻ᵀ = U Θ Uᵀ and the vectors are Y L⁻ᵀ U. Three n×b×b products
     // instead of a Householder QR and two products. A Cholesky failure (a
     // rank-deficient Y) keeps the Krylov–Schur pairs.
-    let mut g = Mat::<f64>::zeros(b, b);
-    matmul(
-        g.as_mut(),
-        Accum::Replace,
-        y.transpose(),
-        y.as_ref(),
-        1.0,
-        Par::rayon(0),
-    );
+    // Deterministic for a given thread count (fixed row split), unlike a parallel
+    // GEMM: the results must not change from run to run.
+    let g = tn(y.as_ref(), y.as_ref());
     let llt = g.llt(Side::Lower).ok()?;
     let l = llt.L();
     // Â Y: x = M^{-1/2} Y (C⁻ᵀ Y), K x, then M^{-1/2} (C⁻¹) again.
@@ -84,18 +79,10 @@ pub(super) fn polish(
         k.as_ref(),
         x.as_ref(),
         1.0,
-        Par::rayon(0),
+        Par::Seq,
     );
     metric.solve_c(kx.as_mut());
-    let mut h = Mat::<f64>::zeros(b, b);
-    matmul(
-        h.as_mut(),
-        Accum::Replace,
-        y.transpose(),
-        kx.as_ref(),
-        1.0,
-        Par::rayon(0),
-    );
+    let h = tn(y.as_ref(), kx.as_ref());
     // Ĥ = L⁻¹ H L⁻ᵀ (H symmetrised), by two triangular solves.
     let mut hh = Mat::from_fn(b, b, |i, j| 0.5 * (h[(i, j)] + h[(j, i)]));
     solve_lower_triangular_in_place(l, hh.as_mut(), Par::Seq);
@@ -113,7 +100,7 @@ pub(super) fn polish(
         y.as_ref(),
         c.as_ref(),
         1.0,
-        Par::rayon(0),
+        Par::Seq,
     );
     let s = evd.S();
     let mut out = Vec::with_capacity(b);
