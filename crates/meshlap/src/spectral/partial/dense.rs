@@ -4,12 +4,17 @@ use super::mass::Metric;
 use super::residuals::finish;
 use super::PartialSpectrum;
 use crate::operator::symmetrize::{symmetrized_dense, Scaling};
-use crate::spectral::SpectralError;
+use crate::spectral::{dense_evd, SpectralError};
 use crate::SparseMatrix;
-use faer::{Col, Mat, Side};
+use faer::{Col, Mat};
 
-/// Dense path: faer's self-adjoint eigensolver on `C⁻¹ K C⁻ᵀ` (`M = C Cᵀ`;
-/// `M^{-1/2} K M^{-1/2}` for a diagonal `M`).
+/// Dense path: the reproducible dense eigensolver ([`dense_evd`]) on `C⁻¹ K C⁻ᵀ`
+/// (`M = C Cᵀ`; `M^{-1/2} K M^{-1/2}` for a diagonal `M`), eigenvectors of the
+/// `count` smallest eigenvalues only.
+///
+/// Not faer's `self_adjoint_eigen`: [`dense_evd`] gives the same bits on every
+/// thread count and CPU, and computes only the `count` vectors asked for (no slower
+/// than faer below the dense threshold).
 pub(super) fn dense(
     k: &SparseMatrix,
     metric: &Metric,
@@ -27,15 +32,12 @@ pub(super) fn dense(
             Mat::from_fn(n, n, |i, j| 0.5 * (a[(i, j)] + a[(j, i)]))
         }
     };
-    let evd = a
-        .self_adjoint_eigen(Side::Lower)
-        .map_err(|_| SpectralError::NoConvergence {
+    let (s, u) =
+        dense_evd::symmetric_evd_lowest(a.as_ref(), count).ok_or(SpectralError::NoConvergence {
             path: "dense partial",
         })?;
-    let (u, s) = (evd.U(), evd.S());
-    let mut pairs: Vec<(f64, Col<f64>)> = (0..count)
+    let pairs: Vec<(f64, Col<f64>)> = (0..count.min(n))
         .map(|j| (s[j], Col::from_fn(n, |i| u[(i, j)])))
         .collect();
-    pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
     Ok(finish(k, metric, pairs, vec![], true))
 }

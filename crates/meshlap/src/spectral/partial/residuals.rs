@@ -99,46 +99,27 @@ fn finish_diagonal(
                 acc
             })
             .collect();
-        // Σ v·Kv and Σ v²m per vector, then Σ ((Kv − λMv)/√m)², by parallel folds.
-        let add = |mut a: [f64; CW], b: [f64; CW]| {
+        // Σ v·Kv and Σ v²m per vector, then Σ ((Kv − λMv)/√m)², each summed over
+        // fixed row blocks in parallel and the block sums added in order: the same
+        // bits on every run and thread count (a rayon fold groups rows by how the
+        // work was stolen, which changed the last bit of λ from run to run).
+        let vkv_vmv = ordered_block_sums(n, |i, a: &mut [f64; 2 * CW]| {
+            let mi = msqrt[i] * msqrt[i];
             for t in 0..CW {
-                a[t] += b[t];
+                a[t] += vt[i][t] * kvt[i][t];
+                a[CW + t] += vt[i][t] * vt[i][t] * mi;
             }
-            a
-        };
-        let (vkv, vmv) = (0..n)
-            .into_par_iter()
-            .fold(
-                || ([0.0f64; CW], [0.0f64; CW]),
-                |(mut a, mut b), i| {
-                    let mi = msqrt[i] * msqrt[i];
-                    for t in 0..CW {
-                        a[t] += vt[i][t] * kvt[i][t];
-                        b[t] += vt[i][t] * vt[i][t] * mi;
-                    }
-                    (a, b)
-                },
-            )
-            .reduce(
-                || ([0.0f64; CW], [0.0f64; CW]),
-                |x, y| (add(x.0, y.0), add(x.1, y.1)),
-            );
+        });
+        let (vkv, vmv) = vkv_vmv.split_at(CW);
         let lambda: [f64; CW] =
             std::array::from_fn(|t| if vmv[t] > 0.0 { vkv[t] / vmv[t] } else { 0.0 });
-        let rr = (0..n)
-            .into_par_iter()
-            .fold(
-                || [0.0f64; CW],
-                |mut a, i| {
-                    let mi = msqrt[i] * msqrt[i];
-                    for t in 0..CW {
-                        let r = (kvt[i][t] - lambda[t] * mi * vt[i][t]) / msqrt[i];
-                        a[t] += r * r;
-                    }
-                    a
-                },
-            )
-            .reduce(|| [0.0f64; CW], add);
+        let rr = ordered_block_sums(n, |i, a: &mut [f64; CW]| {
+            let mi = msqrt[i] * msqrt[i];
+            for t in 0..CW {
+                let r = (kvt[i][t] - lambda[t] * mi * vt[i][t]) / msqrt[i];
+                a[t] += r * r;
+            }
+        });
         for t in 0..w {
             eigenvalues[j0 + t] = lambda[t];
             residuals[j0 + t] = rr[t].sqrt() / vmv[t].sqrt();
@@ -152,6 +133,36 @@ fn finish_diagonal(
         info,
     }
 }
+
+/// `Σ_i f(i)` over `0..n` for array-valued terms (`f` adds term i into its
+/// accumulator): rows in fixed blocks of [`SUM_BLOCK`], the blocks in parallel, the
+/// block sums added in block order — deterministic whatever the thread count.
+fn ordered_block_sums<const W: usize>(
+    n: usize,
+    f: impl Fn(usize, &mut [f64; W]) + Sync,
+) -> [f64; W] {
+    use rayon::prelude::*;
+    let blocks: Vec<[f64; W]> = (0..n.div_ceil(SUM_BLOCK))
+        .into_par_iter()
+        .map(|b| {
+            let mut acc = [0.0f64; W];
+            for i in b * SUM_BLOCK..((b + 1) * SUM_BLOCK).min(n) {
+                f(i, &mut acc);
+            }
+            acc
+        })
+        .collect();
+    let mut total = [0.0f64; W];
+    for b in &blocks {
+        for t in 0..W {
+            total[t] += b[t];
+        }
+    }
+    total
+}
+
+/// Rows per block of [`ordered_block_sums`].
+const SUM_BLOCK: usize = 4096;
 
 /// The eigenvalues and residuals of [`finish`] for a sparse `M = C Cᵀ`: per pair `λ = vᵀKv / vᵀMv` and the residual `‖C⁻¹(Kv − λMv)‖ / √(vᵀMv)`.
 fn finish_sparse_mass(
