@@ -7,8 +7,12 @@
 //! pmp use the negative); nothing here assumes definiteness.
 //!
 //! For `K v = λ M v` (K symmetric n×n, M a positive diagonal or the identity):
-//! - `λ_min`: the smallest eigenpair by the banded shift-invert solver
-//!   ([`super::partial`]);
+//! - `λ_min`: when the inertia count below says no eigenvalue lies below `−τ` and at
+//!   least one lies in `[−τ, τ]`, by inverse iteration at `σ = −10⁻⁶τ`
+//!   ([`super::partial::eigenvalue_nearest`]) — a Krylov band at the solver's usual
+//!   first shift cannot separate the smallest pair of a tightly clustered low
+//!   spectrum (the SSTL); otherwise the smallest eigenpair by the banded
+//!   shift-invert solver ([`super::partial`]);
 //! - `λ_max`: block Krylov–Schur ([`super::krylov_schur`]) for the eigenvalue of
 //!   largest magnitude of `M^{-1/2} K M^{-1/2} + cI`, with `c = max(0, −g)` for a lower
 //!   bound `g` of the spectrum (Gershgorin), so that the largest magnitude is
@@ -18,11 +22,16 @@
 //!   those of `K + τM` ([`super::partial::eigenvalues_below`]).
 
 use super::krylov_schur::{largest_magnitude, BlockOperator, KrylovSchurParams};
-use super::partial::{eigenvalues_below, partial_spectrum, PartialParams};
+use super::partial::{eigenvalue_nearest, eigenvalues_below, partial_spectrum, PartialParams};
 use super::SpectralError;
 use crate::SparseMatrix;
 use faer::{MatMut, MatRef};
 use serde::Serialize;
+
+/// The inverse iteration's shift for `λ_min` when the spectrum starts at zero, as a
+/// fraction of `τ` below zero: `(λ₀ + στ)/(λ₁ + στ)` is then tiny unless `λ₁` is
+/// itself within rounding of zero.
+const ZERO_SHIFT: f64 = 1e-6;
 
 /// Extreme eigenvalues and the zero multiplicity of `K v = λ M v`.
 #[derive(Clone, Copy, Debug, Serialize)]
@@ -75,8 +84,6 @@ pub fn extremes(
     if n == 0 {
         return Err(SpectralError::Empty);
     }
-    let low = partial_spectrum(k, mass, &PartialParams::new(1), &mut |_, _| {})?;
-    let lambda_min = low.eigenvalues[0];
     let c = if lower_bound.is_finite() {
         (-lower_bound).max(0.0)
     } else {
@@ -104,8 +111,16 @@ pub fn extremes(
         top.values[0] - c
     };
     let tau = 1e-8 * lambda_max.abs().max(1.0);
-    let zero_multiplicity =
-        eigenvalues_below(k, mass, tau)?.saturating_sub(eigenvalues_below(k, mass, -tau)?);
+    let negative = eigenvalues_below(k, mass, -tau)?;
+    let zero_multiplicity = eigenvalues_below(k, mass, tau)?.saturating_sub(negative);
+    // λ_min: when the inertia says the spectrum starts in [−τ, τ], by inverse
+    // iteration just below zero (fast however clustered the low spectrum is);
+    // otherwise the smallest pair of the banded solver.
+    let lambda_min = if negative == 0 && zero_multiplicity > 0 {
+        eigenvalue_nearest(k, mass, -ZERO_SHIFT * tau)?.0
+    } else {
+        partial_spectrum(k, mass, &PartialParams::new(1), &mut |_, _| {})?.eigenvalues[0]
+    };
     Ok(Extremes {
         lambda_min,
         lambda_max,
@@ -146,6 +161,9 @@ mod tests {
             (two, OperatorKind::Kirchhoff, 2),
             (builtin::icosphere(2).unwrap(), OperatorKind::Tutte, 1),
             (builtin::icosphere(2).unwrap(), OperatorKind::Cotan, 1),
+            // TᵀT: the squared, tightly clustered low spectrum (λ_min by inverse
+            // iteration), above the dense threshold of the partial solver.
+            (builtin::torus(30, 24).unwrap(), OperatorKind::Sstl, 1),
         ];
         for (mesh, kind, zeros) in cases {
             let p = problem(&mesh, kind);

@@ -86,7 +86,9 @@
 //! - `solve`: the interleaved supernodal solves (`A_σ` as a block operator);
 //! - `banded`: the band driver;
 //! - `polish`: the refinement of a band's pairs (subspace iteration + Rayleigh–Ritz);
-//! - `residuals`: Rayleigh quotients, residuals and the canonical vectors.
+//! - `residuals`: Rayleigh quotients, residuals and the canonical vectors;
+//! - `nearest`: the eigenvalue nearest a shift by inverse iteration (the property
+//!   report's `λ_min`).
 
 mod banded;
 mod dense;
@@ -94,6 +96,7 @@ mod factor;
 mod mass;
 #[cfg(test)]
 mod mass_tests;
+mod nearest;
 mod ordering;
 mod polish;
 mod problem;
@@ -105,6 +108,7 @@ mod tests;
 pub use factor::eigenvalues_below;
 pub use mass::Mass;
 use mass::Metric;
+pub use nearest::eigenvalue_nearest;
 pub use problem::SymmetricProblem;
 
 use super::SpectralError;
