@@ -639,6 +639,17 @@ fn min_element_bytes(el: &Element, enc: Encoding) -> usize {
 }
 
 pub(crate) fn read(bytes: &[u8], file: &str, info: &mut ReadInfo) -> Result<TriMesh, IoError> {
+    read_with(bytes, file, info, true)
+}
+
+/// [`read`]; `fixed: false` reads binary elements record by record, without the
+/// fixed-record fast paths (the reference the tests compare them with).
+fn read_with(
+    bytes: &[u8],
+    file: &str,
+    info: &mut ReadInfo,
+    fixed: bool,
+) -> Result<TriMesh, IoError> {
     let h = parse_header(bytes, file)?;
     let mut r = Reader {
         data: bytes,
@@ -680,7 +691,7 @@ pub(crate) fn read(bytes: &[u8], file: &str, info: &mut ReadInfo) -> Result<TriM
                     });
                 }
                 let idx = idx.map(|i| i.unwrap_or(0));
-                if h.encoding != Encoding::Ascii {
+                if fixed && h.encoding != Encoding::Ascii {
                     let little = h.encoding == Encoding::Little;
                     if let Some(fixed) = fixed_vertices(&bytes[r.pos..], el, idx, little) {
                         let (p, used) = fixed.map_err(|v| IoError::NonFinite {
@@ -735,7 +746,7 @@ pub(crate) fn read(bytes: &[u8], file: &str, info: &mut ReadInfo) -> Result<TriM
                         message: format!("{what} has no vertex_indices list"),
                     });
                 };
-                if !strips && h.encoding != Encoding::Ascii {
+                if fixed && !strips && h.encoding != Encoding::Ascii {
                     let little = h.encoding == Encoding::Little;
                     if let Some((f, used)) = fixed_triangles(&bytes[r.pos..], el, li, nv, little) {
                         if faces.is_empty() {
@@ -924,6 +935,139 @@ mod tests {
             }
         }
         b
+    }
+
+    /// A binary PLY of `nv` vertices (coordinates of type `coord`, an extra `uchar`
+    /// between y and z when `extra`) and `faces` (list `uchar` count, `item` indices).
+    fn big_binary(
+        big: bool,
+        coord: &str,
+        extra: bool,
+        item: &str,
+        nv: usize,
+        faces: &[Vec<i64>],
+    ) -> Vec<u8> {
+        let mut b = format!(
+            "ply\nformat {} 1.0\nelement vertex {nv}\nproperty {coord} x\nproperty {coord} y\n{}property {coord} z\nelement face {}\nproperty list uchar {item} vertex_indices\nend_header\n",
+            if big { "binary_big_endian" } else { "binary_little_endian" },
+            if extra { "property uchar q\n" } else { "" },
+            faces.len()
+        )
+        .into_bytes();
+        let put = |b: &mut Vec<u8>, x: f64, ty: &str| {
+            let bytes = match ty {
+                "float" => (x as f32).to_le_bytes().to_vec(),
+                "double" => x.to_le_bytes().to_vec(),
+                "short" => (x as i16).to_le_bytes().to_vec(),
+                "int" => (x as i32).to_le_bytes().to_vec(),
+                "uint" => (x as u32).to_le_bytes().to_vec(),
+                _ => unreachable!(),
+            };
+            b.extend(
+                bytes
+                    .iter()
+                    .rev()
+                    .filter(|_| big)
+                    .chain(bytes.iter().filter(|_| !big)),
+            );
+        };
+        for v in 0..nv {
+            put(&mut b, v as f64 * 0.25, coord);
+            put(&mut b, -(v as f64) * 0.5, coord);
+            if extra {
+                b.push(v as u8);
+            }
+            put(&mut b, (v % 7) as f64, coord);
+        }
+        for f in faces {
+            b.push(f.len() as u8);
+            for &i in f {
+                put(&mut b, i as f64, item);
+            }
+        }
+        b
+    }
+
+    fn read_both(b: &[u8]) -> [Result<(TriMesh, ReadInfo), String>; 2] {
+        [true, false].map(|fixed| {
+            let mut info = ReadInfo::new(crate::io::Format::Ply);
+            read_with(b, "t.ply", &mut info, fixed)
+                .map(|m| (m, info))
+                .map_err(|e| e.to_string())
+        })
+    }
+
+    #[test]
+    fn fixed_record_paths_equal_the_record_by_record_read_across_blocks() {
+        // More records than three parallel blocks, so blocks end mid-file; a
+        // non-finite coordinate and a bad face in a later block.
+        let nv = 2 * RECORDS_PER_TASK + 1234;
+        let tri: Vec<Vec<i64>> = (0..3 * RECORDS_PER_TASK as i64 + 77)
+            .map(|k| {
+                vec![
+                    k % nv as i64,
+                    (k * 7 + 1) % nv as i64,
+                    (k * 13 + 5) % nv as i64,
+                ]
+            })
+            .collect();
+        for big in [false, true] {
+            for coord in ["float", "double", "short"] {
+                for extra in [false, true] {
+                    for item in ["int", "uint"] {
+                        let b = big_binary(big, coord, extra, item, nv, &tri);
+                        let [fast, slow] = read_both(&b);
+                        assert_eq!(fast, slow, "{big} {coord} {extra} {item}");
+                        let (m, info) = fast.unwrap();
+                        assert_eq!((m.n_vertices(), m.n_faces()), (nv, tri.len()));
+                        assert_eq!(info.polygons_triangulated, 0);
+                    }
+                }
+            }
+        }
+        // A quad in the last block: the sequential path reads the element.
+        let mut poly = tri.clone();
+        poly.last_mut().unwrap().push(3);
+        let [fast, slow] = read_both(&big_binary(false, "float", false, "int", nv, &poly));
+        assert_eq!(fast, slow);
+        assert_eq!(fast.unwrap().1.polygons_triangulated, 1);
+        // An index out of range in a later block: the sequential path's error.
+        let mut bad = tri.clone();
+        bad[2 * RECORDS_PER_TASK + 5][1] = nv as i64;
+        let [fast, slow] = read_both(&big_binary(true, "double", true, "int", nv, &bad));
+        assert_eq!(fast, slow);
+        assert!(fast
+            .unwrap_err()
+            .contains(&format!("face index {nv} is out of range")));
+        // The first non-finite vertex, in a later block, is named.
+        let mut b = big_binary(false, "double", false, "int", nv, &tri);
+        let header = b.len() - nv * 24 - tri.len() * 13;
+        for v in [2 * RECORDS_PER_TASK + 3, 2 * RECORDS_PER_TASK + 1000] {
+            b[header + v * 24 + 8..header + v * 24 + 16].copy_from_slice(&f64::NAN.to_le_bytes());
+        }
+        let [fast, slow] = read_both(&b);
+        assert_eq!(fast, slow);
+        assert_eq!(
+            fast.unwrap_err(),
+            format!(
+                "t.ply:0: vertex {} has a NaN or infinite coordinate",
+                2 * RECORDS_PER_TASK + 3
+            )
+        );
+    }
+
+    #[test]
+    fn fixed_record_paths_agree_on_the_fuzz_corpus() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../tests/data/fuzz/ply_binary");
+        let mut n = 0;
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let b = std::fs::read(entry.unwrap().path()).unwrap();
+            let [fast, slow] = read_both(&b);
+            assert_eq!(fast, slow);
+            n += 1;
+        }
+        assert!(n >= 3);
     }
 
     #[test]
