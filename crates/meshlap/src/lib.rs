@@ -57,6 +57,7 @@ pub mod experiment;
 pub mod filter;
 pub mod input;
 pub mod io;
+mod mem;
 pub mod mesh;
 pub mod metric;
 mod names;
