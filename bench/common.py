@@ -19,7 +19,7 @@ for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 
 def build():
     subprocess.run(["cargo", "build", "--release", "-q", "-p", "meshlap-cli"], cwd=ROOT, check=True)
-    return ROOT / "target" / "release"
+    return Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target")) / "release"
 
 
 def meshlap(*args):
