@@ -52,8 +52,8 @@ crate::names::option_names!(MassKind, OperatorError, |s| OperatorError::UnknownO
 /// Assembles the cotangent stiffness matrix and the lumped mass diagonal.
 ///
 /// The per-face geometry (cotangents, areas, mass shares) is computed in parallel over
-/// faces; the per-face values are then added into the edge weights and the masses in
-/// face order, and the matrix is filled column by column
+/// chunks of faces; the per-face values are then added into the edge weights and the
+/// masses in face order, and the matrix is filled column by column
 /// ([`super::assemble::one_ring_matrix`]), so every entry is the same sum in the same
 /// order on any number of threads.
 pub fn cotan(
@@ -62,38 +62,38 @@ pub fn cotan(
     mass_kind: MassKind,
 ) -> Result<(SparseMatrix, Vec<f64>), OperatorError> {
     let faces = topo.faces();
-    // Per face: ½·cot at corner k (the weight share of half-edge k+1 → k+2) and the
-    // mass share of corner k; None for a degenerate face.
-    let per_face: Vec<Option<([f64; 3], [f64; 3])>> = faces
-        .par_iter()
-        .with_min_len(4096)
-        .map(|t| face_shares(mesh, *t, mass_kind))
-        .collect();
-    if let Some(f) = per_face.iter().position(Option::is_none) {
-        let t = faces[f];
-        return Err(OperatorError::DegenerateFace {
-            face: f as u32,
-            a: t[0],
-            b: t[1],
-            c: t[2],
-            kind: "cotan",
-        });
-    }
+    // Faces in chunks whose per-face values (56 B each) stay in cache: the geometry of
+    // a chunk in parallel, then its values added in face order.
+    const CHUNK: usize = 8192;
+    let mut shares: Vec<Option<([f64; 3], [f64; 3])>> = vec![None; CHUNK.min(faces.len())];
     let mut w = vec![0.0f64; topo.n_edges()];
     let mut mass = vec![0.0f64; topo.n_vertices()];
-    for (f, (t, shares)) in faces.iter().zip(&per_face).enumerate() {
-        let Some((half_cot, m)) = shares else {
-            continue;
-        };
-        for k in 0..3 {
-            let h = (3 * f + (k + 1) % 3) as u32;
-            w[topo.half_edge_edge(h).idx()] += half_cot[k];
-        }
-        for k in 0..3 {
-            mass[t[k] as usize] += m[k];
+    for (c, chunk) in faces.chunks(CHUNK).enumerate() {
+        shares[..chunk.len()]
+            .par_iter_mut()
+            .with_min_len(1024)
+            .zip(chunk.par_iter())
+            .for_each(|(out, t)| *out = face_shares(mesh, *t, mass_kind));
+        for (q, (t, share)) in chunk.iter().zip(&shares).enumerate() {
+            let f = c * CHUNK + q;
+            let Some((half_cot, m)) = share else {
+                return Err(OperatorError::DegenerateFace {
+                    face: f as u32,
+                    a: t[0],
+                    b: t[1],
+                    c: t[2],
+                    kind: "cotan",
+                });
+            };
+            for k in 0..3 {
+                let h = (3 * f + (k + 1) % 3) as u32;
+                w[topo.half_edge_edge(h).idx()] += half_cot[k];
+            }
+            for k in 0..3 {
+                mass[t[k] as usize] += m[k];
+            }
         }
     }
-    drop(per_face);
     let diag = super::assemble::vertex_weight_sums(topo, &w);
     let l = super::assemble::one_ring_matrix(topo, |i| diag[i], |_, _, e| -w[e]);
     super::check_finite(&l, Some(&mass), "cotan")?;
