@@ -1,10 +1,34 @@
-"""Operator assembly: meshlap vs a vectorised numpy/scipy build and igl.cotmatrix.
+"""Operator assembly: meshlap vs a vectorised numpy/scipy build and igl.cotmatrix,
+and each meshlap operator against the memory-bandwidth bound of the bytes it writes.
 
 Run: bench/.venv/bin/python bench/operators.py [MESH]   (default: igea.ply)
-Both sides use BENCH_THREADS threads (default 2). Prints medians and ratios.
+Honours CARGO_TARGET_DIR. Both sides use BENCH_THREADS threads (default 2: rayon via
+RAYON_NUM_THREADS, BLAS via threadpoolctl).
+
+What each side includes:
+- scipy: from the cleaned V, F numpy arrays to a CSR matrix, including the edge
+  extraction (np.unique) it needs because it has no connectivity structure;
+- igl.cotmatrix: from V, F to its sparse matrix (libigl finds the edges itself);
+  stiffness only, while ours also computes the Voronoi mass diagonal;
+- meshlap: from an opened mesh with its half-edge connectivity (built once by
+  `open`, shared by every operator) to a CSC matrix. The connectivity build is timed
+  on its own ("topology") and a second ratio counts it into our time.
+Timing: ROUNDS alternated rounds (ours, peer, ours, peer, ...; 5 runs each per round),
+medians of the per-round medians.
+
+Bandwidth bound: bytes an operator writes = its final CSC arrays in faer's layout,
+`SparseColMat<usize, f64>`: 8 B values + 8 B row indices (usize on 64-bit) per
+non-zero, plus 8 B x (n + 1) column pointers (intermediate arrays not counted). The
+write rate is that of a streaming copy of 128 MiB measured in the same run with
+BENCH_THREADS threads (numpy.copyto per thread, the GIL released): into memory that was
+already touched ("warm"), and into newly allocated memory ("fresh", page faults
+included — an assembler returns new arrays, so it pays them too). bound = bytes / rate.
 """
+import statistics
 import sys
 import tempfile
+import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -84,6 +108,38 @@ def check_same_matrices(path, V, F, n):
     return diffs
 
 
+ROUNDS = 3
+
+
+def write_rates(mib=128, repeat=5):
+    """Bytes written per second by a streaming copy of `mib` MiB split over THREADS
+    threads: (warm destination, fresh destination)."""
+    n = mib * 2**20 // 8
+    src = np.arange(n, dtype=np.float64)
+    parts = np.array_split(np.arange(n), THREADS)
+    bounds = [(p[0], p[-1] + 1) for p in parts]
+    dst = np.empty_like(src)
+    dst[:] = 0.0
+    pool = ThreadPoolExecutor(THREADS)
+
+    def warm():
+        list(pool.map(lambda b: np.copyto(dst[b[0]:b[1]], src[b[0]:b[1]]), bounds))
+
+    def fresh():
+        list(pool.map(lambda b: src[b[0]:b[1]].copy(), bounds))
+
+    rates = []
+    for fn in (warm, fresh):
+        times = []
+        for _ in range(repeat):
+            t = time.perf_counter()
+            fn()
+            times.append(time.perf_counter() - t)
+        rates.append(8 * n / statistics.median(times))
+    pool.shutdown()
+    return rates
+
+
 def main():
     import igl
     path = sys.argv[1] if len(sys.argv) > 1 else str(MESHES / "igea.ply")
@@ -95,27 +151,65 @@ def main():
     for name, (d, scale, nnz_ours, nnz_peer) in diffs.items():
         print(f"  {name:10s} {d:.2e} (max |entry| {scale:.3g}; nnz {nnz_ours} vs {nnz_peer})")
         assert d <= 1e-12 * max(scale, 1.0), f"{name}: meshlap and the peer differ by {d}"
-    rows = []
+    nnz = nnz_of_all(path)
+    peers = {
+        "kirchhoff": lambda: kirchhoff(F, n),
+        "tutte": lambda: tutte(F, n),
+        "sql": lambda: sql(F, n),
+        "sstl": lambda: sstl(F, n),
+        "cotan": lambda: igl.cotmatrix(V, F),
+    }
+    ours_all = ["kirchhoff", "tutte", "graph", "sql", "sstl", "tutte2", "sdl", "cotan", "mean-value"]
+    t_ours = {k: [] for k in ours_all + ["topology"]}
+    t_peer = {k: [] for k in peers}
+    rates = []
     with limit_threads():
-        peers = {
-            "kirchhoff": lambda: kirchhoff(F, n),
-            "tutte": lambda: tutte(F, n),
-            "sql": lambda: sql(F, n),
-            "sstl": lambda: sstl(F, n),
-            "cotan": lambda: igl.cotmatrix(V, F),
-        }
-        # The machine may be shared: time our side and the peer back to back per
-        # operator, so that both see the same load.
-        for name, fn in peers.items():
-            t_ours = meshlap_bench("operators", path, "--repeat", 7, "--kind", name)[name]["median"]
-            t_peer = timeit(fn, repeat=5)
-            peer = "igl.cotmatrix" if name == "cotan" else "scipy (vectorised)"
-            rows.append([name, peer, f"{t_peer * 1e3:.1f}", f"{t_ours * 1e3:.2f}", f"{t_peer / t_ours:.1f}x"])
-    ours = meshlap_bench("operators", path, "--repeat", 7)
-    for name in ["graph", "tutte2", "sdl", "mean-value", "topology"]:
-        rows.append([name, "-", "-", f"{ours[name]['median'] * 1e3:.2f}", "-"])
-    print(f"mesh {path}: n = {n}, threads = {THREADS}")
-    table(rows, ["operator", "peer", "peer ms", "meshlap ms", "speed-up"])
+        # The machine may be shared: alternate ours and the peer's, operator by
+        # operator, round by round, so that both see the same load.
+        for _ in range(ROUNDS):
+            rates.append(write_rates())
+            t_ours["topology"].append(meshlap_bench("topology", path, "--repeat", 5)["topology"]["median"])
+            for name in ours_all:
+                t_ours[name].append(meshlap_bench("operators", path, "--repeat", 5, "--kind", name)[name]["median"])
+                if name in peers:
+                    t_peer[name].append(timeit(peers[name], repeat=5))
+    med = statistics.median
+    warm = med(r[0] for r in rates)
+    fresh = med(r[1] for r in rates)
+    topo = med(t_ours["topology"])
+    rows = []
+    for name in ours_all:
+        ours = med(t_ours[name])
+        nbytes = 16 * nnz[name] + 8 * (n + 1)
+        bound_w, bound_f = nbytes / warm, nbytes / fresh
+        if name in peers:
+            peer = med(t_peer[name])
+            who = "igl.cotmatrix" if name == "cotan" else "scipy (vectorised)"
+            cols = [who, f"{peer * 1e3:.1f}", f"{peer / ours:.1f}x", f"{peer / (ours + topo):.1f}x"]
+        else:
+            cols = ["-", "-", "-", "-"]
+        rows.append([name, *cols, f"{ours * 1e3:.2f}", f"{nbytes / 1e6:.1f}",
+                     f"{bound_w * 1e3:.2f}", f"{ours / bound_w:.1f}x", f"{ours / bound_f:.1f}x"])
+    rows.append(["topology", "-", "-", "-", "-", f"{topo * 1e3:.2f}", "-", "-", "-", "-"])
+    print(f"mesh {path}: n = {n}, threads = {THREADS}, {ROUNDS} alternated rounds")
+    print(f"write rate of a streaming copy: {warm / 1e9:.2f} GB/s (warm destination), "
+          f"{fresh / 1e9:.2f} GB/s (fresh destination)")
+    table(rows, ["operator", "peer", "peer ms", "speed-up", "incl. topology", "meshlap ms",
+                 "MB written", "bound ms (warm)", "÷ bound (warm)", "÷ bound (fresh)"])
+
+
+def nnz_of_all(path):
+    """Non-zeros of every meshlap operator (from its Matrix Market dump)."""
+    out = {}
+    with tempfile.TemporaryDirectory() as d:
+        meshlap_bench("dump", path, d)
+        for f in Path(d).glob("*.mtx"):
+            with open(f) as fh:
+                for line in fh:
+                    if not line.startswith("%"):
+                        out[f.stem] = int(line.split()[2])
+                        break
+    return out
 
 
 if __name__ == "__main__":

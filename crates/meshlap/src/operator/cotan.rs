@@ -27,6 +27,7 @@ use super::geometry::{cross, dot, norm, sub};
 use super::OperatorError;
 use crate::mesh::{topology::Topology, TriMesh};
 use crate::SparseMatrix;
+use rayon::prelude::*;
 
 /// Lumped mass matrix of the cotangent operator.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
@@ -49,59 +50,47 @@ crate::names::option_names!(MassKind, OperatorError, |s| OperatorError::UnknownO
 });
 
 /// Assembles the cotangent stiffness matrix and the lumped mass diagonal.
+///
+/// The per-face geometry (cotangents, areas, mass shares) is computed in parallel over
+/// chunks of faces; the per-face values are then added into the edge weights and the
+/// masses in face order, and the matrix is filled column by column
+/// ([`super::assemble::one_ring_matrix`]), so every entry is the same sum in the same
+/// order on any number of threads.
 pub fn cotan(
     mesh: &TriMesh,
     topo: &Topology,
     mass_kind: MassKind,
 ) -> Result<(SparseMatrix, Vec<f64>), OperatorError> {
+    let faces = topo.faces();
+    // Faces in chunks whose per-face values (56 B each) stay in cache: the geometry of
+    // a chunk in parallel, then its values added in face order.
+    const CHUNK: usize = 8192;
+    let mut shares: Vec<Option<([f64; 3], [f64; 3])>> = vec![None; CHUNK.min(faces.len())];
     let mut w = vec![0.0f64; topo.n_edges()];
     let mut mass = vec![0.0f64; topo.n_vertices()];
-    let p = |v: u32| mesh.positions[v as usize];
-    for (f, t) in topo.faces().iter().enumerate() {
-        let [a, b, c] = t.map(p);
-        let area2 = norm(cross(sub(b, a), sub(c, a)));
-        if !is_proper_triangle(area2, [a, b, c]) {
-            return Err(OperatorError::DegenerateFace {
-                face: f as u32,
-                a: t[0],
-                b: t[1],
-                c: t[2],
-                kind: "cotan",
-            });
-        }
-        // cot of the angle at corner k, opposite half-edge k+1 → k+2.
-        let mut cots = [0.0; 3];
-        for k in 0..3 {
-            let o = t[k];
-            let (u, v) = (sub(p(t[(k + 1) % 3]), p(o)), sub(p(t[(k + 2) % 3]), p(o)));
-            cots[k] = dot(u, v) / area2;
-            let h = (3 * f + (k + 1) % 3) as u32;
-            w[topo.half_edge_edge(h).idx()] += 0.5 * cots[k];
-        }
-        let area = 0.5 * area2;
-        match mass_kind {
-            MassKind::Barycentric => {
-                for &v in t {
-                    mass[v as usize] += area / 3.0;
-                }
+    for (c, chunk) in faces.chunks(CHUNK).enumerate() {
+        shares[..chunk.len()]
+            .par_iter_mut()
+            .with_min_len(1024)
+            .zip(chunk.par_iter())
+            .for_each(|(out, t)| *out = face_shares(mesh, *t, mass_kind));
+        for (q, (t, share)) in chunk.iter().zip(&shares).enumerate() {
+            let f = c * CHUNK + q;
+            let Some((half_cot, m)) = share else {
+                return Err(OperatorError::DegenerateFace {
+                    face: f as u32,
+                    a: t[0],
+                    b: t[1],
+                    c: t[2],
+                    kind: "cotan",
+                });
+            };
+            for k in 0..3 {
+                let h = (3 * f + (k + 1) % 3) as u32;
+                w[topo.half_edge_edge(h).idx()] += half_cot[k];
             }
-            MassKind::Voronoi => {
-                let obtuse = (0..3).find(|&k| cots[k] < 0.0);
-                for k in 0..3 {
-                    let v = t[k] as usize;
-                    mass[v] += match obtuse {
-                        Some(o) if o == k => area / 2.0,
-                        Some(_) => area / 4.0,
-                        None => {
-                            // Voronoi area at corner k: 1/8 (|e_kj|² cot at l + |e_kl|² cot at j).
-                            let (j, l) = ((k + 1) % 3, (k + 2) % 3);
-                            let pk = p(t[k]);
-                            let ekj = sub(p(t[j]), pk);
-                            let ekl = sub(p(t[l]), pk);
-                            (dot(ekj, ekj) * cots[l] + dot(ekl, ekl) * cots[j]) / 8.0
-                        }
-                    };
-                }
+            for k in 0..3 {
+                mass[t[k] as usize] += m[k];
             }
         }
     }
@@ -109,6 +98,49 @@ pub fn cotan(
     let l = super::assemble::one_ring_matrix(topo, |i| diag[i], |_, _, e| -w[e]);
     super::check_finite(&l, Some(&mass), "cotan")?;
     Ok((l, mass))
+}
+
+/// ½·cot of the angle at each corner of face `t` and each corner's mass share, or
+/// `None` when the face is degenerate ([`is_proper_triangle`]).
+fn face_shares(mesh: &TriMesh, t: [u32; 3], mass_kind: MassKind) -> Option<([f64; 3], [f64; 3])> {
+    let p = |v: u32| mesh.positions[v as usize];
+    let [a, b, c] = t.map(p);
+    let area2 = norm(cross(sub(b, a), sub(c, a)));
+    if !is_proper_triangle(area2, [a, b, c]) {
+        return None;
+    }
+    // cot of the angle at corner k, opposite half-edge k+1 → k+2.
+    let mut cots = [0.0; 3];
+    let mut half = [0.0; 3];
+    for k in 0..3 {
+        let o = t[k];
+        let (u, v) = (sub(p(t[(k + 1) % 3]), p(o)), sub(p(t[(k + 2) % 3]), p(o)));
+        cots[k] = dot(u, v) / area2;
+        half[k] = 0.5 * cots[k];
+    }
+    let area = 0.5 * area2;
+    let mut m = [0.0; 3];
+    match mass_kind {
+        MassKind::Barycentric => m = [area / 3.0; 3],
+        MassKind::Voronoi => {
+            let obtuse = (0..3).find(|&k| cots[k] < 0.0);
+            for k in 0..3 {
+                m[k] = match obtuse {
+                    Some(o) if o == k => area / 2.0,
+                    Some(_) => area / 4.0,
+                    None => {
+                        // Voronoi area at corner k: 1/8 (|e_kj|² cot at l + |e_kl|² cot at j).
+                        let (j, l) = ((k + 1) % 3, (k + 2) % 3);
+                        let pk = p(t[k]);
+                        let ekj = sub(p(t[j]), pk);
+                        let ekl = sub(p(t[l]), pk);
+                        (dot(ekj, ekj) * cots[l] + dot(ekl, ekl) * cots[j]) / 8.0
+                    }
+                };
+            }
+        }
+    }
+    Some((half, m))
 }
 
 /// True when a triangle with doubled area `area2` and corners `p` has an area above

@@ -29,8 +29,10 @@
 //! refuses non-manifold edges (the opposite vertices k, l are not unique there).
 
 use super::{degrees_checked, OperatorError};
-use crate::mesh::{topology::Topology, EdgeId, MeshError};
+use crate::mesh::{topology::Topology, EdgeId, MeshError, VertexId};
 use crate::SparseMatrix;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Which boundary diagonal the SQL uses; see the module documentation.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
@@ -102,15 +104,63 @@ pub fn sql_diagonal(topo: &Topology, d: &[f64], convention: BoundaryDiagonal) ->
 }
 
 /// Assembles the SQL `S = D − W` of `topo` with the given boundary diagonal.
+///
+/// The edge weights are computed in parallel in edge order (sequential reads of the
+/// edge arrays), then the matrix is filled column by column
+/// ([`super::assemble::one_ring_columns`]) with the boundary diagonal of vertex j
+/// summed over its boundary edges in edge order — so the result equals, bit for bit,
+/// `diag` from [`sql_diagonal`] minus `W` from [`sql_edge_weights`].
 pub fn sql(topo: &Topology, convention: BoundaryDiagonal) -> Result<SparseMatrix, OperatorError> {
     let d = degrees_checked(topo)?;
-    let w = sql_edge_weights(topo, &d)?;
-    let diag = sql_diagonal(topo, &d, convention);
-    Ok(super::assemble::one_ring_matrix(
-        topo,
-        |i| diag[i],
-        |_, _, e| -w[e],
-    ))
+    let inv: Vec<f64> = d.iter().map(|&x| 1.0 / x).collect();
+    let non_manifold = AtomicBool::new(false);
+    let w: Vec<f64> = (0..topo.n_edges())
+        .into_par_iter()
+        .with_min_len(4096)
+        .map(|e| {
+            let e = EdgeId(e as u32);
+            let [a, b] = topo.edge(e);
+            // The expressions of `sql_edge_weight`, with 1/d precomputed (same bits).
+            let base = inv[a as usize] + inv[b as usize];
+            let h = topo.edge_half_edge(e);
+            let inv_k = inv[topo.opposite_vertex(h) as usize];
+            match topo.edge_face_count(e) {
+                1 => base - inv_k,
+                2 => base - 0.5 * (inv_k + inv[topo.opposite_vertex(topo.twin(h)) as usize]),
+                _ => {
+                    non_manifold.store(true, Ordering::Relaxed);
+                    f64::NAN
+                }
+            }
+        })
+        .collect();
+    if non_manifold.load(Ordering::Relaxed) {
+        // Name the first non-manifold edge, in edge order, as the sequential build did.
+        sql_edge_weights(topo, &d)?;
+    }
+    let sign = match convention {
+        BoundaryDiagonal::ZeroRowSum => 1.0,
+        BoundaryDiagonal::AsPrinted => -1.0,
+    };
+    Ok(super::assemble::one_ring_columns(topo, |j, off| {
+        let v = VertexId(j as u32);
+        let mut diag = 1.0;
+        for ((o, &i), &e) in off
+            .iter_mut()
+            .zip(topo.neighbors(v))
+            .zip(topo.neighbor_edges(v))
+        {
+            let e = EdgeId(e);
+            *o = -w[e.idx()];
+            if topo.is_boundary_edge(e) {
+                // As in `sql_diagonal`: ±½(1/d_i − 1/d_k), i the other endpoint, k the
+                // opposite vertex; `sign · delta` is exact (a sign flip).
+                let inv_k = inv[topo.opposite_vertex(topo.edge_half_edge(e)) as usize];
+                diag += sign * (0.5 * (inv[i as usize] - inv_k));
+            }
+        }
+        diag
+    }))
 }
 
 #[cfg(test)]

@@ -5,34 +5,24 @@
 //! Its pattern is the two-ring of each vertex. Boundary vertices need no special case.
 
 use super::{assemble, degrees_checked, OperatorError};
-use crate::mesh::{topology::Topology, VertexId};
+use crate::mesh::topology::Topology;
 use crate::SparseMatrix;
 
 /// Assembles `J = TᵀT` directly from the connectivity: column j of J is
 /// `Σ_k T_kj · (row k of T)ᵀ`, with `T_jj = 1` and `T_kj = −1/d_k` for k ∈ N(j), summed
-/// in ascending k so that the result is exactly symmetric.
+/// in ascending k so that `J_ij` and `J_ji` add the same products `T_ki·T_kj` in the
+/// same order: J is symmetric bit for bit. Two-ring pattern filled in place
+/// ([`assemble::two_ring_matrix`]).
 pub fn sstl(topo: &Topology) -> Result<SparseMatrix, OperatorError> {
-    let d = degrees_checked(topo)?;
-    Ok(assemble::combine_columns(
-        topo.n_vertices(),
-        |j, out| {
-            // k ascending with j merged in: J_ij and J_ji then add the same products
-            // T_ki·T_kj in the same order, so J is symmetric bit for bit.
-            let nb = topo.neighbors(VertexId(j as u32));
-            let split = nb.partition_point(|&k| (k as usize) < j);
-            out.extend(
-                nb[..split]
-                    .iter()
-                    .map(|&k| (k as usize, -1.0 / d[k as usize])),
-            );
-            out.push((j, 1.0));
-            out.extend(
-                nb[split..]
-                    .iter()
-                    .map(|&k| (k as usize, -1.0 / d[k as usize])),
-            );
-        },
-        |k, out| assemble::one_ring_column(topo, k, 1.0, |_| -1.0 / d[k], out),
+    // −1/d_k once per vertex, not once per product.
+    let neg_inv: Vec<f64> = degrees_checked(topo)?.iter().map(|&d| -1.0 / d).collect();
+    // T_kj = 1 on the diagonal, −1/d_k for k ∈ N(j).
+    let t_kj = |j: usize, k: usize| if k == j { 1.0 } else { neg_inv[k] };
+    Ok(assemble::two_ring_matrix(
+        topo,
+        assemble::RingOrder::Ascending,
+        t_kj,
+        |k, i| t_kj(i, k),
     ))
 }
 

@@ -12,11 +12,12 @@ use crate::SparseMatrix;
 
 /// Assembles the Tutte Laplacian `T = I − D⁻¹A` of `topo`.
 pub fn tutte(topo: &Topology) -> Result<SparseMatrix, OperatorError> {
-    let d = degrees_checked(topo)?;
+    // −(1/d_i) and −1/d_i are the same number (rounding is sign-symmetric).
+    let inv: Vec<f64> = degrees_checked(topo)?.iter().map(|&d| 1.0 / d).collect();
     Ok(super::assemble::one_ring_matrix(
         topo,
         |_| 1.0,
-        |i, _, _| -1.0 / d[i],
+        |i, _, _| -inv[i],
     ))
 }
 

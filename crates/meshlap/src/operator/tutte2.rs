@@ -3,21 +3,21 @@
 //! `F = D − W`; eigenvalues are the squares of the TL's (real, in `[0, 4]`).
 
 use super::{assemble, degrees_checked, OperatorError};
-use crate::mesh::{topology::Topology, VertexId};
+use crate::mesh::topology::Topology;
 use crate::SparseMatrix;
 
-/// Assembles `T²`: column j is `Σ_k T_kj · (column k of T)`.
+/// Assembles `T²`: column j is `Σ_k T_kj · (column k of T)` over k = j, then the
+/// neighbours of j ascending, with `T_kk = 1`, `T_ik = −1/d_i` for i ∈ N(k). Two-ring
+/// pattern filled in place ([`assemble::two_ring_matrix`]).
 pub fn tutte2(topo: &Topology) -> Result<SparseMatrix, OperatorError> {
-    let d = degrees_checked(topo)?;
-    Ok(assemble::combine_columns(
-        topo.n_vertices(),
-        |j, out| {
-            out.push((j, 1.0));
-            for &k in topo.neighbors(VertexId(j as u32)) {
-                out.push((k as usize, -1.0 / d[k as usize]));
-            }
-        },
-        |k, out| assemble::one_ring_column(topo, k, 1.0, |i| -1.0 / d[i], out),
+    // −1/d_i once per vertex, not once per product.
+    let neg_inv: Vec<f64> = degrees_checked(topo)?.iter().map(|&d| -1.0 / d).collect();
+    let t = |i: usize, k: usize| if i == k { 1.0 } else { neg_inv[i] };
+    Ok(assemble::two_ring_matrix(
+        topo,
+        assemble::RingOrder::DiagonalFirst,
+        |j, k| t(k, j),
+        |k, i| t(i, k),
     ))
 }
 
