@@ -639,6 +639,7 @@ def watermark_embed(
     chip_rate: Optional[int] = None,
     patch_size: Optional[int] = None,
     band: Optional[int] = None,
+    msdm2: bool = True,
 ) -> Tuple[np.ndarray, Dict[str, Any]]:
     """Embed a watermark (Ohbuchi, Takahashi, Miyazawa, Mukaiyama 2001; Ohbuchi,
     Mukaiyama, Takahashi 2002; Zhang 2004 §4.9): the hex ``message`` (16 digits = 64
@@ -651,11 +652,12 @@ def watermark_embed(
     ``meshlap watermark embed --json`` (bits, patches, coefficients_per_bit, mrms,
     max_displacement, msdm2, seconds). ``strength`` is the target RMS displacement ÷
     bounding-box diagonal. Options left at None take the library's defaults; detection
-    must use the same operator, patch size, band and chip rate."""
+    must use the same operator, patch size, band and chip rate. ``msdm2=False`` skips
+    the MSDM2 measurement (the report's msdm2 is then None)."""
     v, f = _mesh(V, F)
     if not (0 <= int(key) < 2**64):
         raise WatermarkError(f"key must be an integer in [0, 2**64), got {key}")
-    out, report = _meshlap.watermark_embed(v, f, int(key), str(message), operator, strength, chip_rate, patch_size, band)
+    out, report = _meshlap.watermark_embed(v, f, int(key), str(message), operator, strength, chip_rate, patch_size, band, bool(msdm2))
     return out, _json.loads(report)
 
 
@@ -672,6 +674,7 @@ def watermark_detect(
     patch_size: Optional[int] = None,
     band: Optional[int] = None,
     chip_rate: Optional[int] = None,
+    weighting: Optional[str] = None,
 ) -> Dict[str, Any]:
     """Non-blind detection of a watermark in the suspect ``(Vs, Fs)`` against the
     original ``(Vo, Fo)``: similarity registration (principal axes + ICP with scale),
@@ -679,13 +682,16 @@ def watermark_detect(
     bases, correlation with the key's chips. Returns the keys of
     ``meshlap watermark detect --json``: message (hex, or None when no watermark is
     found), bits, correlations, false_positive_probability, registration, resampled,
-    bit_errors and ber (with ``expect``), seconds."""
+    bit_errors and ber (with ``expect``), seconds. ``weighting``: ``"auto"`` (default:
+    ``"patch-axis"`` for a suspect with the original's connectivity, ``"patch"`` for a
+    resampled one), ``"patch-axis"`` (one inverse-variance weight per patch and axis)
+    or ``"patch"`` (one per patch)."""
     vs, fs = _mesh(Vs, Fs, "Vs", "Fs")
     vo, fo = _mesh(Vo, Fo, "Vo", "Fo")
     if not (0 <= int(key) < 2**64):
         raise WatermarkError(f"key must be an integer in [0, 2**64), got {key}")
     return _json.loads(
-        _meshlap.watermark_detect(vs, fs, vo, fo, int(key), int(bits), expect, operator, patch_size, band, chip_rate)
+        _meshlap.watermark_detect(vs, fs, vo, fo, int(key), int(bits), expect, operator, patch_size, band, chip_rate, weighting)
     )
 
 

@@ -93,6 +93,25 @@ fn embed_then_detect_recovers_the_message_with_the_documented_keys() {
     assert!(w["false_positive_probability"].as_f64().unwrap() > 1e-6);
     let text = detect(&out, &cow, "43", &[]);
     assert!(String::from_utf8_lossy(&text.stdout).contains("no watermark found"));
+    // Every weighting finds the mark; an unknown one is a usage error.
+    for w in ["auto", "patch", "patch-axis"] {
+        let d = json(&detect(
+            &out,
+            &cow,
+            "42",
+            &["--expect", MSG, "--weighting", w, "--json"],
+        ));
+        assert_eq!(d["bit_errors"], 0, "{w}");
+    }
+    assert_eq!(
+        detect(&out, &cow, "42", &["--weighting", "axis"])
+            .status
+            .code(),
+        Some(2)
+    );
+    // --no-msdm2: the metric is skipped.
+    let e = json(&embed(&cow, &out, "0x2a", MSG, &["--no-msdm2", "--json"]));
+    assert!(e["msdm2"].is_null());
 }
 
 #[test]

@@ -5,7 +5,7 @@ use crate::{compute, json, mesh_arrays, mesh_named, mesh_of, FaceArray, OrRaise}
 use meshlap::operator::OperatorKind;
 use meshlap::watermark::layout::LayoutParams;
 use meshlap::watermark::message::Message;
-use meshlap::watermark::{detect, embed, DetectParams, EmbedParams, WatermarkError};
+use meshlap::watermark::{detect, embed, DetectParams, EmbedParams, WatermarkError, Weighting};
 use numpy::{PyArray2, PyReadonlyArray2};
 use pyo3::prelude::*;
 
@@ -30,11 +30,11 @@ fn layout(
 }
 
 /// `watermark_embed(V, F, key, message, operator, strength, chip_rate, patch_size,
-/// band)` → `(V′ (n, 3) float64, report JSON)`; connectivity and vertex order are the
-/// input's.
+/// band, msdm2)` → `(V′ (n, 3) float64, report JSON)`; connectivity and vertex order
+/// are the input's; `msdm2 = false` skips the metric.
 #[pyfunction]
 #[pyo3(signature = (v, f, key, message, operator=None, strength=None, chip_rate=None,
-    patch_size=None, band=None))]
+    patch_size=None, band=None, msdm2=true))]
 #[allow(clippy::too_many_arguments)]
 fn watermark_embed<'py>(
     py: Python<'py>,
@@ -47,6 +47,7 @@ fn watermark_embed<'py>(
     chip_rate: Option<usize>,
     patch_size: Option<usize>,
     band: Option<usize>,
+    msdm2: bool,
 ) -> PyResult<(Bound<'py, PyArray2<f64>>, String)> {
     let message = Message::from_hex(message)
         .map_err(WatermarkError::from)
@@ -56,6 +57,7 @@ fn watermark_embed<'py>(
     let (marked, report) = compute(py, || {
         let mut params = EmbedParams::new(key, message);
         params.layout = layout;
+        params.measure_msdm2 = msdm2;
         if let Some(s) = strength {
             params.strength = s;
         }
@@ -67,10 +69,10 @@ fn watermark_embed<'py>(
 }
 
 /// `watermark_detect(Vs, Fs, Vo, Fo, key, bits, expect, operator, patch_size, band,
-/// chip_rate)` → report JSON (the keys of `meshlap watermark detect --json`).
+/// chip_rate, weighting)` → report JSON (the keys of `meshlap watermark detect --json`).
 #[pyfunction]
 #[pyo3(signature = (vs, fs, vo, fo, key, bits=64, expect=None, operator=None,
-    patch_size=None, band=None, chip_rate=None))]
+    patch_size=None, band=None, chip_rate=None, weighting=None))]
 #[allow(clippy::too_many_arguments)]
 fn watermark_detect(
     py: Python<'_>,
@@ -85,7 +87,12 @@ fn watermark_detect(
     patch_size: Option<usize>,
     band: Option<usize>,
     chip_rate: Option<usize>,
+    weighting: Option<&str>,
 ) -> PyResult<String> {
+    let weighting = match weighting {
+        Some(w) => w.parse::<Weighting>().or_raise(py)?,
+        None => Weighting::default(),
+    };
     let expect = expect
         .map(Message::from_hex)
         .transpose()
@@ -98,6 +105,7 @@ fn watermark_detect(
         let params = DetectParams {
             layout,
             expect,
+            weighting,
             ..DetectParams::new(key, bits)
         };
         detect(&suspect.mesh, &original.mesh, &params)

@@ -164,3 +164,184 @@ fn sweep() {
         }
     }
 }
+
+/// Per-bit SNR of the detector (BENCHMARKS.md, "What limits 7-bit quantization"):
+/// `u_i = ρ_i √c` is the normalised correlation, ≈ SNR·s_i + N(0, 1) for a weak
+/// mark, so `mean(s_i u_i)` estimates the SNR and `std(s_i u_i)` should be ≈ 1.
+/// Returns (errors, mean, std).
+fn snr(d: &meshlap::watermark::DetectReport, msg: &Message) -> (usize, f64, f64) {
+    let c = d.coefficients_per_bit as f64;
+    let v: Vec<f64> = d
+        .correlations
+        .iter()
+        .zip(msg.bits())
+        .map(|(&r, &b)| if b { r * c.sqrt() } else { -r * c.sqrt() })
+        .collect();
+    let n = v.len() as f64;
+    let m = v.iter().sum::<f64>() / n;
+    let s = (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+    (d.bit_errors.unwrap_or(0), m, s)
+}
+
+/// White Gaussian noise with the per-axis σ of `bits`-bit quantization over the
+/// bounding box (σ_a = step_a/√12), seeded.
+fn gaussian_like_quantization(m: &TriMesh, bits: u32, seed: u64) -> TriMesh {
+    let (lo, hi) = m.bounding_box().unwrap();
+    let levels = ((1u64 << bits) - 1) as f64;
+    let sigma = [0, 1, 2].map(|k| (hi[k] - lo[k]) / levels / 12f64.sqrt());
+    let mut g = meshlap::rng::SplitMix64::new(seed);
+    let mut normal = || {
+        // Box–Muller.
+        let (u1, u2) = (1.0 - g.next_f64(), g.next_f64());
+        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    };
+    let positions = m
+        .positions
+        .iter()
+        .map(|p| [0, 1, 2].map(|k| p[k] + sigma[k] * normal()))
+        .collect();
+    TriMesh::new(positions, m.faces.clone())
+}
+
+/// The SNR analysis and parameter sweep of BENCHMARKS.md ("What limits 7-bit
+/// quantization", "Parameter sweep"); slow, run on demand in release:
+/// `WM_CONFIGS=P:band:strength[:chips],... WM_KEYS=3 cargo test --release -p meshlap
+/// --test watermark_real snr_sweep -- --ignored --nocapture`. Per configuration and
+/// attack: bit errors summed over the keys, BER, the measured SNR (mean ± std of
+/// `s_i u_i`) and, for quantization, the white-noise prediction `α√c/σ_rms`.
+#[test]
+#[ignore]
+fn snr_sweep() {
+    let name = std::env::var("WM_MESH").unwrap_or_else(|_| "stanford-bunny.obj".into());
+    let m = load(&shared(&name)).mesh;
+    let keys: u64 = std::env::var("WM_KEYS").map_or(3, |k| k.parse().unwrap());
+    use meshlap::watermark::Weighting;
+    let weight = |w: &str| w.parse::<Weighting>().unwrap();
+    let mut orders: Vec<(usize, Weighting)> = Vec::new();
+    for o in std::env::var("WM_ORDERS")
+        .unwrap_or_else(|_| "3".into())
+        .split(',')
+    {
+        for w in std::env::var("WM_WEIGHTS")
+            .unwrap_or_else(|_| "patch-axis".into())
+            .split(',')
+        {
+            orders.push((o.parse().unwrap(), weight(w)));
+        }
+    }
+    let attacks: Vec<String> = std::env::var("WM_ATTACKS")
+        .unwrap_or_else(|_| "quant7,gauss7,smooth50,noise0.5,simplify70".into())
+        .split(',')
+        .map(String::from)
+        .collect();
+    let op: meshlap::operator::OperatorKind = std::env::var("WM_OP")
+        .unwrap_or("kirchhoff".into())
+        .parse()
+        .unwrap();
+    let configs = std::env::var("WM_CONFIGS").unwrap_or_else(|_| "1000:24:1.2e-4".into());
+    for c in configs.split(',') {
+        let v: Vec<&str> = c.split(':').collect();
+        let layout = LayoutParams {
+            operator: op,
+            patch_size: v[0].parse().unwrap(),
+            band: v[1].parse().unwrap(),
+            chip_rate: v.get(3).map(|x| x.parse().unwrap()),
+        };
+        let strength: f64 = v[2].parse().unwrap();
+        // per (order, attack): errors, Σ mean, Σ std, prediction
+        let mut acc = vec![vec![(0usize, 0.0f64, 0.0f64, 0.0f64); attacks.len()]; orders.len()];
+        let (mut mrms, mut msdm2, mut chips, mut alpha) = (0.0, 0.0, 0, 0.0);
+        for k in 0..keys {
+            let key = 7 + 1000 * k;
+            let msg = Message::from_bits(
+                meshlap::watermark::key::chips(key ^ 0x55, 64)
+                    .iter()
+                    .map(|&x| x > 0.0)
+                    .collect(),
+            )
+            .unwrap();
+            let ep = EmbedParams {
+                layout,
+                strength,
+                measure_msdm2: k == 0,
+                ..EmbedParams::new(key, msg.clone())
+            };
+            let (marked, rep) = embed(&m, &ep).unwrap();
+            if k == 0 {
+                (mrms, msdm2, chips, alpha) = (
+                    rep.mrms,
+                    rep.msdm2.unwrap(),
+                    rep.coefficients_per_bit,
+                    rep.alpha,
+                );
+            }
+            for (oi, &(order, weighting)) in orders.iter().enumerate() {
+                let dp = DetectParams {
+                    layout,
+                    smoothing_order: order,
+                    weighting,
+                    expect: Some(msg.clone()),
+                    ..DetectParams::new(key, 64)
+                };
+                let det = Detector::new(&m, &dp).unwrap();
+                for (ai, a) in attacks.iter().enumerate() {
+                    let (s, bits) = match a.as_str() {
+                        "none" => (marked.clone(), 0),
+                        "quant7" => (quantize(&marked, 7), 7),
+                        "quant8" => (quantize(&marked, 8), 8),
+                        "gauss7" => (gaussian_like_quantization(&marked, 7, key), 7),
+                        "smooth50" => (smooth(&marked, 50, 0.1), 0),
+                        "noise0.5" => (noise(&marked, 0.5, 0), 0),
+                        "simplify70" => (attacked(&marked, AttackKind::Simplify, 70.0), 0),
+                        "crop50" => (crop(&marked, 50.0), 0),
+                        "crop10" => (crop(&marked, 10.0), 0),
+                        other => panic!("unknown attack {other}"),
+                    };
+                    let d = det.detect(&s).unwrap();
+                    let (e, mean, sd) = snr(&d, &msg);
+                    let band_noise = (d.residual_rms.powi(2) - rep.alpha.powi(2)).max(0.0).sqrt();
+                    let pred = if bits > 0 {
+                        let (lo, hi) = marked.bounding_box().unwrap();
+                        let levels = ((1u64 << bits) - 1) as f64;
+                        let var = (0..3)
+                            .map(|k| ((hi[k] - lo[k]) / levels).powi(2) / 12.0)
+                            .sum::<f64>()
+                            / 3.0;
+                        if k == 0 {
+                            println!(
+                                "  {a} (q={order}): band noise RMS {band_noise:.3e} vs white σ {:.3e}",
+                                var.sqrt()
+                            );
+                        }
+                        rep.alpha * (rep.coefficients_per_bit as f64).sqrt() / var.sqrt()
+                    } else {
+                        f64::NAN
+                    };
+                    let t = &mut acc[oi][ai];
+                    t.0 += e;
+                    t.1 += mean / keys as f64;
+                    t.2 += sd / keys as f64;
+                    t.3 += pred / keys as f64;
+                }
+            }
+        }
+        for (oi, (order, weighting)) in orders.iter().enumerate() {
+            let mut row = format!(
+                "{name} {op} P={} band={} c={chips} s={strength:.2e} q={order} w={weighting:?} alpha={alpha:.3e} mrms={mrms:.3e} msdm2={msdm2:.4}",
+                layout.patch_size, layout.band
+            );
+            for (ai, a) in attacks.iter().enumerate() {
+                let t = acc[oi][ai];
+                row += &format!(
+                    " | {a} err={} ber={:.3} snr={:.2}±{:.2} pred={:.2}",
+                    t.0,
+                    t.0 as f64 / (64 * keys) as f64,
+                    t.1,
+                    t.2,
+                    t.3
+                );
+            }
+            println!("{row}");
+        }
+    }
+}

@@ -22,11 +22,23 @@
 //!    subtracted. The subspace depends on the original only, so the bound below still
 //!    holds; the mark, spread by random chips, loses about `(q + 1) / (3·band)` of its
 //!    energy.
-//! 5. **Weight** each patch by the inverse of its mean squared residual over all its
-//!    slots, `w_p = 1 / mean_{s∈p} r_s²` (patches damaged by an attack — cropped,
-//!    badly resampled — count less; zero residual patches count nothing).
+//! 5. **Weight** the residuals by inverse variances (treating them as independent
+//!    noise whose variance depends on the group; inverse-variance weights maximise the
+//!    correlation's SNR). Patches damaged by an attack — cropped, badly resampled —
+//!    count less; a group with zero residual counts nothing.
+//!    - Same connectivity ([`Weighting::PatchAxis`]): one weight per patch and axis,
+//!      `w_{p,a} = 1 / mean_k r²_{p,k,a}`. Coordinate quantization to a grid leaves a
+//!      patch that faces an axis a slowly varying error along that axis, i.e. noise
+//!      concentrated in the low frequencies the mark occupies, on one axis only.
+//!    - Resampled suspect ([`Weighting::Patch`]): one weight per patch,
+//!      `w_p = 1 / mean_{s∈p} r_s²`. Closest-point resampling keeps the mark's normal
+//!      component and loses its tangential one, so per patch the tangential axes have
+//!      a small residual *without* mark; per-axis weights would favour exactly them.
+//!
+//!    [`Weighting::Auto`] (the default) takes the first for a suspect with the
+//!    original's connectivity and the second otherwise.
 //! 6. **Correlate**: for bit i with slots `s_ij` and chips `χ_ij`,
-//!    `q_i = Σ_j χ_ij w r_{s_ij}`, normalised `u_i = q_i / √(Σ_j w² r²_{s_ij})`; the
+//!    `q_i = Σ_j χ_ij w r_{s_ij}` (w the slot's weight), normalised `u_i = q_i / √(Σ_j w² r²_{s_ij})`; the
 //!    bit is the sign of `q_i` and its confidence the normalised correlation
 //!    `ρ_i = u_i / √c ∈ [−1, 1]` (the cosine between the chips and the weighted
 //!    residuals).
@@ -85,6 +97,58 @@ pub struct DetectParams {
     /// `{X, TX, …, T^q X}` projected out of each patch's residual (0: none, the
     /// plain correlation of Ohbuchi et al.).
     pub smoothing_order: usize,
+    /// How the residuals are weighted before the correlation (step 5).
+    pub weighting: Weighting,
+}
+
+/// Weighting of the residuals before the correlation (module documentation, step 5).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Weighting {
+    /// One weight per patch, `w_p = 1 / mean_{s∈p} r_s²`.
+    Patch,
+    /// One weight per patch and axis, `w_{p,a} = 1 / mean r_s²` over the patch's slots
+    /// of axis a.
+    PatchAxis,
+    /// [`Weighting::PatchAxis`] when the suspect has the original's connectivity,
+    /// [`Weighting::Patch`] when it was resampled (the default; module documentation,
+    /// step 5).
+    #[default]
+    Auto,
+}
+
+impl Weighting {
+    /// Every weighting.
+    pub const ALL: [Weighting; 3] = [Weighting::Auto, Weighting::Patch, Weighting::PatchAxis];
+
+    /// Its name on the command line and in Python (`auto`, `patch`, `patch-axis`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Weighting::Auto => "auto",
+            Weighting::Patch => "patch",
+            Weighting::PatchAxis => "patch-axis",
+        }
+    }
+}
+
+impl std::fmt::Display for Weighting {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Weighting {
+    type Err = WatermarkError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Weighting::ALL
+            .into_iter()
+            .find(|w| w.name() == s.to_ascii_lowercase())
+            .ok_or_else(|| WatermarkError::InvalidParameter {
+                name: "weighting",
+                value: s.to_string(),
+                reason: "must be auto, patch or patch-axis",
+            })
+    }
 }
 
 impl DetectParams {
@@ -99,6 +163,7 @@ impl DetectParams {
             max_false_positive: 1e-6,
             expect: None,
             smoothing_order: 3,
+            weighting: Weighting::default(),
         }
     }
 }
@@ -134,6 +199,9 @@ pub struct DetectReport {
     pub resampling: Option<ResampleReport>,
     /// Chips per bit.
     pub coefficients_per_bit: usize,
+    /// RMS over every slot of the residual `X̃ − X` after step 4 (mesh units): the
+    /// mark's per-slot amplitude and the attack's noise in the band together.
+    pub residual_rms: f64,
     /// Sign decisions differing from the expected message (with `expect`).
     pub bit_errors: Option<usize>,
     /// `bit_errors / bits`.
@@ -282,14 +350,20 @@ impl<'a> Detector<'a> {
             .map(|(a, b)| a - b)
             .collect();
         project_out(layout, &self.nuisance, &mut r);
-        let weights = patch_weights(layout, &r);
+        let residual_rms = (r.iter().map(|x| x * x).sum::<f64>() / r.len().max(1) as f64).sqrt();
+        let weighting = match params.weighting {
+            Weighting::Auto if same => Weighting::PatchAxis,
+            Weighting::Auto => Weighting::Patch,
+            w => w,
+        };
+        let z = weighted(layout, &r, weighting);
         let c = layout.chip_rate;
         let mut u = Vec::with_capacity(params.bits);
         for i in 0..params.bits {
             let (mut q, mut n2) = (0.0, 0.0);
             for j in 0..c {
                 let s = layout.assigned[i * c + j] as usize;
-                let wr = weights[layout.slot_patch[s] as usize] * r[s];
+                let wr = z[s];
                 q += layout.chips[i * c + j] * wr;
                 n2 += wr * wr;
             }
@@ -322,6 +396,7 @@ impl<'a> Detector<'a> {
             resampled: !same,
             resampling,
             coefficients_per_bit: c,
+            residual_rms,
             bit_errors,
             ber,
             chance_match_probability: chance,
@@ -402,21 +477,31 @@ fn solve(mut a: Vec<Vec<f64>>) -> Option<Vec<f64>> {
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
-/// `1 / mean r²` over each patch's slots (0 for a patch with zero residual).
-fn patch_weights(layout: &Layout, r: &[f64]) -> Vec<f64> {
-    layout
-        .patches
-        .iter()
-        .enumerate()
-        .map(|(p, b)| {
-            let end = layout.patches.get(p + 1).map_or(layout.slots, |n| n.offset);
-            let s = &r[b.offset..end];
-            let ms = s.iter().map(|x| x * x).sum::<f64>() / s.len().max(1) as f64;
-            if ms > 0.0 && ms.is_finite() {
+/// The weighted residual `z_s = w r_s` of every slot (see [`Weighting`]; a group with
+/// zero residual gets weight 0).
+fn weighted(layout: &Layout, r: &[f64], weighting: Weighting) -> Vec<f64> {
+    let mut z = vec![0.0; r.len()];
+    for (p, b) in layout.patches.iter().enumerate() {
+        let end = layout.patches.get(p + 1).map_or(layout.slots, |n| n.offset);
+        // Slots are numbered 3k + axis within the patch.
+        let groups: &[&[usize]] = match weighting {
+            Weighting::Patch | Weighting::Auto => &[&[0, 1, 2]],
+            Weighting::PatchAxis => &[&[0], &[1], &[2]],
+        };
+        for axes in groups {
+            let slots: Vec<usize> = (b.offset..end)
+                .filter(|s| axes.contains(&((s - b.offset) % 3)))
+                .collect();
+            let ms = slots.iter().map(|&s| r[s] * r[s]).sum::<f64>() / slots.len().max(1) as f64;
+            let w = if ms > 0.0 && ms.is_finite() {
                 1.0 / ms
             } else {
                 0.0
+            };
+            for &s in &slots {
+                z[s] = w * r[s];
             }
-        })
-        .collect()
+        }
+    }
+    z
 }

@@ -39,8 +39,10 @@ pub struct EmbedParams {
     pub measure_msdm2: bool,
 }
 
-/// Default strength: MRMS 1.2e-4 of the diagonal (20 % below the goal of 1.5e-4;
-/// measured in BENCHMARKS.md).
+/// Default strength: MRMS 1.2e-4 of the diagonal, below the goal of 1.5e-4. The
+/// correlation SNR per bit grows as `MRMS·√(n/bits)`, but MSDM2 grows with the MRMS
+/// too and is the binding distortion limit on some meshes (BENCHMARKS.md, "Spectral
+/// watermarking", parameter sweep).
 pub const DEFAULT_STRENGTH: f64 = 1.2e-4;
 
 impl EmbedParams {

@@ -55,9 +55,11 @@ pub struct LayoutParams {
 }
 
 impl Default for LayoutParams {
-    /// Kirchhoff, patches of 1,000 vertices, a band of 24 eigenvectors, every slot
-    /// (the setting measured in BENCHMARKS.md, "Spectral watermarking": zero bit
-    /// errors on the bunny under every benchmark attack but 7-bit quantization).
+    /// Kirchhoff, patches of 1,000 vertices, a band of 24 eigenvectors, every slot:
+    /// chosen from the parameter sweep in BENCHMARKS.md ("Spectral watermarking",
+    /// "Parameter sweep"). Larger patches lower the MSDM2 cost (lower spatial
+    /// frequencies) but leave a small mesh too few patches to survive cropping; a
+    /// narrower band loses bits under simplification, a wider one costs more MSDM2.
     fn default() -> Self {
         Self {
             operator: OperatorKind::Kirchhoff,

@@ -31,7 +31,7 @@ pub mod message;
 pub mod register;
 pub mod resample;
 
-pub use detect::{detect, DetectParams, DetectReport, Detector};
+pub use detect::{detect, DetectParams, DetectReport, Detector, Weighting};
 pub use embed::{embed, EmbedParams, EmbedReport};
 pub use error::WatermarkError;
 pub use layout::LayoutParams;

@@ -320,3 +320,55 @@ fn probability_bounds_match_known_values() {
         );
     }
 }
+
+#[test]
+fn weighting_names_parse_and_bad_names_are_typed_errors() {
+    for w in Weighting::ALL {
+        assert_eq!(w.name().parse::<Weighting>().unwrap(), w);
+        assert_eq!(w.to_string(), w.name());
+    }
+    assert_eq!(DetectParams::default().weighting, Weighting::Auto);
+    assert!(matches!(
+        "axis".parse::<Weighting>(),
+        Err(WatermarkError::InvalidParameter {
+            name: "weighting",
+            ..
+        })
+    ));
+}
+
+#[test]
+fn per_axis_weights_help_against_noise_on_one_axis() {
+    // Strong noise along x on half of the mesh (as quantization leaves on patches that
+    // face the x axis), weak noise elsewhere: per-axis weights keep the y and z chips
+    // of the noisy patches, one weight per patch discounts them all.
+    let (m, w, _) = marked(5);
+    let diag = m.bbox_diagonal();
+    let mut g = SplitMix64::new(3);
+    let mut s = noisy(&w, 2e-5 * diag, 4);
+    for p in &mut s.positions {
+        if p[1] > 0.0 {
+            p[0] += 4e-3 * diag * g.next_signed();
+        }
+    }
+    let p = |weighting| {
+        let d = detect(
+            &s,
+            &m,
+            &DetectParams {
+                weighting,
+                ..detect_params(5)
+            },
+        )
+        .unwrap();
+        d.false_positive_log10
+    };
+    let (auto, axis, patch) = (
+        p(Weighting::Auto),
+        p(Weighting::PatchAxis),
+        p(Weighting::Patch),
+    );
+    assert_eq!(auto, axis, "same connectivity: auto is patch-axis");
+    assert!(axis < patch - 5.0, "patch-axis {axis}, patch {patch}");
+    assert!(axis < -6.0, "{axis}");
+}

@@ -23,6 +23,18 @@ pub struct Args {
     /// Operators, comma separated (kirchhoff, sql, sstl, tutte).
     #[arg(long, value_delimiter = ',', default_values_t = WatermarkOptions::default().operators)]
     pub operators: Vec<OperatorKind>,
+    /// Embedding strength: RMS displacement ÷ bounding-box diagonal (the MRMS).
+    #[arg(long, default_value_t = WatermarkOptions::default().strength)]
+    pub strength: f64,
+    /// Target vertices per patch.
+    #[arg(long, default_value_t = WatermarkOptions::default().layout.patch_size)]
+    pub patch_size: usize,
+    /// Low-frequency eigenvectors per patch carrying the mark (DC skipped).
+    #[arg(long, default_value_t = WatermarkOptions::default().layout.band)]
+    pub band: usize,
+    /// Coefficients per bit (default: every available coefficient).
+    #[arg(long)]
+    pub chip_rate: Option<usize>,
     /// Wrong keys tried per marked mesh.
     #[arg(long, default_value_t = WatermarkOptions::default().wrong_keys)]
     pub wrong_keys: usize,
@@ -42,6 +54,13 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         meshes: args.meshes.clone(),
         operators: args.operators.clone(),
         wrong_keys: args.wrong_keys,
+        strength: args.strength,
+        layout: meshlap::watermark::LayoutParams {
+            patch_size: args.patch_size,
+            band: args.band,
+            chip_rate: args.chip_rate,
+            ..WatermarkOptions::default().layout
+        },
         pictures: !args.no_pictures,
         ..WatermarkOptions::default()
     };

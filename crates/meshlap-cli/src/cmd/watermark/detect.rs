@@ -3,7 +3,7 @@
 use super::embed::{parse_key, LayoutArgs};
 use crate::common::{print_json, MeshArgs};
 use meshlap::input::{open, OpenOptions};
-use meshlap::watermark::{detect, DetectParams, Message, WatermarkError};
+use meshlap::watermark::{detect, DetectParams, Message, WatermarkError, Weighting};
 
 /// Detect a watermark (non-blind): register the suspect to the original (similarity),
 /// resample it onto the original's connectivity if it differs, correlate its
@@ -33,6 +33,12 @@ pub struct Args {
     /// Largest false-positive probability at which the mark counts as found.
     #[arg(long, default_value_t = DetectParams::default().max_false_positive)]
     pub max_false_positive: f64,
+    /// Weighting of the residuals before the correlation: auto (patch-axis for a
+    /// suspect with the original's connectivity, patch for a resampled one),
+    /// patch-axis (one weight per patch and axis) or patch (one per patch).
+    #[arg(long, default_value_t = DetectParams::default().weighting,
+          value_parser = crate::common::one_of::<Weighting>(Weighting::ALL.map(Weighting::name)))]
+    pub weighting: Weighting,
     #[command(flatten)]
     pub layout: LayoutArgs,
     /// Print machine-readable JSON.
@@ -53,6 +59,7 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         layout: args.layout.params(),
         expect,
         max_false_positive: args.max_false_positive,
+        weighting: args.weighting,
         ..DetectParams::new(args.key, args.bits)
     };
     let r = detect(&suspect.mesh, &original.mesh, &params)?;

@@ -65,6 +65,10 @@ pub struct Args {
     pub strength: f64,
     #[command(flatten)]
     pub layout: LayoutArgs,
+    /// Skip the MSDM2 measurement (the report's msdm2 is then null; `seconds` then
+    /// times the embedding alone).
+    #[arg(long)]
+    pub no_msdm2: bool,
     /// Print machine-readable JSON.
     #[arg(long)]
     pub json: bool,
@@ -79,7 +83,7 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         message,
         strength: args.strength,
         layout: args.layout.params(),
-        measure_msdm2: true,
+        measure_msdm2: !args.no_msdm2,
     };
     let (marked, report) = embed(&input.mesh, &params)?;
     write_mesh(&args.io.output, &marked, &WriteOptions::default())?;
