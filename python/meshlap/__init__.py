@@ -652,7 +652,8 @@ def watermark_embed(
     ``meshlap watermark embed --json`` (bits, patches, coefficients_per_bit, mrms,
     max_displacement, msdm2, seconds). ``strength`` is the target RMS displacement ÷
     bounding-box diagonal. Options left at None take the library's defaults; detection
-    must use the same operator, patch size, band and chip rate. ``msdm2=False`` skips
+    must use the same operator, patch size, band and chip rate (``patch_size=None``:
+    about 36 patches of at least 1,000 vertices, computed from the mesh). ``msdm2=False`` skips
     the MSDM2 measurement (the report's msdm2 is then None)."""
     v, f = _mesh(V, F)
     if not (0 <= int(key) < 2**64):

@@ -23,7 +23,7 @@ fn layout(
             Some(k) => k.parse::<OperatorKind>().or_raise(py)?,
             None => d.operator,
         },
-        patch_size: patch_size.unwrap_or(d.patch_size),
+        patch_size: patch_size.or(d.patch_size),
         band: band.unwrap_or(d.band),
         chip_rate: chip_rate.or(d.chip_rate),
     })

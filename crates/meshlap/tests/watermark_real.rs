@@ -40,7 +40,7 @@ fn params(layout: LayoutParams) -> DetectParams {
 fn cow_round_trip_wrong_key_unmarked_and_perturbations() {
     let cow = load(&data("cow.obj")).mesh;
     let layout = LayoutParams {
-        patch_size: 500,
+        patch_size: Some(500),
         ..Default::default()
     };
     // cow.obj has 2,903 vertices, too few for 64 bits at the default strength (the
@@ -114,7 +114,7 @@ fn sweep() {
         for &(patch_size, band, strength) in &configs {
             let layout = LayoutParams {
                 operator: op,
-                patch_size,
+                patch_size: Some(patch_size),
                 band,
                 chip_rate: None,
             };
@@ -243,7 +243,7 @@ fn snr_sweep() {
         let v: Vec<&str> = c.split(':').collect();
         let layout = LayoutParams {
             operator: op,
-            patch_size: v[0].parse().unwrap(),
+            patch_size: Some(v[0].parse().unwrap()),
             band: v[1].parse().unwrap(),
             chip_rate: v.get(3).map(|x| x.parse().unwrap()),
         };
@@ -328,7 +328,7 @@ fn snr_sweep() {
         for (oi, (order, weighting)) in orders.iter().enumerate() {
             let mut row = format!(
                 "{name} {op} P={} band={} c={chips} s={strength:.2e} q={order} w={weighting:?} alpha={alpha:.3e} mrms={mrms:.3e} msdm2={msdm2:.4}",
-                layout.patch_size, layout.band
+                layout.patch_size.unwrap_or(0), layout.band
             );
             for (ai, a) in attacks.iter().enumerate() {
                 let t = acc[oi][ai];

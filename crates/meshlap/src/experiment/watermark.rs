@@ -88,7 +88,7 @@ impl WatermarkOptions {
             meshes: vec!["builtin:icosphere:4".into()],
             operators: vec![OperatorKind::Kirchhoff],
             layout: LayoutParams {
-                patch_size: 400,
+                patch_size: Some(400),
                 band: 16,
                 ..LayoutParams::default()
             },

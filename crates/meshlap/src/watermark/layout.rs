@@ -3,8 +3,11 @@
 //! [`super::detect()`], which must build exactly the same layout from the original).
 //!
 //! ## Patches and bases (Ohbuchi et al. GI 2001 §3, CGF 2002 §3)
-//! The mesh is split into connected patches of about `patch_size` vertices by
-//! [`crate::partition::partition`] (METIS, seed 0, as the codec). Each patch submesh
+//! The mesh is split into connected patches of about `P` vertices by
+//! [`crate::partition::partition`] (METIS, seed 0, as the codec); `P` is
+//! [`LayoutParams::patch_size`] or, by default, [`LayoutParams::patch_size_for`] the
+//! mesh: about [`LayoutParams::TARGET_PATCHES`] patches of at least
+//! [`LayoutParams::MIN_PATCH_SIZE`] vertices. Each patch submesh
 //! gets its combinatorial operator `F = D − W` (positive semi-definite sign
 //! convention; Kirchhoff by default, as in the papers) and its `band + 1` smallest
 //! eigenpairs of `K v = λ M v` ([`crate::spectral::partial`]: `K = F`, `M = I` for the
@@ -46,8 +49,9 @@ use serde::Serialize;
 pub struct LayoutParams {
     /// Combinatorial operator of the patch bases (PSD, `F = D − W`).
     pub operator: OperatorKind,
-    /// Target vertices per patch, `P` (at least 3).
-    pub patch_size: usize,
+    /// Target vertices per patch, `P` (at least 3); `None`: from the mesh's size
+    /// ([`LayoutParams::patch_size_for`]).
+    pub patch_size: Option<usize>,
     /// Low-frequency eigenvectors per patch carrying the mark (after the skipped DC).
     pub band: usize,
     /// Chips per bit; `None` uses every slot (`⌊slots / bits⌋`).
@@ -55,15 +59,16 @@ pub struct LayoutParams {
 }
 
 impl Default for LayoutParams {
-    /// Kirchhoff, patches of 1,000 vertices, a band of 24 eigenvectors, every slot:
-    /// chosen from the parameter sweep in BENCHMARKS.md ("Spectral watermarking",
-    /// "Parameter sweep"). Larger patches lower the MSDM2 cost (lower spatial
-    /// frequencies) but leave a small mesh too few patches to survive cropping; a
+    /// Kirchhoff, patches from the mesh's size (about 36 of at least 1,000 vertices),
+    /// a band of 24 eigenvectors, every slot: chosen from the parameter sweep in
+    /// BENCHMARKS.md ("Spectral watermarking", "Parameter sweep"). Larger patches lower
+    /// the MSDM2 cost (lower spatial frequencies) but leave a small mesh too few
+    /// patches to survive cropping, hence a patch count rather than a fixed size; a
     /// narrower band loses bits under simplification, a wider one costs more MSDM2.
     fn default() -> Self {
         Self {
             operator: OperatorKind::Kirchhoff,
-            patch_size: 1000,
+            patch_size: None,
             band: 24,
             chip_rate: None,
         }
@@ -103,14 +108,31 @@ pub(crate) struct Layout {
 }
 
 impl LayoutParams {
+    /// Patches the automatic patch size aims at: with the full band each patch holds
+    /// 72 slots, so 36 patches carry 64 bits at a chip rate of about 40, and a 50 %
+    /// crop still leaves about 18 patches.
+    pub const TARGET_PATCHES: usize = 36;
+    /// Smallest automatic patch size: smaller patches put the mark at higher spatial
+    /// frequencies, which MSDM2 charges more.
+    pub const MIN_PATCH_SIZE: usize = 1000;
+
+    /// The patch size used for a mesh of `n` vertices: [`Self::patch_size`] when set,
+    /// else `max(MIN_PATCH_SIZE, ⌈n / TARGET_PATCHES⌉)` (stanford-bunny.obj: 1,000;
+    /// horse.ply: 1,347; igea.ply: 3,732). Embedding and detection compute it from the
+    /// original, so they agree.
+    pub fn patch_size_for(&self, n: usize) -> usize {
+        self.patch_size
+            .unwrap_or_else(|| n.div_ceil(Self::TARGET_PATCHES).max(Self::MIN_PATCH_SIZE))
+    }
+
     pub(crate) fn validate(&self) -> Result<(), WatermarkError> {
         if !self.operator.is_combinatorial() {
             return Err(WatermarkError::UnsupportedOperator(self.operator));
         }
-        if self.patch_size < 3 {
+        if let Some(p) = self.patch_size.filter(|&p| p < 3) {
             return Err(WatermarkError::InvalidParameter {
                 name: "patch_size",
-                value: self.patch_size.to_string(),
+                value: p.to_string(),
                 reason: "must be at least 3 vertices",
             });
         }
@@ -230,7 +252,8 @@ fn bases(
     topo: &Topology,
     params: &LayoutParams,
 ) -> Result<Vec<PatchBasis>, WatermarkError> {
-    let part = partition(topo, &PartitionOptions::new(params.patch_size))?;
+    let size = params.patch_size_for(mesh.n_vertices());
+    let part = partition(topo, &PartitionOptions::new(size))?;
     let mut patches = (0..part.n_patches())
         .into_par_iter()
         .map(|p| {

@@ -19,7 +19,7 @@ fn sphere() -> TriMesh {
 
 fn layout() -> LayoutParams {
     LayoutParams {
-        patch_size: 300,
+        patch_size: Some(300),
         band: 16,
         ..Default::default()
     }
@@ -371,4 +371,30 @@ fn per_axis_weights_help_against_noise_on_one_axis() {
     assert_eq!(auto, axis, "same connectivity: auto is patch-axis");
     assert!(axis < patch - 5.0, "patch-axis {axis}, patch {patch}");
     assert!(axis < -6.0, "{axis}");
+}
+
+#[test]
+fn the_automatic_patch_size_aims_at_36_patches_of_at_least_1000_vertices() {
+    let auto = LayoutParams::default();
+    assert_eq!(auto.patch_size, None);
+    assert_eq!(auto.patch_size_for(500), 1000);
+    assert_eq!(auto.patch_size_for(34_834), 1000);
+    assert_eq!(auto.patch_size_for(48_485), 1347);
+    assert_eq!(auto.patch_size_for(134_345), 3732);
+    let fixed = LayoutParams {
+        patch_size: Some(250),
+        ..LayoutParams::default()
+    };
+    assert_eq!(fixed.patch_size_for(134_345), 250);
+    let bad = LayoutParams {
+        patch_size: Some(2),
+        ..LayoutParams::default()
+    };
+    assert!(matches!(
+        bad.validate(),
+        Err(WatermarkError::InvalidParameter {
+            name: "patch_size",
+            ..
+        })
+    ));
 }

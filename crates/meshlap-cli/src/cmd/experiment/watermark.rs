@@ -26,9 +26,10 @@ pub struct Args {
     /// Embedding strength: RMS displacement ÷ bounding-box diagonal (the MRMS).
     #[arg(long, default_value_t = WatermarkOptions::default().strength)]
     pub strength: f64,
-    /// Target vertices per patch.
-    #[arg(long, default_value_t = WatermarkOptions::default().layout.patch_size)]
-    pub patch_size: usize,
+    /// Target vertices per patch (default: about 36 patches of at least 1,000
+    /// vertices).
+    #[arg(long)]
+    pub patch_size: Option<usize>,
     /// Low-frequency eigenvectors per patch carrying the mark (DC skipped).
     #[arg(long, default_value_t = WatermarkOptions::default().layout.band)]
     pub band: usize,

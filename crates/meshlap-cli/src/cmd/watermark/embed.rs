@@ -22,9 +22,10 @@ pub struct LayoutArgs {
     #[arg(long, default_value_t = LayoutParams::default().operator,
           value_parser = crate::common::one_of::<OperatorKind>(["kirchhoff", "sql", "sstl", "tutte"]))]
     pub operator: OperatorKind,
-    /// Target vertices per patch.
-    #[arg(long, default_value_t = LayoutParams::default().patch_size)]
-    pub patch_size: usize,
+    /// Target vertices per patch (default: about 36 patches of at least 1,000
+    /// vertices; detection computes the same from the original).
+    #[arg(long)]
+    pub patch_size: Option<usize>,
     /// Low-frequency eigenvectors per patch carrying the mark (DC skipped).
     #[arg(long, default_value_t = LayoutParams::default().band)]
     pub band: usize,
