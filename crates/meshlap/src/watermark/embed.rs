@@ -78,7 +78,8 @@ pub struct EmbedReport {
     /// MSDM2 between the original and the marked mesh (Lavoué 2011,
     /// [`crate::metric::msdm2`] with its published parameters), when measured.
     pub msdm2: Option<f64>,
-    /// The layout used.
+    /// The layout used, with the patch size resolved
+    /// ([`LayoutParams::patch_size_for`] the mesh).
     pub layout: LayoutParams,
     /// Wall-clock seconds.
     pub seconds: f64,
@@ -156,7 +157,10 @@ pub fn embed(
         mrms: (sum_d2 / n as f64).sqrt() / diag,
         max_displacement: max_d2.sqrt(),
         msdm2,
-        layout: params.layout,
+        layout: LayoutParams {
+            patch_size: Some(params.layout.patch_size_for(n)),
+            ..params.layout
+        },
         seconds: start.elapsed().as_secs_f64(),
     };
     Ok((marked, report))
