@@ -102,8 +102,7 @@ pub struct DetectParams {
 }
 
 /// Weighting of the residuals before the correlation (module documentation, step 5).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "kebab-case")]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Weighting {
     /// One weight per patch, `w_p = 1 / mean_{s∈p} r_s²`.
     Patch,
@@ -117,39 +116,15 @@ pub enum Weighting {
     Auto,
 }
 
-impl Weighting {
-    /// Every weighting.
-    pub const ALL: [Weighting; 3] = [Weighting::Auto, Weighting::Patch, Weighting::PatchAxis];
-
-    /// Its name on the command line and in Python (`auto`, `patch`, `patch-axis`).
-    pub fn name(self) -> &'static str {
-        match self {
-            Weighting::Auto => "auto",
-            Weighting::Patch => "patch",
-            Weighting::PatchAxis => "patch-axis",
-        }
-    }
-}
-
-impl std::fmt::Display for Weighting {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl std::str::FromStr for Weighting {
-    type Err = WatermarkError;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Weighting::ALL
-            .into_iter()
-            .find(|w| w.name() == s.to_ascii_lowercase())
-            .ok_or_else(|| WatermarkError::InvalidParameter {
-                name: "weighting",
-                value: s.to_string(),
-                reason: "must be auto, patch or patch-axis",
-            })
-    }
-}
+crate::names::option_names!(Weighting, WatermarkError, |s| WatermarkError::InvalidParameter {
+    name: "weighting",
+    value: s.to_string(),
+    reason: "must be auto, patch or patch-axis",
+}, {
+    Auto => "auto",
+    Patch => "patch",
+    PatchAxis => "patch-axis",
+});
 
 impl DetectParams {
     /// Library defaults for `key` and a message of `bits` bits.
