@@ -25,6 +25,12 @@ use super::CodecError;
 
 /// Bits of the probability used for coding.
 const PROB_BITS: u32 = 12;
+/// Most binary decisions one byte of range-coded output can hold. A decision costs at
+/// least `−log2(1 − 2^−PROB_BITS)` ≈ 3.52e-4 bits (the likelier symbol at the
+/// saturated probability), so a byte holds at most ≈ 22,711; the range coder's
+/// truncation only adds to the cost. Decoders bound the counts a header asks them to
+/// allocate by this before allocating (a test checks it against the formula).
+pub(crate) const MAX_DECISIONS_PER_BYTE: u64 = 22_800;
 /// Scale of the two internal estimates (15 bits each; their sum has 16).
 const EST_ONE: u32 = 1 << 15;
 /// Adaptation shifts of the fast and slow estimates (windows of about 16 and 64 bits).
@@ -452,6 +458,20 @@ impl IntModel {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn decisions_per_byte_bound_holds() {
+        let one = (1u64 << super::PROB_BITS) as f64;
+        let min_bits = -((one - 1.0) / one).log2();
+        assert!(8.0 / min_bits <= super::MAX_DECISIONS_PER_BYTE as f64);
+        assert!(8.0 / min_bits > 0.99 * super::MAX_DECISIONS_PER_BYTE as f64);
+        // The saturated probability is the one the bound assumes.
+        let mut m = super::BitModel::default();
+        for _ in 0..10_000 {
+            m.update(false);
+        }
+        assert!(m.p0() <= (1 << super::PROB_BITS) - 1);
+    }
+
     use super::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;

@@ -432,9 +432,12 @@ pub fn decompress(bytes: &[u8]) -> Result<TriMesh, CodecError> {
     let n = h.u32()? as usize;
     let nf = h.u32()? as usize;
     let conn = need(SectionKind::Connectivity)?;
-    // A face costs at least ~1/400 byte of range-coded data (adaptive probabilities
-    // saturate): refuse counts the data cannot possibly hold before allocating.
-    if nf as u64 > 400 * (conn.len() as u64 + 16) || n > 3 * nf + 3 {
+    // Every face takes at least one range-coded decision, and a byte holds at most
+    // `MAX_DECISIONS_PER_BYTE` of them (a regular mesh such as an icosphere comes
+    // close: 21M faces in 16 KB): refuse counts the data cannot hold before
+    // allocating.
+    let most_faces = entropy::MAX_DECISIONS_PER_BYTE * (conn.len() as u64 + 16);
+    if nf as u64 > most_faces || n > 3 * nf + 3 {
         return Err(CodecError::Corrupt("counts larger than the data can hold"));
     }
     let faces = match container::section(&secs, SectionKind::Rejoin) {
