@@ -6,7 +6,7 @@
 
 use crate::io::{self, Format, ReadInfo};
 use crate::mesh::clean::{
-    clean, split_non_manifold, CleanOptions, CleanReport, MeshReport, SplitReport,
+    clean_owned, split_non_manifold, CleanOptions, CleanReport, MeshReport, SplitReport,
 };
 use crate::mesh::{builtin, topology::Topology, MeshError, TriMesh};
 use crate::Result;
@@ -147,11 +147,7 @@ pub fn from_mesh(
     read_info: Option<ReadInfo>,
     clean_opts: &CleanOptions,
 ) -> Result<Input> {
-    raw.validate().or_else(|e| match e {
-        crate::mesh::MeshError::Empty => Ok(()),
-        e => Err(e),
-    })?;
-    let (mesh, clean_report) = clean(&raw, clean_opts)?;
+    let (mesh, clean_report) = clean_owned(raw, clean_opts)?;
     let topology = Topology::new(&mesh)?;
     Ok(Input {
         source: source.to_string(),

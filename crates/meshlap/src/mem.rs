@@ -9,6 +9,10 @@
 //! advice changes neither the contents nor the lifetime of the memory; where huge
 //! pages are unavailable (disabled, other systems) it is ignored and the buffer is an
 //! ordinary one.
+//!
+//! [`Scatter`] lets parallel threads write disjoint, data-dependent positions of one
+//! buffer (the scatter step of a counting sort, where an atomic counter hands every
+//! item its own slot).
 
 /// Buffers from this size on are advised to use huge pages.
 const ADVISE_FROM: usize = 4 << 20;
@@ -40,6 +44,45 @@ fn advise_huge(start: usize, len: usize) {
 
 #[cfg(not(target_os = "linux"))]
 fn advise_huge(_start: usize, _len: usize) {}
+
+/// Parallel writes into distinct positions of a slice: the scatter of a counting
+/// sort, whose slots come from atomic counters, so no two writers share one.
+/// Holding the `&mut` borrow for `'a` keeps everyone else out.
+pub(crate) struct Scatter<'a, T> {
+    ptr: *mut T,
+    len: usize,
+    _borrow: std::marker::PhantomData<&'a mut [T]>,
+}
+
+// SAFETY: the slice is borrowed mutably for 'a; `write` requires distinct indices,
+// so threads never touch the same element.
+unsafe impl<T: Send> Send for Scatter<'_, T> {}
+unsafe impl<T: Send> Sync for Scatter<'_, T> {}
+
+impl<'a, T: Copy> Scatter<'a, T> {
+    pub(crate) fn new(slice: &'a mut [T]) -> Self {
+        Self {
+            ptr: slice.as_mut_ptr(),
+            len: slice.len(),
+            _borrow: std::marker::PhantomData,
+        }
+    }
+
+    /// Writes `value` at `i` (panics if out of bounds).
+    ///
+    /// # Safety
+    /// No other thread may read or write index `i` while the `Scatter` lives.
+    #[inline]
+    pub(crate) unsafe fn write(&self, i: usize, value: T) {
+        assert!(
+            i < self.len,
+            "scatter index {i} out of bounds ({})",
+            self.len
+        );
+        // SAFETY: in bounds (checked), and the caller guarantees exclusive use of i.
+        unsafe { self.ptr.add(i).write(value) }
+    }
+}
 
 #[cfg(test)]
 mod tests {

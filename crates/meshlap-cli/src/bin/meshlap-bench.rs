@@ -93,6 +93,29 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                 open(&mesh, &OpenOptions::default()).map(|i| i.mesh.n_faces())
             });
             out.insert("load".into(), t);
+            // The same work split into its phases: read (or generate), validate +
+            // clean, connectivity.
+            let (mut read, mut cleaning, mut topo) = (Vec::new(), Vec::new(), Vec::new());
+            for _ in 0..repeat {
+                let t0 = Instant::now();
+                let (raw, _) = meshlap::input::read_raw(&mesh, None)?;
+                let t1 = Instant::now();
+                raw.validate()?;
+                let (m, _) = meshlap::mesh::clean::clean(&raw, &Default::default())?;
+                drop(raw);
+                let t2 = Instant::now();
+                let tp = meshlap::mesh::topology::Topology::new(&m)?;
+                let t3 = Instant::now();
+                std::hint::black_box(tp.n_edges());
+                read.push((t1 - t0).as_secs_f64());
+                cleaning.push((t2 - t1).as_secs_f64());
+                topo.push((t3 - t2).as_secs_f64());
+            }
+            out.insert(
+                "phases".into(),
+                serde_json::json!({"read": median(read), "clean": median(cleaning),
+                    "topology": median(topo)}),
+            );
         }
         "operators" => {
             let input = open(&mesh, &OpenOptions::default())?;

@@ -11,7 +11,10 @@
 
 use super::topology::{Topology, UnionFind};
 use super::{MeshError, TriMesh};
+use rayon::prelude::*;
 use serde::Serialize;
+use std::borrow::Cow;
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 /// What [`clean`] removes. All on by default.
 #[derive(Clone, Copy, Debug)]
@@ -50,106 +53,165 @@ pub struct CleanReport {
 
 /// Cleans `mesh` (see the module documentation). The input must satisfy
 /// [`TriMesh::validate`] except for emptiness; an empty result is
-/// [`MeshError::Empty`].
+/// [`MeshError::Empty`]. Every pass runs in parallel (rayon) and the result does not
+/// depend on the thread count.
 pub fn clean(mesh: &TriMesh, opts: &CleanOptions) -> Result<(TriMesh, CleanReport), MeshError> {
-    mesh.validate().or_else(|e| match e {
+    clean_parts(
+        Cow::Borrowed(&mesh.positions),
+        Cow::Borrowed(&mesh.faces),
+        opts,
+    )
+}
+
+/// As [`clean`], taking the mesh by value: arrays with nothing to drop are moved into
+/// the result instead of copied (the usual case for a mesh read from a file).
+pub fn clean_owned(
+    mesh: TriMesh,
+    opts: &CleanOptions,
+) -> Result<(TriMesh, CleanReport), MeshError> {
+    let TriMesh { positions, faces } = mesh;
+    clean_parts(Cow::Owned(positions), Cow::Owned(faces), opts)
+}
+
+fn clean_parts(
+    positions: Cow<'_, [[f64; 3]]>,
+    faces: Cow<'_, [[u32; 3]]>,
+    opts: &CleanOptions,
+) -> Result<(TriMesh, CleanReport), MeshError> {
+    super::validate_parts(&positions, &faces).or_else(|e| match e {
         MeshError::Empty => Ok(()),
         e => Err(e),
     })?;
     let mut report = CleanReport::default();
-    let n = mesh.n_vertices();
-    let mut faces: Vec<[u32; 3]> = Vec::with_capacity(mesh.n_faces());
-    for f in &mesh.faces {
-        if opts.drop_degenerate_faces && (f[0] == f[1] || f[1] == f[2] || f[0] == f[2]) {
-            report.dropped_degenerate_faces += 1;
-        } else {
-            faces.push(*f);
-        }
+    let n = positions.len();
+    let degenerate = |f: &[u32; 3]| f[0] == f[1] || f[1] == f[2] || f[0] == f[2];
+    if opts.drop_degenerate_faces {
+        report.dropped_degenerate_faces = faces.par_iter().filter(|f| degenerate(f)).count();
     }
-    if opts.drop_duplicate_faces {
-        let keep = first_occurrences(n, &faces);
-        let before = faces.len();
-        faces = faces
-            .into_iter()
-            .zip(keep)
-            .filter_map(|(f, k)| k.then_some(f))
-            .collect();
-        report.dropped_duplicate_faces = before - faces.len();
-    }
-    let mut map: Vec<Option<u32>> = (0..n as u32).map(Some).collect();
-    let mut positions = Vec::new();
-    if !opts.drop_unreferenced_vertices {
-        positions = mesh.positions.clone();
+    let mut faces: Vec<[u32; 3]> = if report.dropped_degenerate_faces > 0 {
+        faces
+            .par_iter()
+            .filter(|f| !degenerate(f))
+            .copied()
+            .collect()
     } else {
-        let mut used = vec![false; n];
-        for f in &faces {
-            for &v in f {
-                used[v as usize] = true;
-            }
-        }
-        let mut next = 0u32;
-        positions.reserve(n);
-        for (v, &u) in used.iter().enumerate() {
-            if u {
-                map[v] = Some(next);
-                positions.push(mesh.positions[v]);
-                next += 1;
-            } else {
-                map[v] = None;
-            }
-        }
-        report.dropped_unreferenced_vertices = n - next as usize;
-        for f in &mut faces {
-            for v in f.iter_mut() {
-                // Every vertex of a kept face is used, so the map has an entry.
-                *v = map[*v as usize].unwrap_or(0);
-            }
+        faces.into_owned()
+    };
+    if opts.drop_duplicate_faces {
+        let repeated = repeated_faces(n, &faces);
+        report.dropped_duplicate_faces = repeated.par_iter().filter(|r| **r).count();
+        if report.dropped_duplicate_faces > 0 {
+            faces = faces
+                .par_iter()
+                .zip(repeated.par_iter())
+                .filter(|(_, r)| !**r)
+                .map(|(f, _)| *f)
+                .collect();
         }
     }
-    report.vertex_map = map;
+    let used: Vec<bool> = if opts.drop_unreferenced_vertices {
+        let used: Vec<AtomicBool> = (0..n)
+            .into_par_iter()
+            .map(|_| AtomicBool::new(false))
+            .collect();
+        faces.par_iter().flatten().for_each(|&v| {
+            used[v as usize].store(true, Ordering::Relaxed);
+        });
+        used.into_par_iter().map(AtomicBool::into_inner).collect()
+    } else {
+        Vec::new()
+    };
+    let unreferenced = used.par_iter().filter(|u| !**u).count();
+    let positions = if unreferenced == 0 {
+        report.vertex_map = (0..n as u32).into_par_iter().map(Some).collect();
+        positions.into_owned()
+    } else {
+        // Rare: number the kept vertices in order (a sequential scan) and renumber
+        // the faces.
+        let mut map: Vec<Option<u32>> = vec![None; n];
+        let mut next = 0u32;
+        for (m, &u) in map.iter_mut().zip(&used) {
+            if u {
+                *m = Some(next);
+                next += 1;
+            }
+        }
+        report.dropped_unreferenced_vertices = unreferenced;
+        // Every vertex of a kept face is used, so the map has an entry.
+        faces.par_iter_mut().flatten().for_each(|v| {
+            *v = map[*v as usize].unwrap_or(0);
+        });
+        let kept = positions
+            .par_iter()
+            .zip(used.par_iter())
+            .filter(|(_, u)| **u)
+            .map(|(p, _)| *p)
+            .collect();
+        report.vertex_map = map;
+        kept
+    };
     if faces.is_empty() {
         return Err(MeshError::Empty);
     }
     Ok((TriMesh::new(positions, faces), report))
 }
 
-/// For each face, whether it is the first with its vertex set. Linear time: faces are
-/// bucketed by their smallest vertex (counting sort) and compared within buckets.
-fn first_occurrences(n: usize, faces: &[[u32; 3]]) -> Vec<bool> {
+/// For each face, whether an earlier face has the same vertex set (in any order or
+/// orientation). Linear time: faces are bucketed by their smallest vertex (a counting
+/// sort whose histogram and scatter run in parallel with atomic counters) and compared
+/// within their bucket by `(middle, largest, face index)`, so the result does not
+/// depend on the order the scatter filled a bucket in.
+fn repeated_faces(n: usize, faces: &[[u32; 3]]) -> Vec<bool> {
     let key = |f: &[u32; 3]| {
         let mut k = *f;
         k.sort_unstable();
         k
     };
-    let mut offsets = vec![0u32; n + 1];
-    for f in faces {
-        offsets[key(f)[0] as usize + 1] += 1;
-    }
+    let counts: Vec<AtomicU32> = (0..=n).into_par_iter().map(|_| AtomicU32::new(0)).collect();
+    faces.par_iter().for_each(|f| {
+        counts[key(f)[0] as usize + 1].fetch_add(1, Ordering::Relaxed);
+    });
+    let mut offsets: Vec<u32> = counts.into_par_iter().map(AtomicU32::into_inner).collect();
     for i in 0..n {
         offsets[i + 1] += offsets[i];
     }
-    let mut fill = offsets.clone();
-    let mut order = vec![0u32; faces.len()];
-    for (i, f) in faces.iter().enumerate() {
-        let b = key(f)[0] as usize;
-        order[fill[b] as usize] = i as u32;
-        fill[b] += 1;
+    let fill: Vec<AtomicU32> = offsets[..n]
+        .par_iter()
+        .map(|&o| AtomicU32::new(o))
+        .collect();
+    // Entry: (middle << 32 | largest, face).
+    let mut entries = crate::mem::zeroed_vec((0u64, 0u32), faces.len());
+    {
+        let out = crate::mem::Scatter::new(&mut entries);
+        faces.par_iter().enumerate().for_each(|(i, f)| {
+            let k = key(f);
+            let pos = fill[k[0] as usize].fetch_add(1, Ordering::Relaxed) as usize;
+            // SAFETY: every face gets its own slot from the counter.
+            unsafe { out.write(pos, ((u64::from(k[1]) << 32) | u64::from(k[2]), i as u32)) };
+        });
     }
-    let mut keep = vec![true; faces.len()];
-    for v in 0..n {
-        let bucket = &order[offsets[v] as usize..offsets[v + 1] as usize];
-        for (a, &i) in bucket.iter().enumerate() {
-            let ki = key(&faces[i as usize]);
-            // Buckets keep input order, so an earlier equal face is the original.
-            if bucket[..a]
-                .iter()
-                .any(|&j| keep[j as usize] && key(&faces[j as usize]) == ki)
-            {
-                keep[i as usize] = false;
+    let repeated: Vec<AtomicBool> = (0..faces.len())
+        .into_par_iter()
+        .map(|_| AtomicBool::new(false))
+        .collect();
+    (0..n).into_par_iter().with_min_len(4096).for_each(|v| {
+        let (s, e) = (offsets[v] as usize, offsets[v + 1] as usize);
+        if e - s < 2 {
+            return;
+        }
+        let mut bucket = entries[s..e].to_vec();
+        bucket.sort_unstable();
+        for w in bucket.windows(2) {
+            if w[0].0 == w[1].0 {
+                // Sorted by face index within equal keys: the later one repeats.
+                repeated[w[1].1 as usize].store(true, Ordering::Relaxed);
             }
         }
-    }
-    keep
+    });
+    repeated
+        .into_par_iter()
+        .map(AtomicBool::into_inner)
+        .collect()
 }
 
 /// Vertex-degree statistics.
@@ -366,6 +428,114 @@ fn corner_of(mesh: &TriMesh, f: u32, v: u32) -> usize {
 mod tests {
     use super::*;
     use crate::mesh::builtin;
+
+    /// The parallel cleaning equals a sequential reference (a hash set of sorted
+    /// vertex triples, first occurrence kept) on random soups with planted duplicates
+    /// in every order and orientation, degenerate faces and unused vertices, and does
+    /// not depend on the number of threads.
+    #[test]
+    fn parallel_clean_equals_a_sequential_reference() {
+        let mut rng = crate::rng::SplitMix64::new(17);
+        for case in 0..6 {
+            let n = 50 + 400 * case;
+            let mut faces: Vec<[u32; 3]> = (0..3 * n)
+                .map(|_| {
+                    let mut t = [0u32; 3];
+                    for c in &mut t {
+                        *c = rng.below(n as u64) as u32;
+                    }
+                    t
+                })
+                .collect();
+            for _ in 0..n / 4 {
+                let f = faces[rng.below(faces.len() as u64) as usize];
+                let r = rng.below(3) as usize;
+                let mut g = [f[r], f[(r + 1) % 3], f[(r + 2) % 3]];
+                if rng.below(2) == 1 {
+                    g.swap(0, 1);
+                }
+                let at = rng.below(faces.len() as u64 + 1) as usize;
+                faces.insert(at, g);
+            }
+            let positions = (0..n).map(|i| [i as f64, 0.0, 1.0]).collect();
+            let m = TriMesh::new(positions, faces.clone());
+            // Reference.
+            let mut seen = std::collections::HashSet::new();
+            let (mut degenerate, mut duplicate) = (0, 0);
+            let mut kept = Vec::new();
+            for f in &faces {
+                if f[0] == f[1] || f[1] == f[2] || f[0] == f[2] {
+                    degenerate += 1;
+                    continue;
+                }
+                let mut k = *f;
+                k.sort_unstable();
+                if seen.insert(k) {
+                    kept.push(*f);
+                } else {
+                    duplicate += 1;
+                }
+            }
+            let mut used = vec![false; n];
+            kept.iter().flatten().for_each(|&v| used[v as usize] = true);
+            let mut map = vec![None; n];
+            let mut next = 0;
+            for v in 0..n {
+                if used[v] {
+                    map[v] = Some(next);
+                    next += 1;
+                }
+            }
+            let kept: Vec<[u32; 3]> = kept
+                .iter()
+                .map(|f| f.map(|v| map[v as usize].unwrap()))
+                .collect();
+            for threads in [1, 2, 3] {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let (c, r) = pool.install(|| clean(&m, &CleanOptions::default()).unwrap());
+                assert_eq!(c.faces, kept, "case {case}, {threads} threads");
+                assert_eq!(r.dropped_degenerate_faces, degenerate);
+                assert_eq!(r.dropped_duplicate_faces, duplicate);
+                assert_eq!(r.dropped_unreferenced_vertices, n - next as usize);
+                assert_eq!(r.vertex_map, map);
+                assert_eq!(c.n_vertices(), next as usize);
+                let (o, ro) = clean_owned(m.clone(), &CleanOptions::default()).unwrap();
+                assert_eq!(o, c);
+                assert_eq!(ro.vertex_map, r.vertex_map);
+            }
+        }
+    }
+
+    #[test]
+    fn validation_names_the_first_offender() {
+        let mut p = vec![[0.0; 3]; 100_000];
+        let mut f: Vec<[u32; 3]> = (0..100_000u32)
+            .map(|i| [i, (i + 1) % 100_000, (i + 2) % 100_000])
+            .collect();
+        p[70_000][1] = f64::NAN;
+        p[90_000][2] = f64::INFINITY;
+        f[60_000][2] = 100_000;
+        f[80_000][0] = 200_000;
+        let m = TriMesh::new(p.clone(), f.clone());
+        assert!(matches!(
+            m.validate(),
+            Err(MeshError::NonFinite { vertex: 70_000 })
+        ));
+        p[70_000][1] = 0.0;
+        p[90_000][2] = 0.0;
+        let m = TriMesh::new(p, f);
+        assert!(matches!(
+            clean(&m, &CleanOptions::default()),
+            Err(MeshError::IndexOutOfRange {
+                face: 60_000,
+                index: 100_000,
+                ..
+            })
+        ));
+    }
 
     #[test]
     fn drops_and_counts() {

@@ -73,15 +73,7 @@ impl TriMesh {
     /// Checks that every index is in range and every coordinate finite, and that
     /// the mesh has at least one face.
     pub fn validate(&self) -> Result<(), MeshError> {
-        if self.faces.is_empty() {
-            return Err(MeshError::Empty);
-        }
-        for (i, p) in self.positions.iter().enumerate() {
-            if !p.iter().all(|c| c.is_finite()) {
-                return Err(MeshError::NonFinite { vertex: i });
-            }
-        }
-        check_face_indices(&self.faces, self.positions.len())
+        validate_parts(&self.positions, &self.faces)
     }
 
     /// Axis-aligned bounding box `(min, max)`; `None` for an empty mesh.
@@ -190,14 +182,39 @@ pub enum MeshError {
 /// Checks that every corner of `faces` is below `n` ([`MeshError::IndexOutOfRange`]
 /// names the first face that is not).
 pub fn check_face_indices(faces: &[[u32; 3]], n: usize) -> Result<(), MeshError> {
-    for (f, t) in faces.iter().enumerate() {
-        if let Some(&v) = t.iter().find(|&&v| v as usize >= n) {
-            return Err(MeshError::IndexOutOfRange {
+    use rayon::prelude::*;
+    let bad = |t: &[u32; 3]| t.iter().any(|&v| v as usize >= n);
+    match faces.par_iter().with_min_len(1 << 14).position_first(bad) {
+        Some(f) => {
+            let index = faces[f]
+                .iter()
+                .find(|&&v| v as usize >= n)
+                .copied()
+                .unwrap_or(0);
+            Err(MeshError::IndexOutOfRange {
                 face: f,
-                index: v as usize,
+                index: index as usize,
                 n_vertices: n,
-            });
+            })
         }
+        None => Ok(()),
     }
-    Ok(())
+}
+
+/// [`TriMesh::validate`] on borrowed arrays, in parallel; the error names the first
+/// offending vertex or face, as a sequential scan would.
+pub(crate) fn validate_parts(positions: &[[f64; 3]], faces: &[[u32; 3]]) -> Result<(), MeshError> {
+    use rayon::prelude::*;
+    if faces.is_empty() {
+        return Err(MeshError::Empty);
+    }
+    let not_finite = |p: &[f64; 3]| !p.iter().all(|c| c.is_finite());
+    if let Some(vertex) = positions
+        .par_iter()
+        .with_min_len(1 << 14)
+        .position_first(not_finite)
+    {
+        return Err(MeshError::NonFinite { vertex });
+    }
+    check_face_indices(faces, positions.len())
 }

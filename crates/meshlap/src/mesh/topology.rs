@@ -5,7 +5,8 @@
 //! implicit, and the structure stores only the twin of each half-edge, the undirected
 //! edge it belongs to and, per vertex, one outgoing half-edge plus a sorted neighbour
 //! list (CSR). Construction is O(n) (counting sort by the smaller endpoint, tiny
-//! per-vertex sorts in parallel), with no hashing, so a 1M-vertex mesh builds in a
+//! per-vertex sorts; every pass in parallel, histograms and scatters with atomic
+//! counters, and the result independent of the thread count), with no hashing, so a 1M-vertex mesh builds in a
 //! fraction of a second (`meshlap-bench topology builtin:icosphere:9`; BENCHMARKS.md).
 //!
 //! Non-manifold input is represented, not rejected: an edge with more than two faces
@@ -14,7 +15,9 @@
 //! single fan is flagged by [`Topology::is_manifold_vertex`].
 
 use super::{EdgeId, FaceId, MeshError, TriMesh, VertexId};
+use crate::mem::Scatter;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 
 /// Marker for "no half-edge" (boundary or non-manifold edge).
 pub const INVALID: u32 = u32::MAX;
@@ -64,11 +67,12 @@ impl Topology {
             });
         }
         super::check_face_indices(faces, n)?;
-        if let Some((face, t)) = faces
-            .iter()
-            .enumerate()
-            .find(|(_, t)| t[0] == t[1] || t[1] == t[2] || t[0] == t[2])
+        if let Some(face) = faces
+            .par_iter()
+            .with_min_len(1 << 14)
+            .position_first(|t| t[0] == t[1] || t[1] == t[2] || t[0] == t[2])
         {
+            let t = faces[face];
             let vertex = if t[0] == t[1] || t[0] == t[2] {
                 t[0]
             } else {
@@ -83,29 +87,37 @@ impl Topology {
         // Counting sort of half-edges by their smaller endpoint. Each entry packs
         // `hi << 32 | reversed << 31 | h`, where `reversed` says h runs hi → lo; sorting
         // a bucket then groups it by `hi`, and orientation needs no lookup in `faces`.
-        let mut count = vec![0u32; n + 1];
-        for t in faces {
+        // Histogram and scatter run in parallel with atomic counters; the order in
+        // which a bucket fills does not matter, as every bucket is sorted below.
+        let counts: Vec<AtomicU32> = (0..=n).into_par_iter().map(|_| AtomicU32::new(0)).collect();
+        faces.par_iter().with_min_len(1 << 12).for_each(|t| {
             for c in 0..3 {
                 let (a, b) = (t[c], t[(c + 1) % 3]);
-                count[a.min(b) as usize + 1] += 1;
+                counts[a.min(b) as usize + 1].fetch_add(1, Ordering::Relaxed);
             }
-        }
+        });
+        let mut count: Vec<u32> = counts.into_par_iter().map(AtomicU32::into_inner).collect();
         for i in 0..n {
             count[i + 1] += count[i];
         }
-        let mut bucket = vec![0u64; nh];
+        let mut bucket = crate::mem::zeroed_vec(0u64, nh);
         {
-            let mut fill = count.clone();
-            for (f, t) in faces.iter().enumerate() {
-                for c in 0..3 {
-                    let (a, b) = (t[c], t[(c + 1) % 3]);
-                    let lo = a.min(b) as usize;
-                    let pos = fill[lo] as usize;
-                    fill[lo] += 1;
-                    let reversed = u64::from(a > b) << 31;
-                    bucket[pos] = (u64::from(a.max(b)) << 32) | reversed | (3 * f + c) as u64;
-                }
-            }
+            let fill: Vec<AtomicU32> = count[..n].par_iter().map(|&c| AtomicU32::new(c)).collect();
+            let out = Scatter::new(&mut bucket);
+            faces
+                .par_iter()
+                .enumerate()
+                .with_min_len(1 << 12)
+                .for_each(|(f, t)| {
+                    for c in 0..3 {
+                        let (a, b) = (t[c], t[(c + 1) % 3]);
+                        let pos = fill[a.min(b) as usize].fetch_add(1, Ordering::Relaxed);
+                        let reversed = u64::from(a > b) << 31;
+                        let entry = (u64::from(a.max(b)) << 32) | reversed | (3 * f + c) as u64;
+                        // SAFETY: every half-edge gets its own slot from the counter.
+                        unsafe { out.write(pos as usize, entry) };
+                    }
+                });
         }
         // Group each bucket by the larger endpoint into undirected edges, in parallel
         // over contiguous ranges of `lo` (disjoint slices of `bucket`).
@@ -173,33 +185,33 @@ impl Topology {
             inconsistent_edges += p.inconsistent;
         }
         edge_pos.push(nh as u32);
-        // Scatter twins and edge ids to the half-edges: each thread owns a range of
-        // half-edge ids and scans all edges (sequential reads), writing only its own.
+        // Scatter twins and edge ids to the half-edges, in parallel over edges: every
+        // half-edge belongs to exactly one edge, so every slot is written once.
         let he_of = |x: u64| (x & HALF_EDGE) as u32;
-        let mut twin = vec![INVALID; nh];
-        let mut he_edge = vec![0u32; nh];
-        let span = nh
-            .div_ceil(rayon::current_num_threads().max(1))
-            .max(1 << 16);
-        twin.par_chunks_mut(span)
-            .zip(he_edge.par_chunks_mut(span))
-            .enumerate()
-            .for_each(|(c, (tw, he))| {
-                let (h_lo, h_hi) = ((c * span) as u32, (c * span + tw.len()) as u32);
-                let mine = |h: u32| h >= h_lo && h < h_hi;
-                for e in 0..n_edges {
+        let mut twin = crate::mem::zeroed_vec(0u32, nh); // every slot written below
+        let mut he_edge = crate::mem::zeroed_vec(0u32, nh);
+        {
+            let (tw, he) = (Scatter::new(&mut twin), Scatter::new(&mut he_edge));
+            (0..n_edges)
+                .into_par_iter()
+                .with_min_len(1 << 12)
+                .for_each(|e| {
                     let (s, t) = (edge_pos[e] as usize, edge_pos[e + 1] as usize);
                     for k in s..t {
-                        let h = he_of(bucket[k]);
-                        if mine(h) {
-                            he[(h - h_lo) as usize] = e as u32;
-                            if t - s == 2 {
-                                tw[(h - h_lo) as usize] = he_of(bucket[s + t - 1 - k]);
-                            }
+                        let h = he_of(bucket[k]) as usize;
+                        let other = if t - s == 2 {
+                            he_of(bucket[s + t - 1 - k])
+                        } else {
+                            INVALID
+                        };
+                        // SAFETY: half-edge h is in this edge's range only.
+                        unsafe {
+                            he.write(h, e as u32);
+                            tw.write(h, other);
                         }
                     }
-                }
-            });
+                });
+        }
         let edge_he: Vec<u32> = edge_pos[..n_edges]
             .iter()
             .map(|&p| he_of(bucket[p as usize]))
@@ -211,40 +223,81 @@ impl Topology {
         // row x receives first its smaller neighbours (as `hi` of earlier edges, in
         // ascending order) and then its larger ones (as `lo`, ascending): every row
         // comes out sorted without a sort.
-        let mut deg = vec![0u32; n + 1];
-        for &[a, b] in &edges {
-            deg[a as usize + 1] += 1;
-            deg[b as usize + 1] += 1;
-        }
+        let degs: Vec<AtomicU32> = (0..=n).into_par_iter().map(|_| AtomicU32::new(0)).collect();
+        edges.par_iter().with_min_len(1 << 12).for_each(|&[a, b]| {
+            degs[a as usize + 1].fetch_add(1, Ordering::Relaxed);
+            degs[b as usize + 1].fetch_add(1, Ordering::Relaxed);
+        });
+        let mut adj_offsets: Vec<u32> = degs.into_par_iter().map(AtomicU32::into_inner).collect();
         for i in 0..n {
-            deg[i + 1] += deg[i];
+            adj_offsets[i + 1] += adj_offsets[i];
         }
-        let adj_offsets = deg;
-        let mut fill = adj_offsets.clone();
-        let mut adj = vec![0u32; 2 * edges.len()];
-        let mut adj_edge = vec![0u32; 2 * edges.len()];
-        for (e, &[a, b]) in edges.iter().enumerate() {
-            for (x, y) in [(a, b), (b, a)] {
-                let p = fill[x as usize] as usize;
-                fill[x as usize] += 1;
-                adj[p] = y;
-                adj_edge[p] = e as u32;
+        // (neighbour, edge) packed, scattered in any order, then each row sorted by
+        // neighbour (a row has each neighbour once), so the result is deterministic.
+        let mut packed = crate::mem::zeroed_vec(0u64, 2 * edges.len());
+        {
+            let fill: Vec<AtomicU32> = adj_offsets[..n]
+                .par_iter()
+                .map(|&c| AtomicU32::new(c))
+                .collect();
+            let out = Scatter::new(&mut packed);
+            edges
+                .par_iter()
+                .enumerate()
+                .with_min_len(1 << 12)
+                .for_each(|(e, &[a, b])| {
+                    for (x, y) in [(a, b), (b, a)] {
+                        let p = fill[x as usize].fetch_add(1, Ordering::Relaxed);
+                        // SAFETY: every (row, edge) pair gets its own slot.
+                        unsafe { out.write(p as usize, (u64::from(y) << 32) | e as u64) };
+                    }
+                });
+        }
+        let mut rows: Vec<&mut [u64]> = Vec::with_capacity(n);
+        {
+            let mut rest: &mut [u64] = &mut packed;
+            for v in 0..n {
+                let (head, tail) =
+                    rest.split_at_mut((adj_offsets[v + 1] - adj_offsets[v]) as usize);
+                rows.push(head);
+                rest = tail;
             }
         }
+        rows.par_iter_mut()
+            .with_min_len(1 << 12)
+            .for_each(|r| r.sort_unstable());
+        drop(rows);
+        let adj: Vec<u32> = packed.par_iter().map(|&x| (x >> 32) as u32).collect();
+        let adj_edge: Vec<u32> = packed.par_iter().map(|&x| x as u32).collect();
+        drop(packed);
         debug_assert!(
             (0..n).all(|v| adj[adj_offsets[v] as usize..adj_offsets[v + 1] as usize].is_sorted())
         );
         // One outgoing half-edge per vertex, preferring a boundary one so that rotation
         // from it sweeps the whole fan.
-        let mut vertex_out = vec![INVALID; n];
-        for h in 0..nh {
-            let v = faces[h / 3][h % 3] as usize;
-            let better = vertex_out[v] == INVALID
-                || (twin[h] == INVALID && twin[vertex_out[v] as usize] != INVALID);
-            if better {
-                vertex_out[v] = h as u32;
-            }
-        }
+        // The smallest boundary half-edge leaving v, else the smallest half-edge: the
+        // minimum of `(has twin, h)` over v's outgoing half-edges.
+        let out_key: Vec<AtomicU64> = (0..n)
+            .into_par_iter()
+            .map(|_| AtomicU64::new(u64::MAX))
+            .collect();
+        twin.par_iter()
+            .enumerate()
+            .with_min_len(1 << 12)
+            .for_each(|(h, &tw)| {
+                let v = faces[h / 3][h % 3] as usize;
+                out_key[v].fetch_min(
+                    (u64::from(tw != INVALID) << 32) | h as u64,
+                    Ordering::Relaxed,
+                );
+            });
+        let vertex_out: Vec<u32> = out_key
+            .into_par_iter()
+            .map(|k| match k.into_inner() {
+                u64::MAX => INVALID,
+                k => k as u32,
+            })
+            .collect();
         let mut topo = Topology {
             n_vertices: n,
             faces: faces.to_vec(),

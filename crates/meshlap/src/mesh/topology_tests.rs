@@ -127,6 +127,26 @@ fn matches_naive_construction_on_random_soups() {
             }
         }
         let t = Topology::from_faces(n, &faces).unwrap();
+        // The parallel build does not depend on the thread count.
+        for threads in [1, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let other = pool.install(|| Topology::from_faces(n, &faces).unwrap());
+            assert_eq!(format!("{other:?}"), format!("{t:?}"), "{threads} threads");
+        }
+        // The outgoing half-edge: the smallest boundary one, else the smallest one.
+        let mut want_out = vec![INVALID; n];
+        for h in 0..3 * faces.len() {
+            let v = faces[h / 3][h % 3] as usize;
+            let boundary = t.twin(h as u32) == INVALID;
+            let cur = want_out[v];
+            if cur == INVALID || (boundary && t.twin(cur) != INVALID) {
+                want_out[v] = h as u32;
+            }
+        }
+        assert_eq!(t.vertex_out, want_out);
         let mut naive: BTreeMap<(u32, u32), Vec<u32>> = BTreeMap::new();
         for (f, tri) in faces.iter().enumerate() {
             for c in 0..3 {
@@ -164,6 +184,9 @@ fn matches_naive_construction_on_random_soups() {
                 .collect();
             let nb: Vec<u32> = nb.into_iter().collect();
             assert_eq!(t.neighbors(VertexId(v)), &nb[..]);
+            for (&u, &e) in nb.iter().zip(t.neighbor_edges(VertexId(v))) {
+                assert_eq!(t.edge(EdgeId(e)), [v.min(u), v.max(u)]);
+            }
             // Manifold vertex: no edge with > 2 faces and its faces are connected
             // through its edges (flood fill over the faces at v).
             let at_v: Vec<usize> = (0..faces.len())
