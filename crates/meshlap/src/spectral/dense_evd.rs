@@ -61,11 +61,21 @@ pub fn symmetric_evd_lowest(
     a: faer::MatRef<'_, f64>,
     count: usize,
 ) -> Option<(Vec<f64>, faer::Mat<f64>)> {
+    symmetric_evd_lowest_by(a, &|_| count)
+}
+
+/// As [`symmetric_evd_lowest`], with the number of eigenvectors chosen from the
+/// eigenvalues: `count(λ)` gets all n eigenvalues (ascending, as returned) once they
+/// are known, before any vector is computed (e.g. to extend a count to the end of an
+/// eigenvalue cluster). Its answer is clamped to n.
+pub fn symmetric_evd_lowest_by(
+    a: faer::MatRef<'_, f64>,
+    count: &dyn Fn(&[f64]) -> usize,
+) -> Option<(Vec<f64>, faer::Mat<f64>)> {
     let n = a.nrows();
     if a.ncols() != n {
         return None;
     }
-    let count = count.min(n);
     if n == 0 {
         return Some((Vec::new(), faer::Mat::zeros(0, 0)));
     }
@@ -80,6 +90,7 @@ pub fn symmetric_evd_lowest(
         }
     }
     if amax == 0.0 {
+        let count = count(&vec![0.0; n]).min(n);
         return Some((
             vec![0.0; n],
             faer::Mat::from_fn(n, count, |i, j| f64::from(u8::from(i == j))),
@@ -96,7 +107,12 @@ pub fn symmetric_evd_lowest(
             w[j + i * n] = x;
         }
     }
-    let (mut lam, z) = dispatch(&mut w, n, count)?;
+    // The count sees the eigenvalues as returned: unscaled (exactly: a power of two).
+    let unscaled_count = |lam: &[f64]| {
+        let lam: Vec<f64> = lam.iter().map(|x| x * unscale).collect();
+        count(&lam).min(n)
+    };
+    let (mut lam, z, count) = dispatch(&mut w, n, &unscaled_count)?;
     if z.iter().any(|x| !x.is_finite()) {
         return None;
     }
@@ -114,10 +130,14 @@ fn pow2(e: i32) -> f64 {
 
 /// [`evd`] on the build `crate::cpu::dispatch` picks: compiled with AVX2 + FMA (the
 /// same operations, vectorised without changing a bit) or for the baseline target.
-fn dispatch(w: &mut [f64], n: usize, count: usize) -> Option<(Vec<f64>, Vec<f64>)> {
-    struct Evd<'a>(&'a mut [f64], usize, usize);
+fn dispatch(
+    w: &mut [f64],
+    n: usize,
+    count: &dyn Fn(&[f64]) -> usize,
+) -> Option<(Vec<f64>, Vec<f64>, usize)> {
+    struct Evd<'a>(&'a mut [f64], usize, &'a dyn Fn(&[f64]) -> usize);
     impl crate::cpu::Kernel for Evd<'_> {
-        type Output = Option<(Vec<f64>, Vec<f64>)>;
+        type Output = Option<(Vec<f64>, Vec<f64>, usize)>;
         #[inline(always)]
         fn portable(self) -> Self::Output {
             evd(self.0, self.1, self.2)
@@ -127,18 +147,23 @@ fn dispatch(w: &mut [f64], n: usize, count: usize) -> Option<(Vec<f64>, Vec<f64>
 }
 
 /// The decomposition of the full symmetric `w` (destroyed): all eigenvalues, the
-/// eigenvectors of the `count` smallest row-major (`z[i·count + j]` = component i
-/// of vector j).
+/// eigenvectors of the `count(λ)` smallest (at most n) row-major (`z[i·count + j]` =
+/// component i of vector j), and that count.
 #[inline(always)]
-fn evd(w: &mut [f64], n: usize, count: usize) -> Option<(Vec<f64>, Vec<f64>)> {
+fn evd(
+    w: &mut [f64],
+    n: usize,
+    count: &dyn Fn(&[f64]) -> usize,
+) -> Option<(Vec<f64>, Vec<f64>, usize)> {
     let mut d = vec![0.0; n];
     let mut e = vec![0.0; n];
     let mut tau = vec![0.0; n];
     tridiagonalize(w, n, &mut d, &mut e, &mut tau);
     let lam = ql_eigenvalues(&d, &e[..n - 1])?;
+    let count = count(&lam).min(n);
     let mut z = tridiagonal_vectors(&d, &e[..n - 1], &lam, count);
     back_transform(&mut z, n, count, w, &tau);
-    Some((lam, z))
+    Some((lam, z, count))
 }
 
 /// `y += a·x`.
@@ -695,6 +720,16 @@ mod tests {
                 }
             }
         }
+        // A count chosen from the eigenvalues sees the returned eigenvalues (unscaled).
+        let a = Mat::<f64>::from_fn(9, 9, |i, j| random_symmetric(9, 3)[(i, j)] * 1e-30);
+        let seen = std::cell::RefCell::new(Vec::new());
+        let (lam, e) = symmetric_evd_lowest_by(a.as_ref(), &|l| {
+            seen.borrow_mut().extend_from_slice(l);
+            4
+        })
+        .unwrap();
+        assert_eq!(*seen.borrow(), lam);
+        assert_eq!(e.ncols(), 4);
         let zero = Mat::<f64>::zeros(4, 4);
         let (lam, e) = symmetric_evd_lowest(zero.as_ref(), 2).unwrap();
         assert_eq!(
@@ -854,6 +889,6 @@ mod tests {
             }
         }
         let mut w2 = w1.clone();
-        assert_eq!(dispatch(&mut w1, 37, 37), evd(&mut w2, 37, 37));
+        assert_eq!(dispatch(&mut w1, 37, &|_| 37), evd(&mut w2, 37, &|_| 37));
     }
 }
