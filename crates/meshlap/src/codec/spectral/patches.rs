@@ -185,30 +185,24 @@ fn patch_layout(patch: &[u32], faces: &[[u32; 3]], keep: Keep) -> Result<PatchLa
     for (i, &v) in patch.iter().enumerate() {
         local.insert(v, i as u32);
     }
-    let pt = Topology::from_faces(
-        patch.len(),
-        &faces
-            .iter()
-            .map(|f| f.map(|v| local[&v]))
-            .collect::<Vec<_>>(),
-    )
-    .map_err(CodecError::PatchTopology)?;
-    let mut on_face = vec![false; pt.n_vertices()];
-    for f in pt.faces() {
+    // The faces in the patch's local numbering (valid: the connectivity's faces
+    // were checked when it was built, and a face's corners are in its patch).
+    let pfaces: Vec<[u32; 3]> = faces.iter().map(|f| f.map(|v| local[&v])).collect();
+    let mut on_face = vec![false; patch.len()];
+    for f in &pfaces {
         for &x in f {
             on_face[x as usize] = true;
         }
     }
-    let mut remap = vec![u32::MAX; pt.n_vertices()];
+    let mut remap = vec![u32::MAX; patch.len()];
     let mut verts = Vec::new();
-    for i in 0..pt.n_vertices() {
+    for i in 0..patch.len() {
         if on_face[i] {
             remap[i] = verts.len() as u32;
             verts.push(i as u32);
         }
     }
-    let faces: Vec<[u32; 3]> = pt
-        .faces()
+    let faces: Vec<[u32; 3]> = pfaces
         .iter()
         .map(|f| f.map(|x| remap[x as usize]))
         .collect();

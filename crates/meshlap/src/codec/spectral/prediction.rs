@@ -77,17 +77,23 @@ pub(super) fn patch_prediction(
     }
     let mut src_index = std::collections::HashMap::new();
     let mut src: Vec<u32> = Vec::new();
-    // Sparse rows of L_U and L_S.
-    let mut lu: Vec<Vec<(usize, f64)>> = Vec::with_capacity(np + k1.len());
-    let mut ls: Vec<Vec<(usize, f64)>> = Vec::with_capacity(np + k1.len());
+    // Sparse rows of L_U and L_S, row r in `lu[lu_at[r]..lu_at[r + 1]]` (and `ls`):
+    // flat, as the many small per-row vectors cost more in the allocator than the
+    // rest of the set-up.
+    let rows = np + k1.len();
+    let (mut lu, mut ls) = (Vec::with_capacity(8 * rows), Vec::with_capacity(4 * rows));
+    let (mut lu_at, mut ls_at) = (Vec::with_capacity(rows + 1), Vec::with_capacity(rows + 1));
+    lu_at.push(0);
+    ls_at.push(0);
+    let mut nb: Vec<u32> = Vec::new();
     for &i in verts.iter().chain(k1.iter()) {
-        let nb: Vec<u32> = topo
-            .neighbors(crate::mesh::VertexId(i))
-            .iter()
-            .copied()
-            .filter(|&w| known(w) || owner[w as usize] == p)
-            .collect();
-        let (mut ru, mut rs) = (Vec::new(), Vec::new());
+        nb.clear();
+        nb.extend(
+            topo.neighbors(crate::mesh::VertexId(i))
+                .iter()
+                .copied()
+                .filter(|&w| known(w) || owner[w as usize] == p),
+        );
         let inv = if nb.is_empty() {
             0.0
         } else {
@@ -95,22 +101,23 @@ pub(super) fn patch_prediction(
         };
         for (w, wt) in std::iter::once((i, 1.0)).chain(nb.iter().map(|&w| (w, -inv))) {
             if let Some(&li) = local.get(&w) {
-                ru.push((li, wt));
+                lu.push((li, wt));
             } else {
                 let t = *src_index.entry(w).or_insert_with(|| {
                     src.push(w);
                     src.len() - 1
                 });
-                rs.push((t, wt));
+                ls.push((t, wt));
             }
         }
-        lu.push(ru);
-        ls.push(rs);
+        lu_at.push(lu.len());
+        ls_at.push(ls.len());
     }
     // M = L_UᵀL_U + ridge, G = −L_UᵀL_S.
     let mut m = Mat::<f64>::zeros(np, np);
     let mut g = Mat::<f64>::zeros(np, src.len());
-    for (ru, rs) in lu.iter().zip(&ls) {
+    for r in 0..rows {
+        let (ru, rs) = (&lu[lu_at[r]..lu_at[r + 1]], &ls[ls_at[r]..ls_at[r + 1]]);
         for &(a, wa) in ru {
             for &(c, wc) in ru {
                 m[(a, c)] += wa * wc;
