@@ -61,11 +61,21 @@ pub fn symmetric_evd_lowest(
     a: faer::MatRef<'_, f64>,
     count: usize,
 ) -> Option<(Vec<f64>, faer::Mat<f64>)> {
+    symmetric_evd_lowest_by(a, &|_| count)
+}
+
+/// As [`symmetric_evd_lowest`], with the number of eigenvectors chosen from the
+/// eigenvalues: `count(λ)` gets all n eigenvalues (ascending, as returned) once they
+/// are known, before any vector is computed (e.g. to extend a count to the end of an
+/// eigenvalue cluster). Its answer is clamped to n.
+pub fn symmetric_evd_lowest_by(
+    a: faer::MatRef<'_, f64>,
+    count: &dyn Fn(&[f64]) -> usize,
+) -> Option<(Vec<f64>, faer::Mat<f64>)> {
     let n = a.nrows();
     if a.ncols() != n {
         return None;
     }
-    let count = count.min(n);
     if n == 0 {
         return Some((Vec::new(), faer::Mat::zeros(0, 0)));
     }
@@ -80,6 +90,7 @@ pub fn symmetric_evd_lowest(
         }
     }
     if amax == 0.0 {
+        let count = count(&vec![0.0; n]).min(n);
         return Some((
             vec![0.0; n],
             faer::Mat::from_fn(n, count, |i, j| f64::from(u8::from(i == j))),
@@ -96,7 +107,12 @@ pub fn symmetric_evd_lowest(
             w[j + i * n] = x;
         }
     }
-    let (mut lam, z) = dispatch(&mut w, n, count)?;
+    // The count sees the eigenvalues as returned: unscaled (exactly: a power of two).
+    let unscaled_count = |lam: &[f64]| {
+        let lam: Vec<f64> = lam.iter().map(|x| x * unscale).collect();
+        count(&lam).min(n)
+    };
+    let (mut lam, z, count) = dispatch(&mut w, n, &unscaled_count)?;
     if z.iter().any(|x| !x.is_finite()) {
         return None;
     }
@@ -114,10 +130,14 @@ fn pow2(e: i32) -> f64 {
 
 /// [`evd`] on the build `crate::cpu::dispatch` picks: compiled with AVX2 + FMA (the
 /// same operations, vectorised without changing a bit) or for the baseline target.
-fn dispatch(w: &mut [f64], n: usize, count: usize) -> Option<(Vec<f64>, Vec<f64>)> {
-    struct Evd<'a>(&'a mut [f64], usize, usize);
+fn dispatch(
+    w: &mut [f64],
+    n: usize,
+    count: &dyn Fn(&[f64]) -> usize,
+) -> Option<(Vec<f64>, Vec<f64>, usize)> {
+    struct Evd<'a>(&'a mut [f64], usize, &'a dyn Fn(&[f64]) -> usize);
     impl crate::cpu::Kernel for Evd<'_> {
-        type Output = Option<(Vec<f64>, Vec<f64>)>;
+        type Output = Option<(Vec<f64>, Vec<f64>, usize)>;
         #[inline(always)]
         fn portable(self) -> Self::Output {
             evd(self.0, self.1, self.2)
@@ -127,18 +147,23 @@ fn dispatch(w: &mut [f64], n: usize, count: usize) -> Option<(Vec<f64>, Vec<f64>
 }
 
 /// The decomposition of the full symmetric `w` (destroyed): all eigenvalues, the
-/// eigenvectors of the `count` smallest row-major (`z[i·count + j]` = component i
-/// of vector j).
+/// eigenvectors of the `count(λ)` smallest (at most n) row-major (`z[i·count + j]` =
+/// component i of vector j), and that count.
 #[inline(always)]
-fn evd(w: &mut [f64], n: usize, count: usize) -> Option<(Vec<f64>, Vec<f64>)> {
+fn evd(
+    w: &mut [f64],
+    n: usize,
+    count: &dyn Fn(&[f64]) -> usize,
+) -> Option<(Vec<f64>, Vec<f64>, usize)> {
     let mut d = vec![0.0; n];
     let mut e = vec![0.0; n];
     let mut tau = vec![0.0; n];
     tridiagonalize(w, n, &mut d, &mut e, &mut tau);
     let lam = ql_eigenvalues(&d, &e[..n - 1])?;
+    let count = count(&lam).min(n);
     let mut z = tridiagonal_vectors(&d, &e[..n - 1], &lam, count);
     back_transform(&mut z, n, count, w, &tau);
-    Some((lam, z))
+    Some((lam, z, count))
 }
 
 /// `y += a·x`.
@@ -580,9 +605,54 @@ fn infinity_norm(d: &[f64], e: &[f64]) -> f64 {
 }
 
 /// `Z ← Q Z` for row-major `z` (n×count), with the reflectors left in `a`'s
-/// columns by [`tridiagonalize`]: `H_k` acts on rows k+1.. .
+/// columns by [`tridiagonalize`]: `H_k` acts on rows k+1.. . For each reflector (k
+/// descending) `s = Zᵀv` (rows in order), then `Z −= τ v sᵀ`; the pass that applies
+/// reflector k also accumulates the next reflector's `s` from each row just updated
+/// (the rows that k does not touch are accumulated first), so every sum keeps its
+/// order and Z is read once per reflector.
 #[inline(always)]
 fn back_transform(z: &mut [f64], n: usize, count: usize, a: &[f64], tau: &[f64]) {
+    if count == 0 {
+        return;
+    }
+    // The reflectors that act (τ ≠ 0), in order of application.
+    let ks: Vec<usize> = (0..n - 1).rev().filter(|&k| tau[k] != 0.0).collect();
+    let refl = |k: usize| &a[k * n + k + 1..(k + 1) * n];
+    let mut s = vec![0.0f64; count];
+    let mut s_next = vec![0.0f64; count];
+    // s of the first reflector.
+    if let Some(&k) = ks.first() {
+        for (i, &vi) in refl(k).iter().enumerate() {
+            let r = (k + 1 + i) * count;
+            axpy(&mut s, vi, &z[r..r + count]);
+        }
+    }
+    for (q, &k) in ks.iter().enumerate() {
+        let (t, v) = (tau[k], refl(k));
+        let next = ks.get(q + 1).copied();
+        s_next.iter_mut().for_each(|x| *x = 0.0);
+        if let Some(k2) = next {
+            // Rows k2+1 ..= k: not touched by reflector k.
+            let v2 = refl(k2);
+            for r in k2 + 1..=k {
+                axpy(&mut s_next, v2[r - k2 - 1], &z[r * count..(r + 1) * count]);
+            }
+        }
+        for (i, &vi) in v.iter().enumerate() {
+            let r = k + 1 + i;
+            let row = &mut z[r * count..(r + 1) * count];
+            axpy(row, -t * vi, &s);
+            if let Some(k2) = next {
+                axpy(&mut s_next, refl(k2)[r - k2 - 1], row);
+            }
+        }
+        std::mem::swap(&mut s, &mut s_next);
+    }
+}
+
+/// The one-pass-per-product form of [`back_transform`], to check its bits.
+#[cfg(test)]
+fn back_transform_reference(z: &mut [f64], n: usize, count: usize, a: &[f64], tau: &[f64]) {
     let mut s = vec![0.0f64; count];
     for k in (0..n - 1).rev() {
         let t = tau[k];
@@ -695,6 +765,16 @@ mod tests {
                 }
             }
         }
+        // A count chosen from the eigenvalues sees the returned eigenvalues (unscaled).
+        let a = Mat::<f64>::from_fn(9, 9, |i, j| random_symmetric(9, 3)[(i, j)] * 1e-30);
+        let seen = std::cell::RefCell::new(Vec::new());
+        let (lam, e) = symmetric_evd_lowest_by(a.as_ref(), &|l| {
+            seen.borrow_mut().extend_from_slice(l);
+            4
+        })
+        .unwrap();
+        assert_eq!(*seen.borrow(), lam);
+        assert_eq!(e.ncols(), 4);
         let zero = Mat::<f64>::zeros(4, 4);
         let (lam, e) = symmetric_evd_lowest(zero.as_ref(), 2).unwrap();
         assert_eq!(
@@ -845,6 +925,33 @@ mod tests {
     }
 
     #[test]
+    fn fused_back_transform_gives_the_reference_bits() {
+        // Random reflectors (some τ = 0, as for an already tridiagonal column) applied
+        // to random row-major Z of every count.
+        let mut rng = ChaCha8Rng::seed_from_u64(21);
+        for n in [1usize, 2, 3, 5, 8, 17, 40] {
+            for count in [0usize, 1, 3, n] {
+                let a: Vec<f64> = (0..n * n).map(|_| rng.gen_range(-1.0..1.0)).collect();
+                let tau: Vec<f64> = (0..n)
+                    .map(|k| {
+                        if k % 3 == 1 {
+                            0.0
+                        } else {
+                            rng.gen_range(0.5..1.5)
+                        }
+                    })
+                    .collect();
+                let z0: Vec<f64> = (0..n * count).map(|_| rng.gen_range(-1.0..1.0)).collect();
+                let (mut z1, mut z2) = (z0.clone(), z0);
+                back_transform(&mut z1, n, count, &a, &tau);
+                back_transform_reference(&mut z2, n, count, &a, &tau);
+                let bits = |z: &[f64]| z.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&z1), bits(&z2), "n {n} count {count}");
+            }
+        }
+    }
+
+    #[test]
     fn the_portable_path_gives_the_same_bits() {
         let a = random_symmetric(37, 11);
         let mut w1 = vec![0.0; 37 * 37];
@@ -854,6 +961,6 @@ mod tests {
             }
         }
         let mut w2 = w1.clone();
-        assert_eq!(dispatch(&mut w1, 37, 37), evd(&mut w2, 37, 37));
+        assert_eq!(dispatch(&mut w1, 37, &|_| 37), evd(&mut w2, 37, &|_| 37));
     }
 }

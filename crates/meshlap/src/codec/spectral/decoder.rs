@@ -3,7 +3,7 @@
 
 use super::coefficients::Models;
 use super::header::Header;
-use super::patches::{bases, border_and_loose, Arithmetic};
+use super::patches::{bases_of, border_and_loose, layout, Arithmetic};
 use super::residuals::Residuals;
 use crate::codec::container::ByteReader;
 use crate::codec::entropy::RangeDecoder;
@@ -19,17 +19,20 @@ use rayon::prelude::*;
 pub fn decode(topo: &Topology, data: &[u8], version: u16) -> Result<Vec<[f64; 3]>, CodecError> {
     let mut r = ByteReader::new(data, "geometry header");
     let Header { params, step } = Header::read(&mut r)?;
-    let bases = bases(topo, &params, Arithmetic::for_version(version))?;
+    let arith = Arithmetic::for_version(version);
+    let layout = layout(topo, &params)?;
     let mut dec = RangeDecoder::new(r.rest());
     let mut models = Models::new();
     let n = topo.n_vertices();
     let mut rec = vec![[0.0f64; 3]; n];
-    // The coefficients depend on the stream only and the synthesis `E_m X̃` on the
-    // patch only: range-decode every patch in order, synthesize in parallel, then
-    // add the predictions in order (each reads earlier patches' positions).
-    let mut coefs = Vec::with_capacity(bases.len());
-    for b in &bases {
-        let q = models.code_patch(b.m, step, params.band_slope, |_, _, _, model| {
+    // The coefficients depend on the stream only (and the patch sizes), the bases on
+    // the connectivity only, and the synthesis `E_m X̃` on the patch only:
+    // range-decode every patch in order, compute the bases and synthesize in
+    // parallel, then add the predictions in order (each reads earlier patches'
+    // positions).
+    let mut coefs = Vec::with_capacity(layout.len());
+    for l in &layout {
+        let q = models.code_patch(l.m, step, params.band_slope, |_, _, _, model| {
             model.decode(&mut dec)
         })?;
         if dec.exhausted() {
@@ -37,10 +40,31 @@ pub fn decode(topo: &Topology, data: &[u8], version: u16) -> Result<Vec<[f64; 3]
         }
         coefs.push(q);
     }
+    // A patch needs the vectors up to its last non-zero coefficient only: `x̃ = E X̃`
+    // summed in index order from +0 adds ±0 for a zero coefficient, which changes
+    // no partial sum (none is −0), so the shorter sum has the same bits. Format
+    // version 6 on (fixed-order products); older files use every vector.
+    let need: Vec<usize> = coefs
+        .iter()
+        .map(|q| match arith {
+            Arithmetic::Fixed => (0..q.nrows())
+                .rev()
+                .find(|&j| (0..3).any(|k| q[(j, k)] != 0.0))
+                .map_or(0, |j| j + 1),
+            Arithmetic::Faer => usize::MAX,
+        })
+        .collect();
+    let bases = bases_of(topo, &params, arith, layout, |p| need[p])?;
     let synth = bases
         .par_iter()
-        .zip(coefs.par_iter())
-        .map(|(b, q)| b.synthesize(q))
+        .zip(coefs.par_iter().zip(&need))
+        .map(|(b, (q, &need))| {
+            if need < q.nrows() {
+                b.synthesize(&q.subrows(0, need).to_owned())
+            } else {
+                b.synthesize(q)
+            }
+        })
         .collect::<Result<Vec<_>, _>>()?;
     for (b, x) in bases.iter().zip(&synth) {
         let xhat = b.pred.as_ref().map(|pr| pr.predict(&rec));

@@ -138,10 +138,12 @@ impl PatchBasis {
         }
     }
 
-    /// Coordinates (n_p×3) from the first m coefficients.
+    /// Coordinates (n_p×3) from the first coefficients (at most the basis' vectors).
+    /// Without a basis (a patch without faces, or a decoder's patch whose
+    /// coefficients are all zero) zeros, as the synthesis of zero coefficients is.
     pub fn synthesize(&self, c: &Mat<f64>) -> Result<Mat<f64>, CodecError> {
         match &self.basis {
-            None => Ok(Mat::zeros(0, 3)),
+            None => Ok(Mat::zeros(self.verts.len(), 3)),
             Some(b) if self.arith == Arithmetic::Fixed && c.nrows() <= b.len() => {
                 Ok(inverse_fixed(b, c))
             }
@@ -165,69 +167,100 @@ impl PatchBasis {
     }
 }
 
-/// The basis of one patch given its submesh connectivity `pt` (local numbering);
-/// vertices on no face of the patch are left out (`verts` lists the kept ones, local).
-fn patch_basis(
-    pt: &Topology,
-    kind: OperatorKind,
-    keep: Keep,
-    arith: Arithmetic,
-) -> Result<PatchBasis, CodecError> {
-    let mut on_face = vec![false; pt.n_vertices()];
-    for f in pt.faces() {
+/// A patch before its basis: what the partition and the connectivity give.
+pub(super) struct PatchLayout {
+    /// The patch vertices that lie on a face of the patch (global numbering; the
+    /// basis' row order).
+    pub verts: Vec<u32>,
+    /// The patch submesh over `verts` (local numbering, positions unused) and its
+    /// connectivity, from which the operator is assembled.
+    sub: Option<(TriMesh, Topology)>,
+    /// Coefficients kept.
+    pub m: usize,
+}
+
+/// The submesh of one patch (vertices `patch`, global; `faces` its faces, global): vertices on no face of the patch are left out (coded as loose vertices).
+fn patch_layout(patch: &[u32], faces: &[[u32; 3]], keep: Keep) -> Result<PatchLayout, CodecError> {
+    let mut local = std::collections::HashMap::with_capacity(patch.len());
+    for (i, &v) in patch.iter().enumerate() {
+        local.insert(v, i as u32);
+    }
+    // The faces in the patch's local numbering (valid: the connectivity's faces
+    // were checked when it was built, and a face's corners are in its patch).
+    let pfaces: Vec<[u32; 3]> = faces.iter().map(|f| f.map(|v| local[&v])).collect();
+    let mut on_face = vec![false; patch.len()];
+    for f in &pfaces {
         for &x in f {
             on_face[x as usize] = true;
         }
     }
-    let mut remap = vec![u32::MAX; pt.n_vertices()];
+    let mut remap = vec![u32::MAX; patch.len()];
     let mut verts = Vec::new();
-    for i in 0..pt.n_vertices() {
+    for i in 0..patch.len() {
         if on_face[i] {
             remap[i] = verts.len() as u32;
             verts.push(i as u32);
         }
     }
-    let faces: Vec<[u32; 3]> = pt
-        .faces()
+    let faces: Vec<[u32; 3]> = pfaces
         .iter()
         .map(|f| f.map(|x| remap[x as usize]))
         .collect();
     let np = verts.len();
+    let verts: Vec<u32> = verts.iter().map(|&i| patch[i as usize]).collect();
     if np == 0 {
-        return Ok(PatchBasis {
+        return Ok(PatchLayout {
             verts,
-            basis: None,
+            sub: None,
             m: 0,
-            pred: None,
-            arith,
         });
     }
     let sub = TriMesh::new(vec![[0.0; 3]; np], faces);
     let st = Topology::new(&sub).map_err(CodecError::PatchTopology)?;
-    let op = Operator::assemble(kind, &sub, &st, &OperatorOptions::default())
-        .map_err(CodecError::PatchOperator)?;
-    let opts = BasisOptions {
-        dense_solver: DenseSolver::Reproducible,
-        ..Default::default()
-    };
-    let basis = EigenBasis::compute(&op, &opts).map_err(CodecError::PatchBasis)?;
-    Ok(PatchBasis {
+    Ok(PatchLayout {
         verts,
-        basis: Some(basis),
+        sub: Some((sub, st)),
         m: keep.count(np),
+    })
+}
+
+/// The basis of a patch ([`crate::spectral::EigenBasis`]: canonical, deterministic
+/// eigenvectors, ascending eigenvalues): all of it for `need = usize::MAX`, else at
+/// least its first `need` vectors ([`EigenBasis::compute_lowest`], the same bits);
+/// none for `need = 0` or a patch without faces.
+fn patch_basis(
+    layout: PatchLayout,
+    kind: OperatorKind,
+    need: usize,
+    arith: Arithmetic,
+) -> Result<PatchBasis, CodecError> {
+    let basis = match &layout.sub {
+        Some((sub, st)) if need > 0 => {
+            let op = Operator::assemble(kind, sub, st, &OperatorOptions::default())
+                .map_err(CodecError::PatchOperator)?;
+            let opts = BasisOptions {
+                dense_solver: DenseSolver::Reproducible,
+                ..Default::default()
+            };
+            Some(EigenBasis::compute_lowest(&op, &opts, need).map_err(CodecError::PatchBasis)?)
+        }
+        _ => None,
+    };
+    Ok(PatchBasis {
+        verts: layout.verts,
+        basis,
+        m: layout.m,
         pred: None,
         arith,
     })
 }
 
-/// The bases of every patch, in coding order (in parallel; each decomposition is
-/// sequential), with their predictors when `params.predicted`; `arith` says how
-/// their products are computed (the format version's).
-pub(super) fn bases(
+/// The partition into patches and each patch's submesh, in coding order (the
+/// submeshes in parallel). Depends on the connectivity only.
+pub(super) fn layout(
     topo: &Topology,
     params: &SpectralParams,
-    arith: Arithmetic,
-) -> Result<Vec<PatchBasis>, CodecError> {
+) -> Result<Vec<PatchLayout>, CodecError> {
     let patches = partition(topo, params.patch_size)?;
     let n = topo.n_vertices();
     let mut patch_of = vec![0u32; n];
@@ -245,48 +278,62 @@ pub(super) fn bases(
             pfaces[p as usize].push(*f);
         }
     }
-    let mut bases = patches
+    patches
         .par_iter()
         .zip(pfaces.par_iter())
-        .map(|(patch, faces)| {
-            let mut local = std::collections::HashMap::with_capacity(patch.len());
-            for (i, &v) in patch.iter().enumerate() {
-                local.insert(v, i as u32);
+        .map(|(patch, faces)| patch_layout(patch, faces, params.keep))
+        .collect()
+}
+
+/// The bases of every patch, in coding order (in parallel; each decomposition is
+/// sequential), with their predictors when `params.predicted`; `arith` says how
+/// their products are computed (the format version's).
+pub(super) fn bases(
+    topo: &Topology,
+    params: &SpectralParams,
+    arith: Arithmetic,
+) -> Result<Vec<PatchBasis>, CodecError> {
+    bases_of(topo, params, arith, layout(topo, params)?, |_| usize::MAX)
+}
+
+/// The bases of the patches of `layout` ([`layout`]) with their predictors, as
+/// [`bases`]; patch `p` gets at least its first `need(p)` vectors (all for
+/// `usize::MAX`; none for 0, its synthesis then being zero): the decoder, which knows
+/// the coefficients before the bases, needs the vectors up to a patch's last
+/// non-zero coefficient only. Bases and predictors are computed together in one
+/// parallel pass (they are independent: the predictors need the vertex sets only).
+pub(super) fn bases_of(
+    topo: &Topology,
+    params: &SpectralParams,
+    arith: Arithmetic,
+    layout: Vec<PatchLayout>,
+    need: impl Fn(usize) -> usize + Sync,
+) -> Result<Vec<PatchBasis>, CodecError> {
+    let n = topo.n_vertices();
+    let owner = params.predicted.then(|| {
+        let mut owner = vec![u32::MAX; n];
+        for (p, l) in layout.iter().enumerate() {
+            for &v in &l.verts {
+                owner[v as usize] = p as u32;
             }
-            let ft = Topology::from_faces(
-                patch.len(),
-                &faces
-                    .iter()
-                    .map(|f| f.map(|v| local[&v]))
-                    .collect::<Vec<_>>(),
-            )
-            .map_err(CodecError::PatchTopology)?;
-            let b = patch_basis(&ft, params.operator, params.keep, arith)?;
-            Ok(PatchBasis {
-                verts: b.verts.iter().map(|&i| patch[i as usize]).collect(),
-                basis: b.basis,
-                m: b.m,
-                pred: None,
-                arith,
-            })
-        })
-        .collect::<Result<Vec<_>, CodecError>>()?;
-    if params.predicted {
-        let owner = owners(n, &bases);
-        let preds: Vec<Option<Prediction>> = (0..bases.len())
-            .into_par_iter()
-            .map(|p| {
-                let b = &bases[p];
-                b.basis
-                    .as_ref()
-                    .and_then(|_| patch_prediction(topo, &owner, &b.verts, p as u32, arith))
-            })
-            .collect();
-        for (b, pr) in bases.iter_mut().zip(preds) {
-            b.pred = pr;
         }
-    }
-    Ok(bases)
+        owner
+    });
+    layout
+        .into_par_iter()
+        .enumerate()
+        .map(|(p, l)| {
+            let pred = match &owner {
+                Some(owner) if !l.verts.is_empty() => {
+                    patch_prediction(topo, owner, &l.verts, p as u32, arith)
+                }
+                _ => None,
+            };
+            let mut b = patch_basis(l, params.operator, need(p), arith)?;
+            b.pred = pred;
+            Ok(b)
+        })
+        .collect()
 }
 
 /// Patch of each vertex in the patch bases (`u32::MAX`: loose vertex).

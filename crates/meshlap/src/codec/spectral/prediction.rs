@@ -77,17 +77,23 @@ pub(super) fn patch_prediction(
     }
     let mut src_index = std::collections::HashMap::new();
     let mut src: Vec<u32> = Vec::new();
-    // Sparse rows of L_U and L_S.
-    let mut lu: Vec<Vec<(usize, f64)>> = Vec::with_capacity(np + k1.len());
-    let mut ls: Vec<Vec<(usize, f64)>> = Vec::with_capacity(np + k1.len());
+    // Sparse rows of L_U and L_S, row r in `lu[lu_at[r]..lu_at[r + 1]]` (and `ls`):
+    // flat, as the many small per-row vectors cost more in the allocator than the
+    // rest of the set-up.
+    let rows = np + k1.len();
+    let (mut lu, mut ls) = (Vec::with_capacity(8 * rows), Vec::with_capacity(4 * rows));
+    let (mut lu_at, mut ls_at) = (Vec::with_capacity(rows + 1), Vec::with_capacity(rows + 1));
+    lu_at.push(0);
+    ls_at.push(0);
+    let mut nb: Vec<u32> = Vec::new();
     for &i in verts.iter().chain(k1.iter()) {
-        let nb: Vec<u32> = topo
-            .neighbors(crate::mesh::VertexId(i))
-            .iter()
-            .copied()
-            .filter(|&w| known(w) || owner[w as usize] == p)
-            .collect();
-        let (mut ru, mut rs) = (Vec::new(), Vec::new());
+        nb.clear();
+        nb.extend(
+            topo.neighbors(crate::mesh::VertexId(i))
+                .iter()
+                .copied()
+                .filter(|&w| known(w) || owner[w as usize] == p),
+        );
         let inv = if nb.is_empty() {
             0.0
         } else {
@@ -95,22 +101,23 @@ pub(super) fn patch_prediction(
         };
         for (w, wt) in std::iter::once((i, 1.0)).chain(nb.iter().map(|&w| (w, -inv))) {
             if let Some(&li) = local.get(&w) {
-                ru.push((li, wt));
+                lu.push((li, wt));
             } else {
                 let t = *src_index.entry(w).or_insert_with(|| {
                     src.push(w);
                     src.len() - 1
                 });
-                rs.push((t, wt));
+                ls.push((t, wt));
             }
         }
-        lu.push(ru);
-        ls.push(rs);
+        lu_at.push(lu.len());
+        ls_at.push(ls.len());
     }
     // M = L_UᵀL_U + ridge, G = −L_UᵀL_S.
     let mut m = Mat::<f64>::zeros(np, np);
     let mut g = Mat::<f64>::zeros(np, src.len());
-    for (ru, rs) in lu.iter().zip(&ls) {
+    for r in 0..rows {
+        let (ru, rs) = (&lu[lu_at[r]..lu_at[r + 1]], &ls[ls_at[r]..ls_at[r + 1]]);
         for &(a, wa) in ru {
             for &(c, wc) in ru {
                 m[(a, c)] += wa * wc;
@@ -187,7 +194,149 @@ fn dot4(a: &[f64], b: &[f64]) -> f64 {
 /// order) with correctly rounded `+ − × ÷ √` only (no fused operations), so the result
 /// is the same bit for bit on every CPU (format version 6). `None` when a pivot is not
 /// positive (`M` not numerically positive definite).
+///
+/// Speed without changing a bit: the independent dot products — four rows of `L`
+/// against one row in the factorization, one row of `L` against four columns' `y` in
+/// the forward solve — run interleaved (each exactly as [`dot4`] sums it), so that
+/// their dependent addition chains overlap, and the kernel runs the AVX2 build where
+/// the CPU has it ([`crate::cpu::dispatch`]; Rust never fuses `×` and `+` on its own,
+/// so the wider build computes the same roundings).
 pub(super) fn cholesky_solve_fixed(m: &Mat<f64>, g: &mut Mat<f64>) -> Option<()> {
+    struct Solve<'a>(&'a Mat<f64>, &'a mut Mat<f64>);
+    impl crate::cpu::Kernel for Solve<'_> {
+        type Output = Option<()>;
+        #[inline(always)]
+        fn portable(self) -> Self::Output {
+            cholesky_solve_kernel(self.0, self.1)
+        }
+    }
+    crate::cpu::dispatch(Solve(m, g))
+}
+
+/// Four dot products `Σ a_r[k]·b_r[k]`, each summed exactly as [`dot4`] sums it
+/// (lanes `k mod 4`, then `(s₀ + s₁) + (s₂ + s₃)`), interleaved. All slices have the
+/// length of `a[0]`.
+#[inline(always)]
+fn dot4_x4(a: [&[f64]; 4], b: [&[f64]; 4]) -> [f64; 4] {
+    let n = a[0].len();
+    let a = a.map(|x| &x[..n]);
+    let b = b.map(|x| &x[..n]);
+    let mut s = [[0.0f64; 4]; 4];
+    let n4 = n / 4 * 4;
+    for c in (0..n4).step_by(4) {
+        for r in 0..4 {
+            for l in 0..4 {
+                s[r][l] += a[r][c + l] * b[r][c + l];
+            }
+        }
+    }
+    for r in 0..4 {
+        for l in 0..n - n4 {
+            s[r][l] += a[r][n4 + l] * b[r][n4 + l];
+        }
+    }
+    s.map(|s| (s[0] + s[1]) + (s[2] + s[3]))
+}
+
+/// [`cholesky_solve_fixed`]'s arithmetic, inlined into the build `dispatch` picks.
+#[inline(always)]
+fn cholesky_solve_kernel(m: &Mat<f64>, g: &mut Mat<f64>) -> Option<()> {
+    let n = m.nrows();
+    // L row-major: row i is l[i·n .. i·n + i + 1], so the dot products of the
+    // factorization and of the forward solve run over contiguous rows.
+    let mut l = vec![0.0f64; n * n];
+    for j in 0..n {
+        let (rowj, below) = l[j * n..].split_at_mut(n);
+        let d = m[(j, j)] - dot4(&rowj[..j], &rowj[..j]);
+        if !(d > 0.0 && d.is_finite()) {
+            return None;
+        }
+        let djj = d.sqrt();
+        rowj[j] = djj;
+        let lj = &rowj[..j];
+        // L[i][j] = (M[i][j] − L_i[..j]·L_j[..j]) / L[j][j] for the rows below, four
+        // at a time.
+        let rows = below.len() / n;
+        let r4 = rows / 4 * 4;
+        for r in (0..r4).step_by(4) {
+            let quad = &mut below[r * n..(r + 4) * n];
+            let s = {
+                let (q0, q1) = quad.split_at(2 * n);
+                dot4_x4([&q0[..j], &q0[n..n + j], &q1[..j], &q1[n..n + j]], [lj; 4])
+            };
+            for (t, st) in s.iter().enumerate() {
+                quad[t * n + j] = (m[(j + 1 + r + t, j)] - st) / djj;
+            }
+        }
+        for (r, li) in below[r4 * n..].chunks_exact_mut(n).enumerate() {
+            let r = r4 + r;
+            li[j] = (m[(j + 1 + r, j)] - dot4(&li[..j], lj)) / djj;
+        }
+    }
+    let nc = g.ncols();
+    let c4 = nc / 4 * 4;
+    // Four columns at a time: y[t] is column c + t.
+    let mut y = [
+        vec![0.0f64; n],
+        vec![0.0f64; n],
+        vec![0.0f64; n],
+        vec![0.0f64; n],
+    ];
+    for c in (0..c4).step_by(4) {
+        // L y = g.
+        for i in 0..n {
+            let li = &l[i * n..i * n + i];
+            let s = dot4_x4([li; 4], [&y[0][..i], &y[1][..i], &y[2][..i], &y[3][..i]]);
+            for t in 0..4 {
+                y[t][i] = (g[(i, c + t)] - s[t]) / l[i * n + i];
+            }
+        }
+        // Lᵀ x = y, as in the one-column loop below, for each of the four.
+        for i in (0..n).rev() {
+            let li = &l[i * n..i * n + i];
+            for yt in y.iter_mut() {
+                let xi = yt[i] / l[i * n + i];
+                yt[i] = xi;
+                for (yk, &lik) in yt[..i].iter_mut().zip(li) {
+                    *yk -= lik * xi;
+                }
+            }
+        }
+        for (t, yt) in y.iter().enumerate() {
+            for i in 0..n {
+                g[(i, c + t)] = yt[i];
+            }
+        }
+    }
+    let y = &mut y[0];
+    for c in c4..nc {
+        // L y = g.
+        for i in 0..n {
+            y[i] = (g[(i, c)] - dot4(&l[i * n..i * n + i], &y[..i])) / l[i * n + i];
+        }
+        // Lᵀ x = y, x overwriting y from the bottom up: once x_i is known, subtract
+        // its multiple of row i of L from the entries above (each entry receives its
+        // updates in the fixed order i = n−1, n−2, …).
+        for i in (0..n).rev() {
+            let xi = y[i] / l[i * n + i];
+            y[i] = xi;
+            let (head, _) = y.split_at_mut(i);
+            for (yk, &lik) in head.iter_mut().zip(&l[i * n..i * n + i]) {
+                *yk -= lik * xi;
+            }
+        }
+        for i in 0..n {
+            g[(i, c)] = y[i];
+        }
+    }
+    Some(())
+}
+
+/// The one-column, one-row-at-a-time form of [`cholesky_solve_fixed`] (the format's
+/// definition before the interleaving), kept to check that the fast kernel gives the
+/// same bits.
+#[cfg(test)]
+pub(super) fn cholesky_solve_reference(m: &Mat<f64>, g: &mut Mat<f64>) -> Option<()> {
     let n = m.nrows();
     // L row-major: row i is l[i·n .. i·n + i + 1], so the dot products of the
     // factorization and of the forward solve run over contiguous rows.

@@ -200,7 +200,14 @@ fn canonical_basis_survives_a_different_computation_order() {
         let p = [7, 11, 13].into_iter().find(|p| n % p != 0).unwrap();
         let perm: Vec<usize> = (0..n).map(|i| (i * p + 3) % n).collect();
         let pa = Mat::from_fn(n, n, |i, j| a[(perm[i], perm[j])]);
-        let (lam, pu) = dense_symmetric(&pa, Par::Seq, solver).unwrap();
+        let (lam, pu) = dense_symmetric(
+            &pa,
+            Par::Seq,
+            solver,
+            usize::MAX,
+            BasisOptions::DEFAULT_CLUSTER_TOLERANCE,
+        )
+        .unwrap();
         let mut u = Mat::<f64>::zeros(n, n);
         for i in 0..n {
             for j in 0..n {
@@ -336,4 +343,52 @@ fn probes_are_fixed() {
     assert_eq!(probe(0, 0).to_bits(), 0xbfe4_97a6_4023_16e8); // −0.6435118916203608
     assert_eq!(probe(17, 2).to_bits(), 0x3fd0_3522_5633_e96c); // 0.2532430497955349
     assert_eq!(probe(5, 1).to_bits(), 0xbfe9_2ade_0f62_40a8); // −0.7864828396286798
+}
+
+#[test]
+fn lowest_basis_is_the_first_columns_bit_for_bit() {
+    // The reproducible solver's partial basis (the codec's decoder): the first k
+    // columns, eigenvalues and scales of the full basis, k = count extended to the
+    // end of its eigenvalue cluster; symmetric (Kirchhoff, SQL) and symmetrized
+    // (Tutte) paths, with repeated eigenvalues (icosphere, cube).
+    let opts = BasisOptions {
+        dense_solver: DenseSolver::Reproducible,
+        ..Default::default()
+    };
+    for m in [
+        builtin::icosphere(2).unwrap(),
+        builtin::cube(4).unwrap(),
+        builtin::torus(9, 7).unwrap(),
+    ] {
+        for kind in [
+            OperatorKind::Kirchhoff,
+            OperatorKind::Sql,
+            OperatorKind::Tutte,
+        ] {
+            let o = op(&m, kind);
+            let full = EigenBasis::compute(&o, &opts).unwrap();
+            let n = full.n();
+            for count in [0, 1, 2, 3, 4, 5, 9, 17, n / 2, n - 1, n, n + 5] {
+                let low = EigenBasis::compute_lowest(&o, &opts, count).unwrap();
+                let k = low.len();
+                assert!(k >= count.min(n) && k <= n, "{kind} count {count}: k {k}");
+                assert!(
+                    k == 0 || full.clusters().iter().any(|&(s, l)| s + l == k),
+                    "{kind} count {count}: k {k} inside a cluster"
+                );
+                assert_eq!(low.path(), full.path());
+                assert_eq!(low.eigenvalues(), &full.eigenvalues()[..k]);
+                assert_eq!(low.coefficient_scale(), &full.coefficient_scale()[..k]);
+                for j in 0..k {
+                    for i in 0..n {
+                        assert_eq!(
+                            low.vectors()[(i, j)].to_bits(),
+                            full.vectors()[(i, j)].to_bits(),
+                            "{kind} count {count}"
+                        );
+                    }
+                }
+            }
+        }
+    }
 }
