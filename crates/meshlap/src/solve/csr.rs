@@ -7,6 +7,7 @@
 //! this layout reads 12 bytes per nonzero instead of faer's column-by-column product
 //! over 16-byte `usize` indices three times.
 
+use super::op::{residual_chunks, residual_rows, ResidualSums};
 use super::{Fused, MAX_COLUMNS};
 use crate::SparseMatrix;
 use rayon::prelude::*;
@@ -123,72 +124,100 @@ impl CsrMatrix {
             .collect()
     }
 
+    /// Rows `start..start + ys.len()/k` of `y = A x` (n×k row-major blocks) into `ys`,
+    /// adding `Σ w·y` and `Σ y²` of those rows to `acc` per column when `w` is given.
+    #[inline(always)]
+    fn product_rows(
+        &self,
+        x: &[f64],
+        start: usize,
+        ys: &mut [f64],
+        k: usize,
+        w: Option<&[f64]>,
+        acc: &mut ([f64; MAX_COLUMNS], [f64; MAX_COLUMNS]),
+    ) {
+        let nr = ys.len() / k;
+        for r in 0..nr {
+            let i = start + r;
+            let (s, e) = (self.row_ptr[i], self.row_ptr[i + 1]);
+            if k == 3 {
+                let (mut a0, mut a1, mut a2) = (0.0, 0.0, 0.0);
+                for p in s..e {
+                    let v = self.val[p];
+                    let j = 3 * self.col[p] as usize;
+                    a0 += v * x[j];
+                    a1 += v * x[j + 1];
+                    a2 += v * x[j + 2];
+                }
+                ys[3 * r] = a0;
+                ys[3 * r + 1] = a1;
+                ys[3 * r + 2] = a2;
+            } else {
+                for c in 0..k {
+                    let mut a = 0.0;
+                    for p in s..e {
+                        a += self.val[p] * x[self.col[p] as usize * k + c];
+                    }
+                    ys[k * r + c] = a;
+                }
+            }
+            if let Some(w) = w {
+                for c in 0..k {
+                    let yv = ys[k * r + c];
+                    acc.0[c] += w[k * i + c] * yv;
+                    acc.1[c] += yv * yv;
+                }
+            }
+        }
+    }
+
     /// `y = A x` for an n×k row-major block, in parallel over row chunks, with the
     /// reductions of `fused` in the same pass (at most [`MAX_COLUMNS`] columns then).
     pub(crate) fn product(&self, x: &[f64], y: &mut [f64], k: usize, fused: Option<Fused<'_>>) {
-        type Acc = ([f64; MAX_COLUMNS], [f64; MAX_COLUMNS]);
-        let rows = |start: usize, ys: &mut [f64], w: Option<&[f64]>, acc: &mut Acc| {
-            let nr = ys.len() / k;
-            for r in 0..nr {
-                let i = start + r;
-                let (s, e) = (self.row_ptr[i], self.row_ptr[i + 1]);
-                if k == 3 {
-                    let (mut a0, mut a1, mut a2) = (0.0, 0.0, 0.0);
-                    for p in s..e {
-                        let v = self.val[p];
-                        let j = 3 * self.col[p] as usize;
-                        a0 += v * x[j];
-                        a1 += v * x[j + 1];
-                        a2 += v * x[j + 2];
-                    }
-                    ys[3 * r] = a0;
-                    ys[3 * r + 1] = a1;
-                    ys[3 * r + 2] = a2;
-                } else {
-                    for c in 0..k {
-                        let mut a = 0.0;
-                        for p in s..e {
-                            a += self.val[p] * x[self.col[p] as usize * k + c];
-                        }
-                        ys[k * r + c] = a;
-                    }
-                }
-                if let Some(w) = w {
-                    for c in 0..k {
-                        let yv = ys[k * r + c];
-                        acc.0[c] += w[k * i + c] * yv;
-                        acc.1[c] += yv * yv;
-                    }
-                }
-            }
-        };
+        let zero = || ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]);
         match fused {
-            None => y.par_chunks_mut(CHUNK * k).enumerate().for_each(|(b, ys)| {
-                let mut acc = ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]);
-                rows(b * CHUNK, ys, None, &mut acc)
-            }),
+            None => y
+                .par_chunks_mut(CHUNK * k)
+                .enumerate()
+                .for_each(|(b, ys)| self.product_rows(x, b * CHUNK, ys, k, None, &mut zero())),
             Some(Fused { w, dot, norm2 }) => {
                 let total = y
                     .par_chunks_mut(CHUNK * k)
                     .enumerate()
                     .map(|(b, ys)| {
-                        let mut acc = ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]);
-                        rows(b * CHUNK, ys, Some(w), &mut acc);
+                        let mut acc = zero();
+                        self.product_rows(x, b * CHUNK, ys, k, Some(w), &mut acc);
                         acc
                     })
-                    .reduce(
-                        || ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]),
-                        |a, b| {
-                            (
-                                std::array::from_fn(|c| a.0[c] + b.0[c]),
-                                std::array::from_fn(|c| a.1[c] + b.1[c]),
-                            )
-                        },
-                    );
+                    .reduce(zero, |a, b| {
+                        (
+                            std::array::from_fn(|c| a.0[c] + b.0[c]),
+                            std::array::from_fn(|c| a.1[c] + b.1[c]),
+                        )
+                    });
                 dot[..k].copy_from_slice(&total.0[..k]);
                 norm2[..k].copy_from_slice(&total.1[..k]);
             }
         }
+    }
+
+    /// [`LinOp::residual`](super::LinOp::residual) in one parallel pass: each chunk of
+    /// [`CHUNK`] rows computes its rows of `A x` into `r` and completes them into
+    /// `b − A x` (with `z` and the sums) while they are still in cache.
+    pub(crate) fn residual_pass(
+        &self,
+        b: &[f64],
+        x: &[f64],
+        r: &mut [f64],
+        k: usize,
+        d: Option<&[f64]>,
+        z: Option<&mut [f64]>,
+    ) -> ResidualSums {
+        residual_chunks(b, r, z, d, k, |first, bs, rs, zs, ds| {
+            let mut acc = ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]);
+            self.product_rows(x, first, rs, k, None, &mut acc);
+            residual_rows(bs, rs, zs, ds, k)
+        })
     }
 
     /// `A·B` (Gustavson's algorithm), for small polynomial filters such as F².

@@ -6,7 +6,7 @@
 //! chunks of [`CHUNK`] rows and reduce up to [`MAX_COLUMNS`] columns at once.
 
 use super::csr::CHUNK;
-use super::{relative_residuals, Info, InputError, LinOp, Params, Stopping, MAX_COLUMNS};
+use super::{Info, InputError, LinOp, Params, ResidualSums, Stopping, MAX_COLUMNS};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -91,8 +91,9 @@ pub(crate) fn check_sizes(n: usize, b: &[f64], x: &[f64], k: usize) -> Result<()
     Ok(())
 }
 
-/// Completes `info` at the end of a solve: the recomputed residuals of `x` and the
-/// seconds since `start`.
+/// Completes `info` at the end of a solve: the residuals of `x` recomputed from
+/// scratch (`‖b_c − A x_c‖/‖b_c‖`, one fused pass into `scratch`, an n×k work block
+/// the solver no longer needs) and the seconds since `start`.
 pub(crate) fn finish(
     info: &mut Info,
     op: &(impl LinOp + ?Sized),
@@ -100,9 +101,19 @@ pub(crate) fn finish(
     b: &[f64],
     k: usize,
     start: Instant,
+    scratch: &mut [f64],
 ) {
-    info.residuals = relative_residuals(op, x, b, k);
+    info.residuals = op.residual(b, x, scratch, k, None, None).relative(k);
     info.seconds = start.elapsed().as_secs_f64();
+}
+
+/// `‖b_c‖` per column from the sums of a residual pass, at least the smallest
+/// positive float (relative residuals of a zero column are absolute ones).
+pub(crate) fn norms_of_b(sums: &ResidualSums, k: usize) -> Vec<f64> {
+    sums.bb[..k]
+        .iter()
+        .map(|v| v.sqrt().max(f64::MIN_POSITIVE))
+        .collect()
 }
 
 /// `dst = src`, in parallel (the first touch of fresh workspace pages is spread over
@@ -116,23 +127,6 @@ pub(crate) fn copy(dst: &mut [f64], src: &[f64]) {
 /// `x = 0`, in parallel (see [`copy`]).
 pub(crate) fn zero(x: &mut [f64]) {
     x.par_chunks_mut(CHUNK).for_each(|c| c.fill(0.0));
-}
-
-/// `r = b − A x`.
-pub(crate) fn residual(op: &(impl LinOp + ?Sized), b: &[f64], x: &[f64], k: usize, r: &mut [f64]) {
-    op.apply(x, r, k);
-    r.par_iter_mut()
-        .zip(b.par_iter())
-        .for_each(|(ri, bi)| *ri = bi - *ri);
-}
-
-/// `‖b_c‖` per column, at least the smallest positive float (relative residuals of a
-/// zero column are absolute ones).
-pub(crate) fn rhs_norms(b: &[f64], k: usize) -> Vec<f64> {
-    col_norms2(b, k)
-        .iter()
-        .map(|v| v.sqrt().max(f64::MIN_POSITIVE))
-        .collect()
 }
 
 /// Relative size below which a quantity a Krylov recurrence divides by counts as
