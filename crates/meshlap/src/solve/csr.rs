@@ -255,8 +255,8 @@ impl CsrMatrix {
     /// `α·I + β·A` (square A; the diagonal is added to the pattern where missing).
     pub fn shifted(&self, alpha: &[f64], beta: f64) -> CsrMatrix {
         let mut row_ptr = vec![0usize; self.nrows + 1];
-        let mut col = Vec::with_capacity(self.nnz() + self.nrows);
-        let mut val = Vec::with_capacity(self.nnz() + self.nrows);
+        let mut col = storage::<u32>(self.nnz() + self.nrows);
+        let mut val = storage::<f64>(self.nnz() + self.nrows);
         for i in 0..self.nrows {
             let mut placed = false;
             for p in self.row_range(i) {
@@ -337,6 +337,14 @@ impl CsrMatrix {
     }
 }
 
+/// An empty vector with room for `cap` values, advised to use huge pages when large
+/// (the arrays a product streams: fewer TLB misses, fewer page faults while filling).
+fn storage<T: Copy + Default>(cap: usize) -> Vec<T> {
+    let mut v = crate::mem::zeroed_vec(T::default(), cap);
+    v.clear();
+    v
+}
+
 /// Counting-sort transposition of compressed storage: `n_outer` lists (entries
 /// `range(o)`, inner index `inner(p)` and value `val[p]` of entry p) over `n_inner`
 /// inner positions become `n_inner` lists over the outer positions, each ascending.
@@ -360,8 +368,8 @@ fn transpose_storage<T: Copy + Default>(
     }
     let nnz = ptr[n_inner];
     let mut fill = ptr.clone();
-    let mut idx = vec![T::default(); nnz];
-    let mut out = vec![0.0; nnz];
+    let mut idx = crate::mem::zeroed_vec(T::default(), nnz);
+    let mut out = crate::mem::zeroed_vec(0.0, nnz);
     for o in 0..n_outer {
         for p in range(o) {
             let i = inner(p);

@@ -40,7 +40,9 @@ impl Workspace {
     }
 
     /// `M` disjoint blocks of `len` values. A fresh allocation is zeroed lazily by the
-    /// allocator, so the solver's first parallel pass touches its pages.
+    /// allocator, so the solver's first parallel pass touches its pages; a large one
+    /// is advised to use transparent huge pages ([`crate::mem::zeroed_vec`]: 512 times
+    /// fewer page faults on that first touch, and fewer TLB misses after).
     ///
     /// Blocks start a whole number of 4 KiB pages apart, as separate large allocations
     /// do: entries of two blocks share their page offset only at the same index, so a
@@ -54,7 +56,8 @@ impl Workspace {
         let stride = len.next_multiple_of(PAGE);
         let need = M * stride;
         if self.data.len() < need {
-            self.data = vec![0.0; need];
+            self.data = Vec::new(); // the old buffer goes before the new one comes
+            self.data = crate::mem::zeroed_vec(0.0, need);
         }
         let mut chunks = self.data[..need].chunks_exact_mut(stride);
         std::array::from_fn(|_| chunks.next().map_or(&mut [][..], |c| &mut c[..len]))
