@@ -126,6 +126,7 @@ impl CsrMatrix {
 
     /// Rows `start..start + ys.len()/k` of `y = A x` (n×k row-major blocks) into `ys`,
     /// adding `Σ w·y` and `Σ y²` of those rows to `acc` per column when `w` is given.
+    /// Three columns (a mesh's coordinates) take [`Self::rows3`].
     #[inline(always)]
     fn product_rows(
         &self,
@@ -136,36 +137,67 @@ impl CsrMatrix {
         w: Option<&[f64]>,
         acc: &mut ([f64; MAX_COLUMNS], [f64; MAX_COLUMNS]),
     ) {
+        if k == 3 && x.len() >= 3 * self.ncols {
+            return self.rows3(x, start, ys, w, acc);
+        }
         let nr = ys.len() / k;
         for r in 0..nr {
             let i = start + r;
             let (s, e) = (self.row_ptr[i], self.row_ptr[i + 1]);
-            if k == 3 {
-                let (mut a0, mut a1, mut a2) = (0.0, 0.0, 0.0);
+            for c in 0..k {
+                let mut a = 0.0;
                 for p in s..e {
-                    let v = self.val[p];
-                    let j = 3 * self.col[p] as usize;
-                    a0 += v * x[j];
-                    a1 += v * x[j + 1];
-                    a2 += v * x[j + 2];
+                    a += self.val[p] * x[self.col[p] as usize * k + c];
                 }
-                ys[3 * r] = a0;
-                ys[3 * r + 1] = a1;
-                ys[3 * r + 2] = a2;
-            } else {
-                for c in 0..k {
-                    let mut a = 0.0;
-                    for p in s..e {
-                        a += self.val[p] * x[self.col[p] as usize * k + c];
-                    }
-                    ys[k * r + c] = a;
-                }
+                ys[k * r + c] = a;
             }
             if let Some(w) = w {
                 for c in 0..k {
                     let yv = ys[k * r + c];
                     acc.0[c] += w[k * i + c] * yv;
                     acc.1[c] += yv * yv;
+                }
+            }
+        }
+    }
+
+    /// [`Self::product_rows`] for k = 3: each entry read once for the three columns,
+    /// the gathers from `x` without bounds checks (the caller checks
+    /// `x.len() ≥ 3·ncols`; every stored column index is below ncols by construction).
+    #[inline(always)]
+    fn rows3(
+        &self,
+        x: &[f64],
+        start: usize,
+        ys: &mut [f64],
+        w: Option<&[f64]>,
+        acc: &mut ([f64; MAX_COLUMNS], [f64; MAX_COLUMNS]),
+    ) {
+        let nr = ys.len() / 3;
+        let rp = &self.row_ptr[start..start + nr + 1];
+        let (col, val) = (&self.col[..], &self.val[..]);
+        for r in 0..nr {
+            let (s, e) = (rp[r], rp[r + 1]);
+            let (mut a0, mut a1, mut a2) = (0.0, 0.0, 0.0);
+            for (&v, &c) in val[s..e].iter().zip(&col[s..e]) {
+                let j = 3 * c as usize;
+                // SAFETY: c < ncols (an invariant of every constructor) and
+                // x.len() ≥ 3·ncols, so j + 2 < x.len().
+                unsafe {
+                    a0 += v * *x.get_unchecked(j);
+                    a1 += v * *x.get_unchecked(j + 1);
+                    a2 += v * *x.get_unchecked(j + 2);
+                }
+            }
+            ys[3 * r] = a0;
+            ys[3 * r + 1] = a1;
+            ys[3 * r + 2] = a2;
+            if let Some(w) = w {
+                let i = start + r;
+                let yv = [a0, a1, a2];
+                for c in 0..3 {
+                    acc.0[c] += w[3 * i + c] * yv[c];
+                    acc.1[c] += yv[c] * yv[c];
                 }
             }
         }
@@ -421,6 +453,31 @@ mod tests {
         assert!((&sq - &f.to_dense() * &f.to_dense()).norm_max() < 1e-14);
         let sum = a.add(2.0, &at, -1.0).to_csc().to_dense();
         assert!((&sum - (f.to_dense() * 2.0 - &ft)).norm_max() < 1e-14);
+    }
+
+    #[test]
+    fn the_three_column_kernel_equals_three_single_column_products() {
+        // A larger mesh operator (several parallel chunks), k = 3 against k = 1 per
+        // column: the same products in the same order, so the same bits.
+        let m = builtin::icosphere(5).unwrap();
+        let f = crate::operator::tutte::tutte(&Topology::new(&m).unwrap()).unwrap();
+        let a = CsrMatrix::from_csc(&f).shifted(&vec![1.0; f.nrows()], 30.0);
+        let n = a.nrows();
+        let x: Vec<f64> = (0..3 * n).map(|i| (i as f64 * 0.37).sin()).collect();
+        let mut y = vec![0.0; 3 * n];
+        let (mut dot, mut norm2) = ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]);
+        a.apply_fused(&x, &mut y, 3, Fused::new(&x, &mut dot, &mut norm2));
+        for c in 0..3 {
+            let xc: Vec<f64> = (0..n).map(|i| x[3 * i + c]).collect();
+            let mut yc = vec![0.0; n];
+            a.apply(&xc, &mut yc, 1);
+            for i in 0..n {
+                assert_eq!(yc[i], y[3 * i + c]);
+            }
+            let d: f64 = (0..n).map(|i| xc[i] * yc[i]).sum();
+            let q: f64 = yc.iter().map(|v| v * v).sum();
+            assert!((dot[c] - d).abs() < 1e-12 * d.abs() && (norm2[c] - q).abs() < 1e-12 * q);
+        }
     }
 
     #[test]
