@@ -114,9 +114,25 @@ pub fn bicg(
     precond: Option<&Jacobi>,
     ws: &mut Workspace,
 ) -> Result<BicgInfo, BicgError> {
+    // The time includes the hand-over to the pool.
+    let start = Instant::now();
+    krylov::on_worker(|| bicg_on_worker(start, op, b, x, k, bicg_params, precond, ws))
+}
+
+/// [`bicg()`] on a worker of rayon's pool, timed from `start`.
+#[allow(clippy::too_many_arguments)]
+fn bicg_on_worker(
+    start: Instant,
+    op: &dyn BiLinOp,
+    b: &[f64],
+    x: &mut [f64],
+    k: usize,
+    bicg_params: &BicgParams,
+    precond: Option<&Jacobi>,
+    ws: &mut Workspace,
+) -> Result<BicgInfo, BicgError> {
     let params = &bicg_params.params;
     krylov::check(op, b, x, k, params)?;
-    let start = Instant::now();
     let n = op.dim();
     if let Some(j) = precond {
         j.check(n)?;

@@ -68,8 +68,23 @@ pub fn bicgstab(
     params: &Params,
     ws: &mut Workspace,
 ) -> Result<Info, BicgstabError> {
-    krylov::check(op, b, x, k, params)?;
+    // The time includes the hand-over to the pool.
     let start = Instant::now();
+    krylov::on_worker(|| bicgstab_on_worker(start, op, b, x, k, params, ws))
+}
+
+/// [`bicgstab()`] on a worker of rayon's pool, timed from `start`.
+#[allow(clippy::too_many_arguments)]
+fn bicgstab_on_worker(
+    start: Instant,
+    op: &dyn LinOp,
+    b: &[f64],
+    x: &mut [f64],
+    k: usize,
+    params: &Params,
+    ws: &mut Workspace,
+) -> Result<Info, BicgstabError> {
+    krylov::check(op, b, x, k, params)?;
     let n = op.dim();
     let [r, rh, p, v, t] = ws.blocks::<5>(n * k);
     // r = b − Ax, r̂ = r, ‖r‖², ‖b‖²: one pass.

@@ -70,8 +70,24 @@ pub fn cg(
     precond: Option<&Jacobi>,
     ws: &mut Workspace,
 ) -> Result<Info, CgError> {
-    krylov::check(op, b, x, k, params)?;
+    // The time includes the hand-over to the pool.
     let start = Instant::now();
+    krylov::on_worker(|| cg_on_worker(start, op, b, x, k, params, precond, ws))
+}
+
+/// [`cg()`] on a worker of rayon's pool, timed from `start`.
+#[allow(clippy::too_many_arguments)]
+fn cg_on_worker(
+    start: Instant,
+    op: &dyn LinOp,
+    b: &[f64],
+    x: &mut [f64],
+    k: usize,
+    params: &Params,
+    precond: Option<&Jacobi>,
+    ws: &mut Workspace,
+) -> Result<Info, CgError> {
+    krylov::check(op, b, x, k, params)?;
     let n = op.dim();
     let dinv = match precond {
         None => None,
