@@ -1,4 +1,5 @@
-//! Large zero-initialised buffers for the readers' outputs.
+//! Large zero-initialised buffers: the readers' outputs, the sparse matrices the
+//! iterative solvers stream and their work blocks.
 //!
 //! A reader writes its vertex and face arrays once, front to back, right after
 //! allocating them: on Linux each 4 KiB page is then faulted in, zeroed and charged

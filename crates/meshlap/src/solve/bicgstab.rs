@@ -68,21 +68,36 @@ pub fn bicgstab(
     params: &Params,
     ws: &mut Workspace,
 ) -> Result<Info, BicgstabError> {
-    krylov::check(op, b, x, k, params)?;
+    // The time includes the hand-over to the pool.
     let start = Instant::now();
+    krylov::on_worker(|| bicgstab_on_worker(start, op, b, x, k, params, ws))
+}
+
+/// [`bicgstab()`] on a worker of rayon's pool, timed from `start`.
+#[allow(clippy::too_many_arguments)]
+fn bicgstab_on_worker(
+    start: Instant,
+    op: &dyn LinOp,
+    b: &[f64],
+    x: &mut [f64],
+    k: usize,
+    params: &Params,
+    ws: &mut Workspace,
+) -> Result<Info, BicgstabError> {
+    krylov::check(op, b, x, k, params)?;
     let n = op.dim();
     let [r, rh, p, v, t] = ws.blocks::<5>(n * k);
-    krylov::residual(op, b, x, k, r);
-    krylov::copy(rh, r);
+    // r = b − Ax, r̂ = r, ‖r‖², ‖b‖²: one pass.
+    let s0 = op.residual(b, x, r, k, None, Some(rh));
     krylov::zero(p);
     krylov::zero(v);
-    let bnorm = krylov::rhs_norms(b, k);
-    let rr0 = krylov::col_norms2(r, k);
+    let bnorm = krylov::norms_of_b(&s0, k);
+    let rr0 = &s0.rr[..k];
     // r̂ = r⁽⁰⁾: ρ₀ = ‖r⁽⁰⁾‖², and ‖r̂‖ scales the breakdown tests.
     let rh_norm: Vec<f64> = rr0.iter().map(|v| v.sqrt()).collect();
     let (mut rho, mut rr) = ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]);
-    rho[..k].copy_from_slice(&rr0);
-    rr[..k].copy_from_slice(&rr0);
+    rho[..k].copy_from_slice(rr0);
+    rr[..k].copy_from_slice(rr0);
     let mut active = krylov::all_active(k);
     for c in 0..k {
         active[c] = rr0[c] != 0.0;
@@ -205,7 +220,7 @@ pub fn bicgstab(
             rho[c] = sums.v[RHO][c];
         }
     }
-    krylov::finish(&mut info, op, x, b, k, start);
+    krylov::finish(&mut info, op, x, b, k, start, t);
     if active.iter().any(|&a| a) {
         return Err(BicgstabError::NoConvergence {
             info: Box::new(info),

@@ -7,6 +7,7 @@
 //! this layout reads 12 bytes per nonzero instead of faer's column-by-column product
 //! over 16-byte `usize` indices three times.
 
+use super::op::{residual_chunks, residual_rows, ResidualSums};
 use super::{Fused, MAX_COLUMNS};
 use crate::SparseMatrix;
 use rayon::prelude::*;
@@ -123,72 +124,132 @@ impl CsrMatrix {
             .collect()
     }
 
+    /// Rows `start..start + ys.len()/k` of `y = A x` (n×k row-major blocks) into `ys`,
+    /// adding `Σ w·y` and `Σ y²` of those rows to `acc` per column when `w` is given.
+    /// Three columns (a mesh's coordinates) take [`Self::rows3`].
+    #[inline(always)]
+    fn product_rows(
+        &self,
+        x: &[f64],
+        start: usize,
+        ys: &mut [f64],
+        k: usize,
+        w: Option<&[f64]>,
+        acc: &mut ([f64; MAX_COLUMNS], [f64; MAX_COLUMNS]),
+    ) {
+        if k == 3 && x.len() >= 3 * self.ncols {
+            return self.rows3(x, start, ys, w, acc);
+        }
+        let nr = ys.len() / k;
+        for r in 0..nr {
+            let i = start + r;
+            let (s, e) = (self.row_ptr[i], self.row_ptr[i + 1]);
+            for c in 0..k {
+                let mut a = 0.0;
+                for p in s..e {
+                    a += self.val[p] * x[self.col[p] as usize * k + c];
+                }
+                ys[k * r + c] = a;
+            }
+            if let Some(w) = w {
+                for c in 0..k {
+                    let yv = ys[k * r + c];
+                    acc.0[c] += w[k * i + c] * yv;
+                    acc.1[c] += yv * yv;
+                }
+            }
+        }
+    }
+
+    /// [`Self::product_rows`] for k = 3: each entry read once for the three columns,
+    /// the gathers from `x` without bounds checks (the caller checks
+    /// `x.len() ≥ 3·ncols`; every stored column index is below ncols by construction).
+    #[inline(always)]
+    fn rows3(
+        &self,
+        x: &[f64],
+        start: usize,
+        ys: &mut [f64],
+        w: Option<&[f64]>,
+        acc: &mut ([f64; MAX_COLUMNS], [f64; MAX_COLUMNS]),
+    ) {
+        let nr = ys.len() / 3;
+        let rp = &self.row_ptr[start..start + nr + 1];
+        let (col, val) = (&self.col[..], &self.val[..]);
+        for r in 0..nr {
+            let (s, e) = (rp[r], rp[r + 1]);
+            let (mut a0, mut a1, mut a2) = (0.0, 0.0, 0.0);
+            for (&v, &c) in val[s..e].iter().zip(&col[s..e]) {
+                let j = 3 * c as usize;
+                // SAFETY: c < ncols (an invariant of every constructor) and
+                // x.len() ≥ 3·ncols, so j + 2 < x.len().
+                unsafe {
+                    a0 += v * *x.get_unchecked(j);
+                    a1 += v * *x.get_unchecked(j + 1);
+                    a2 += v * *x.get_unchecked(j + 2);
+                }
+            }
+            ys[3 * r] = a0;
+            ys[3 * r + 1] = a1;
+            ys[3 * r + 2] = a2;
+            if let Some(w) = w {
+                let i = start + r;
+                let yv = [a0, a1, a2];
+                for c in 0..3 {
+                    acc.0[c] += w[3 * i + c] * yv[c];
+                    acc.1[c] += yv[c] * yv[c];
+                }
+            }
+        }
+    }
+
     /// `y = A x` for an n×k row-major block, in parallel over row chunks, with the
     /// reductions of `fused` in the same pass (at most [`MAX_COLUMNS`] columns then).
     pub(crate) fn product(&self, x: &[f64], y: &mut [f64], k: usize, fused: Option<Fused<'_>>) {
-        type Acc = ([f64; MAX_COLUMNS], [f64; MAX_COLUMNS]);
-        let rows = |start: usize, ys: &mut [f64], w: Option<&[f64]>, acc: &mut Acc| {
-            let nr = ys.len() / k;
-            for r in 0..nr {
-                let i = start + r;
-                let (s, e) = (self.row_ptr[i], self.row_ptr[i + 1]);
-                if k == 3 {
-                    let (mut a0, mut a1, mut a2) = (0.0, 0.0, 0.0);
-                    for p in s..e {
-                        let v = self.val[p];
-                        let j = 3 * self.col[p] as usize;
-                        a0 += v * x[j];
-                        a1 += v * x[j + 1];
-                        a2 += v * x[j + 2];
-                    }
-                    ys[3 * r] = a0;
-                    ys[3 * r + 1] = a1;
-                    ys[3 * r + 2] = a2;
-                } else {
-                    for c in 0..k {
-                        let mut a = 0.0;
-                        for p in s..e {
-                            a += self.val[p] * x[self.col[p] as usize * k + c];
-                        }
-                        ys[k * r + c] = a;
-                    }
-                }
-                if let Some(w) = w {
-                    for c in 0..k {
-                        let yv = ys[k * r + c];
-                        acc.0[c] += w[k * i + c] * yv;
-                        acc.1[c] += yv * yv;
-                    }
-                }
-            }
-        };
+        let zero = || ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]);
         match fused {
-            None => y.par_chunks_mut(CHUNK * k).enumerate().for_each(|(b, ys)| {
-                let mut acc = ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]);
-                rows(b * CHUNK, ys, None, &mut acc)
-            }),
+            None => y
+                .par_chunks_mut(CHUNK * k)
+                .enumerate()
+                .for_each(|(b, ys)| self.product_rows(x, b * CHUNK, ys, k, None, &mut zero())),
             Some(Fused { w, dot, norm2 }) => {
                 let total = y
                     .par_chunks_mut(CHUNK * k)
                     .enumerate()
                     .map(|(b, ys)| {
-                        let mut acc = ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]);
-                        rows(b * CHUNK, ys, Some(w), &mut acc);
+                        let mut acc = zero();
+                        self.product_rows(x, b * CHUNK, ys, k, Some(w), &mut acc);
                         acc
                     })
-                    .reduce(
-                        || ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]),
-                        |a, b| {
-                            (
-                                std::array::from_fn(|c| a.0[c] + b.0[c]),
-                                std::array::from_fn(|c| a.1[c] + b.1[c]),
-                            )
-                        },
-                    );
+                    .reduce(zero, |a, b| {
+                        (
+                            std::array::from_fn(|c| a.0[c] + b.0[c]),
+                            std::array::from_fn(|c| a.1[c] + b.1[c]),
+                        )
+                    });
                 dot[..k].copy_from_slice(&total.0[..k]);
                 norm2[..k].copy_from_slice(&total.1[..k]);
             }
         }
+    }
+
+    /// [`LinOp::residual`](super::LinOp::residual) in one parallel pass: each chunk of
+    /// [`CHUNK`] rows computes its rows of `A x` into `r` and completes them into
+    /// `b − A x` (with `z` and the sums) while they are still in cache.
+    pub(crate) fn residual_pass(
+        &self,
+        b: &[f64],
+        x: &[f64],
+        r: &mut [f64],
+        k: usize,
+        d: Option<&[f64]>,
+        z: Option<&mut [f64]>,
+    ) -> ResidualSums {
+        residual_chunks(b, r, z, d, k, |first, bs, rs, zs, ds| {
+            let mut acc = ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]);
+            self.product_rows(x, first, rs, k, None, &mut acc);
+            residual_rows(bs, rs, zs, ds, k)
+        })
     }
 
     /// `A·B` (Gustavson's algorithm), for small polynomial filters such as F².
@@ -226,8 +287,8 @@ impl CsrMatrix {
     /// `α·I + β·A` (square A; the diagonal is added to the pattern where missing).
     pub fn shifted(&self, alpha: &[f64], beta: f64) -> CsrMatrix {
         let mut row_ptr = vec![0usize; self.nrows + 1];
-        let mut col = Vec::with_capacity(self.nnz() + self.nrows);
-        let mut val = Vec::with_capacity(self.nnz() + self.nrows);
+        let mut col = storage::<u32>(self.nnz() + self.nrows);
+        let mut val = storage::<f64>(self.nnz() + self.nrows);
         for i in 0..self.nrows {
             let mut placed = false;
             for p in self.row_range(i) {
@@ -308,6 +369,14 @@ impl CsrMatrix {
     }
 }
 
+/// An empty vector with room for `cap` values, advised to use huge pages when large
+/// (the arrays a product streams: fewer TLB misses, fewer page faults while filling).
+fn storage<T: Copy + Default>(cap: usize) -> Vec<T> {
+    let mut v = crate::mem::zeroed_vec(T::default(), cap);
+    v.clear();
+    v
+}
+
 /// Counting-sort transposition of compressed storage: `n_outer` lists (entries
 /// `range(o)`, inner index `inner(p)` and value `val[p]` of entry p) over `n_inner`
 /// inner positions become `n_inner` lists over the outer positions, each ascending.
@@ -331,8 +400,8 @@ fn transpose_storage<T: Copy + Default>(
     }
     let nnz = ptr[n_inner];
     let mut fill = ptr.clone();
-    let mut idx = vec![T::default(); nnz];
-    let mut out = vec![0.0; nnz];
+    let mut idx = crate::mem::zeroed_vec(T::default(), nnz);
+    let mut out = crate::mem::zeroed_vec(0.0, nnz);
     for o in 0..n_outer {
         for p in range(o) {
             let i = inner(p);
@@ -384,6 +453,31 @@ mod tests {
         assert!((&sq - &f.to_dense() * &f.to_dense()).norm_max() < 1e-14);
         let sum = a.add(2.0, &at, -1.0).to_csc().to_dense();
         assert!((&sum - (f.to_dense() * 2.0 - &ft)).norm_max() < 1e-14);
+    }
+
+    #[test]
+    fn the_three_column_kernel_equals_three_single_column_products() {
+        // A larger mesh operator (several parallel chunks), k = 3 against k = 1 per
+        // column: the same products in the same order, so the same bits.
+        let m = builtin::icosphere(5).unwrap();
+        let f = crate::operator::tutte::tutte(&Topology::new(&m).unwrap()).unwrap();
+        let a = CsrMatrix::from_csc(&f).shifted(&vec![1.0; f.nrows()], 30.0);
+        let n = a.nrows();
+        let x: Vec<f64> = (0..3 * n).map(|i| (i as f64 * 0.37).sin()).collect();
+        let mut y = vec![0.0; 3 * n];
+        let (mut dot, mut norm2) = ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]);
+        a.apply_fused(&x, &mut y, 3, Fused::new(&x, &mut dot, &mut norm2));
+        for c in 0..3 {
+            let xc: Vec<f64> = (0..n).map(|i| x[3 * i + c]).collect();
+            let mut yc = vec![0.0; n];
+            a.apply(&xc, &mut yc, 1);
+            for i in 0..n {
+                assert_eq!(yc[i], y[3 * i + c]);
+            }
+            let d: f64 = (0..n).map(|i| xc[i] * yc[i]).sum();
+            let q: f64 = yc.iter().map(|v| v * v).sum();
+            assert!((dot[c] - d).abs() < 1e-12 * d.abs() && (norm2[c] - q).abs() < 1e-12 * q);
+        }
     }
 
     #[test]

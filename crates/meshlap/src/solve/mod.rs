@@ -44,7 +44,7 @@ pub use cg::{cg, CgError};
 pub use csr::CsrMatrix;
 pub use direct::{CholeskySolver, DirectError, DirectInfo, LuSolver, SymbolicCholesky, SymbolicLu};
 pub use krylov::Workspace;
-pub use op::{BiLinOp, CsrWithTranspose, Diagonal, FnOperator, Fused, Jacobi, LinOp};
+pub use op::{BiLinOp, CsrWithTranspose, Diagonal, FnOperator, Fused, Jacobi, LinOp, ResidualSums};
 
 use serde::Serialize;
 
@@ -319,13 +319,7 @@ pub fn shifted_system(f: &crate::SparseMatrix, mass: Option<&[f64]>, lambda: f64
 /// from scratch (absolute residuals for zero columns of `b`).
 pub fn relative_residuals(op: &(impl LinOp + ?Sized), x: &[f64], b: &[f64], k: usize) -> Vec<f64> {
     let mut r = vec![0.0; b.len()];
-    krylov::residual(op, b, x, k, &mut r);
-    let rn = krylov::col_norms2(&r, k);
-    let bn = krylov::col_norms2(b, k);
-    rn.iter()
-        .zip(&bn)
-        .map(|(r, b)| if *b > 0.0 { (r / b).sqrt() } else { r.sqrt() })
-        .collect()
+    op.residual(b, x, &mut r, k, None, None).relative(k)
 }
 
 #[cfg(test)]

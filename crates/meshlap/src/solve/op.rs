@@ -9,8 +9,10 @@
 //! `LinOp` only). The operators of [`crate::operator`] use the sign `F = D − W`
 //! (positive semi-definite); the systems solved here are `M + λF`.
 
+use super::csr::CHUNK;
 use super::krylov::{col_dots, col_norms2};
-use super::{CsrMatrix, InputError};
+use super::{CsrMatrix, InputError, MAX_COLUMNS};
+use rayon::prelude::*;
 
 /// Reductions fused into a product `y = A x`: `dot[c] = Σ_i w[i,c]·y[i,c]` and
 /// `norm2[c] = Σ_i y[i,c]²`, per column c (CG's `pᵀAp`, BiCG's `p̃ᵀAp` and `‖Ap‖²`).
@@ -31,6 +33,107 @@ impl<'a> Fused<'a> {
     }
 }
 
+/// Per-column sums of a residual pass `r = b − A x` ([`LinOp::residual`]) over n×k
+/// blocks, with row weights `d` (all 1 when none are given) and `z = diag(d)·r`:
+/// `rr[c] = ‖r_c‖²`, `bb[c] = ‖b_c‖²`, `rz[c] = r_cᵀz_c` (CG's `rᵀM⁻¹r`, BiCG's first
+/// ρ) and `zz[c] = ‖z_c‖²`. Entries at and beyond k are 0.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ResidualSums {
+    /// `‖r_c‖²`.
+    pub rr: [f64; MAX_COLUMNS],
+    /// `‖b_c‖²`.
+    pub bb: [f64; MAX_COLUMNS],
+    /// `r_cᵀ z_c = Σ_i d_i r_ic²`.
+    pub rz: [f64; MAX_COLUMNS],
+    /// `‖z_c‖² = Σ_i d_i² r_ic²`.
+    pub zz: [f64; MAX_COLUMNS],
+}
+
+impl ResidualSums {
+    /// The sums of two row ranges.
+    fn add(mut self, o: Self) -> Self {
+        for c in 0..MAX_COLUMNS {
+            self.rr[c] += o.rr[c];
+            self.bb[c] += o.bb[c];
+            self.rz[c] += o.rz[c];
+            self.zz[c] += o.zz[c];
+        }
+        self
+    }
+
+    /// `‖b_c − A x_c‖ / ‖b_c‖` per column (the absolute residual for a zero `b_c`).
+    pub fn relative(&self, k: usize) -> Vec<f64> {
+        (0..k)
+            .map(|c| {
+                let (r, b) = (self.rr[c], self.bb[c]);
+                if b > 0.0 {
+                    (r / b).sqrt()
+                } else {
+                    r.sqrt()
+                }
+            })
+            .collect()
+    }
+}
+
+/// Completes a residual pass over a run of rows: `r` holds `A x` on entry and `b − A x`
+/// on return; `z = diag(d)·r` is written when given; the run's sums. `d` has one
+/// weight per row of the run.
+pub(crate) fn residual_rows(
+    b: &[f64],
+    r: &mut [f64],
+    mut z: Option<&mut [f64]>,
+    d: Option<&[f64]>,
+    k: usize,
+) -> ResidualSums {
+    let mut s = ResidualSums::default();
+    for row in 0..r.len() / k {
+        let di = d.map_or(1.0, |d| d[row]);
+        for c in 0..k {
+            let j = row * k + c;
+            let (bv, rv) = (b[j], b[j] - r[j]);
+            r[j] = rv;
+            let zv = rv * di;
+            if let Some(z) = z.as_deref_mut() {
+                z[j] = zv;
+            }
+            s.rr[c] += rv * rv;
+            s.bb[c] += bv * bv;
+            s.rz[c] += rv * zv;
+            s.zz[c] += zv * zv;
+        }
+    }
+    s
+}
+
+/// Runs `rows(first_row, b, r, z, d)` over chunks of [`CHUNK`] rows in parallel and
+/// adds up the sums; `z` and `d` as in [`LinOp::residual`].
+pub(crate) fn residual_chunks(
+    b: &[f64],
+    r: &mut [f64],
+    z: Option<&mut [f64]>,
+    d: Option<&[f64]>,
+    k: usize,
+    rows: impl Fn(usize, &[f64], &mut [f64], Option<&mut [f64]>, Option<&[f64]>) -> ResidualSums + Sync,
+) -> ResidualSums {
+    let len = CHUNK * k;
+    let chunks = r.len().div_ceil(len);
+    let zs: Vec<Option<&mut [f64]>> = match z {
+        Some(z) => z.chunks_mut(len).map(Some).collect(),
+        None => (0..chunks).map(|_| None).collect(),
+    };
+    r.par_chunks_mut(len)
+        .zip(b.par_chunks(len))
+        .zip(zs)
+        .enumerate()
+        .map(|(blk, ((rs, bs), zs))| {
+            let first = blk * CHUNK;
+            let ds = d.map(|d| &d[first..first + rs.len() / k]);
+            rows(first, bs, rs, zs, ds)
+        })
+        .reduce(ResidualSums::default, ResidualSums::add)
+}
+
 /// A square linear operator applied to n×k blocks stored row-major (entry (i, c) at
 /// index `i·k + c`).
 pub trait LinOp: Sync {
@@ -44,6 +147,23 @@ pub trait LinOp: Sync {
         self.apply(x, y, k);
         fused.dot[..k].copy_from_slice(&col_dots(fused.w, y, k));
         fused.norm2[..k].copy_from_slice(&col_norms2(y, k));
+    }
+    /// The residual `r = b − A x` of the n×k blocks and its [`ResidualSums`] (row
+    /// weights `d`, n values, all 1 when `None`), writing `z = diag(d)·r` to `z` when
+    /// given: everything a Krylov solver needs before its first iteration, or to
+    /// report its final residuals. The default applies `A` and makes one more pass;
+    /// a matrix kernel does it all in one pass over the matrix and the blocks.
+    fn residual(
+        &self,
+        b: &[f64],
+        x: &[f64],
+        r: &mut [f64],
+        k: usize,
+        d: Option<&[f64]>,
+        z: Option<&mut [f64]>,
+    ) -> ResidualSums {
+        self.apply(x, r, k);
+        residual_chunks(b, r, z, d, k, |_, b, r, z, d| residual_rows(b, r, z, d, k))
     }
 }
 
@@ -68,6 +188,17 @@ impl LinOp for CsrMatrix {
     }
     fn apply_fused(&self, x: &[f64], y: &mut [f64], k: usize, fused: Fused<'_>) {
         self.product(x, y, k, Some(fused))
+    }
+    fn residual(
+        &self,
+        b: &[f64],
+        x: &[f64],
+        r: &mut [f64],
+        k: usize,
+        d: Option<&[f64]>,
+        z: Option<&mut [f64]>,
+    ) -> ResidualSums {
+        self.residual_pass(b, x, r, k, d, z)
     }
 }
 
@@ -110,6 +241,17 @@ impl LinOp for CsrWithTranspose {
     }
     fn apply_fused(&self, x: &[f64], y: &mut [f64], k: usize, fused: Fused<'_>) {
         self.a.product(x, y, k, Some(fused))
+    }
+    fn residual(
+        &self,
+        b: &[f64],
+        x: &[f64],
+        r: &mut [f64],
+        k: usize,
+        d: Option<&[f64]>,
+        z: Option<&mut [f64]>,
+    ) -> ResidualSums {
+        self.a.residual_pass(b, x, r, k, d, z)
     }
 }
 
@@ -251,6 +393,56 @@ mod tests {
             assert!((d1[c] - d2[c]).abs() < 1e-12 * d1[c].abs().max(1.0));
             assert!((n1[c] - n2[c]).abs() < 1e-12 * n1[c]);
         }
+    }
+
+    #[test]
+    fn the_fused_residual_pass_matches_separate_passes() {
+        // More rows than one parallel chunk, so that chunks and their sums are joined.
+        let (n, k) = (2 * CHUNK + 123, 3);
+        let a = lower_bidiagonal(n);
+        let generic = FnOperator {
+            dim: n,
+            apply: |x: &[f64], y: &mut [f64], k| a.apply(x, y, k),
+        };
+        let x: Vec<f64> = (0..n * k).map(|i| (i as f64 * 0.7).sin()).collect();
+        let b: Vec<f64> = (0..n * k).map(|i| (i as f64 * 0.3).cos() * 5.0).collect();
+        let d: Vec<f64> = (0..n).map(|i| 0.5 + (i % 5) as f64).collect();
+        let mut ax = vec![0.0; n * k];
+        a.apply(&x, &mut ax, k);
+        let close = |u: f64, v: f64| (u - v).abs() <= 1e-12 * u.abs().max(v.abs());
+        for weights in [None, Some(&d[..])] {
+            let (mut r1, mut z1) = (vec![0.0; n * k], vec![0.0; n * k]);
+            let (mut r2, mut z2) = (vec![0.0; n * k], vec![0.0; n * k]);
+            let s1 = a.residual(&b, &x, &mut r1, k, weights, Some(&mut z1));
+            let s2 = generic.residual(&b, &x, &mut r2, k, weights, Some(&mut z2));
+            assert_eq!((&r1, &z1), (&r2, &z2), "same entries, bit for bit");
+            let mut r3 = vec![0.0; n * k];
+            let s3 = a.residual(&b, &x, &mut r3, k, weights, None);
+            assert_eq!(r3, r1);
+            for j in 0..n * k {
+                assert_eq!(r1[j], b[j] - ax[j]);
+                assert_eq!(z1[j], r1[j] * weights.map_or(1.0, |d| d[j / k]));
+            }
+            let rr = col_norms2(&r1, k);
+            let bb = col_norms2(&b, k);
+            let rz = col_dots(&r1, &z1, k);
+            let zz = col_norms2(&z1, k);
+            for s in [s1, s2, s3] {
+                for c in 0..k {
+                    assert!(close(s.rr[c], rr[c]) && close(s.bb[c], bb[c]));
+                    assert!(close(s.rz[c], rz[c]) && close(s.zz[c], zz[c]));
+                }
+                assert!(s.rr[k..].iter().all(|&v| v == 0.0));
+            }
+            let rel = s1.relative(k);
+            for c in 0..k {
+                assert!(close(rel[c], (rr[c] / bb[c]).sqrt()));
+            }
+        }
+        // A zero right-hand side column reports the absolute residual.
+        let mut s = ResidualSums::default();
+        s.rr[0] = 4.0;
+        assert_eq!(s.relative(1), vec![2.0]);
     }
 
     #[test]
