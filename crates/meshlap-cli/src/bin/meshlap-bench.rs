@@ -5,7 +5,11 @@
 //! `read` (parse a file only), `write MESH OUT` (write one file), `dump MESH DIR` (every
 //! operator as `DIR/KIND.mtx`, for entry-by-entry comparison with the peers),
 //! `spectrum` (dense eigenbases: KL and SQL by the symmetric solver, the TL through its
-//! GL similarity and by the general eigensolver plus LU), `solvers` (implicit-fairing
+//! GL similarity and by the general eigensolver plus LU; `--kind K` keeps one of
+//! kirchhoff, sql, tutte, tutte-general, or tutte-coefficients (adds the basis plus
+//! the coefficients of the positions); each symmetric case also times faer alone,
+//! `K-faer-only`: dense copy + `self_adjoint_evd`, and `--phases` splits that into
+//! faer's phases), `solvers` (implicit-fairing
 //! solves of `(I + λS)`, `(I + λT)`, `(D + λK)` with CG/BiCG/Cholesky, a streaming-copy
 //! bandwidth measurement and the memory-traffic bound per iteration; `--lambda L`, and
 //! `--export DIR` writes the matrices and right-hand side for the scipy side), `codec`
@@ -77,7 +81,7 @@ fn main() {
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let usage = "usage: meshlap-bench load|operators|topology|io|read|spectrum|solvers|codec|partial|partition|project-patches MESH \
-                 [--repeat N] [--kind K] [--general] [--lambda L] [--export DIR] [--count K] [--tol T] [--band B] [--block P] [--patch-size P] [--mode M] [--bits Q] [--target-bpv B] \
+                 [--repeat N] [--kind K] [--general] [--phases] [--lambda L] [--export DIR] [--count K] [--tol T] [--band B] [--block P] [--patch-size P] [--mode M] [--bits Q] [--target-bpv B] \
                  | dump MESH DIR | write MESH OUT [--repeat N]";
     let task = args.first().ok_or(usage)?.clone();
     let mesh = args.get(1).ok_or(usage)?.clone();
@@ -263,15 +267,21 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             let input = open(&mesh, &OpenOptions::default())?;
             out.insert("vertices".into(), input.mesh.n_vertices().into());
             let general = args.iter().any(|a| a == "--general");
+            // `--kind NAME` keeps one case (kirchhoff, sql, tutte, tutte-general), so
+            // that a script can alternate our timings with a peer's.
+            let only = flag(&args, "--kind");
             let mut cases = vec![
                 ("kirchhoff", OperatorKind::Kirchhoff, EigenPath::Auto),
                 ("sql", OperatorKind::Sql, EigenPath::Auto),
                 ("tutte", OperatorKind::Tutte, EigenPath::Auto),
             ];
-            if general {
+            if general || only == Some("tutte-general") {
                 cases.push(("tutte-general", OperatorKind::Tutte, EigenPath::General));
             }
             for (name, kind, path) in cases {
+                if only.is_some_and(|k| k != name && k != format!("{name}-coefficients")) {
+                    continue;
+                }
                 let op = Operator::on_input(kind, &input)?;
                 let opts = BasisOptions {
                     path,
@@ -279,6 +289,28 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                 };
                 let t = timing(repeat, || EigenBasis::compute(&op, &opts).map(|b| b.len()));
                 out.insert(name.into(), t);
+                if only.is_some_and(|k| k.ends_with("-coefficients")) {
+                    // The basis and the coefficients X of the positions (n×3): what
+                    // `numpy.linalg.eig` + `numpy.linalg.solve(E, x)` computes.
+                    let x = meshlap::spectral::positions_to_mat(&input.mesh.positions);
+                    let t = timing(repeat, || {
+                        let b = EigenBasis::compute(&op, &opts).unwrap();
+                        meshlap::spectral::forward(&b, x.as_ref()).map(|c| c.nrows())
+                    });
+                    out.insert(format!("{name}-coefficients"), t);
+                }
+                if path == EigenPath::General {
+                    continue;
+                }
+                // faer alone on the same symmetric matrix: the dense copy (for the TL
+                // the GL similarity `D^{1/2} T D^{-1/2}`) and `self_adjoint_evd`
+                // with default parameters and the basis' parallelism, no checks, no
+                // canonicalisation.
+                let t = timing(repeat, || faer_only(&op));
+                out.insert(format!("{name}-faer-only"), t);
+                if args.iter().any(|a| a == "--phases") {
+                    out.insert(format!("{name}-phases"), faer_phases(&op, repeat));
+                }
             }
         }
         "partial" => {
@@ -392,6 +424,111 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     }
     println!("{}", serde_json::to_string(&out)?);
     Ok(())
+}
+
+/// The dense symmetric matrix of `op`'s symmetric path (`F`, or `S^{1/2} F S^{-1/2}`
+/// for the TL) decomposed by faer's `self_adjoint_evd` alone (eigenvalues and vectors,
+/// default parameters, [`meshlap::spectral::basis::PARALLELISM_DEGREE`] tasks).
+fn faer_only(op: &Operator) -> f64 {
+    use meshlap::operator::symmetrize::{diagonal_symmetrizer, symmetrized_dense, Scaling};
+    let a = if meshlap::operator::symmetrize::is_symmetric(&op.matrix) {
+        op.matrix.to_dense()
+    } else {
+        let s = diagonal_symmetrizer(&op.matrix).expect("symmetrizable operator");
+        symmetrized_dense(&op.matrix, Scaling::Similarity(&s))
+    };
+    faer_only_on(&a)
+}
+
+/// `self_adjoint_evd` of `a` (values and vectors), as in [`faer_only`].
+fn faer_only_on(a: &faer::Mat<f64>) -> f64 {
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::linalg::evd::{self, ComputeEigenvectors};
+    let n = a.nrows();
+    let par = faer::Par::rayon(meshlap::spectral::basis::PARALLELISM_DEGREE);
+    let mut u = faer::Mat::<f64>::zeros(n, n);
+    let mut s = faer::diag::Diag::<f64>::zeros(n);
+    let mut mem = MemBuffer::new(evd::self_adjoint_evd_scratch::<f64>(
+        n,
+        ComputeEigenvectors::Yes,
+        par,
+        Default::default(),
+    ));
+    evd::self_adjoint_evd(
+        a.as_ref(),
+        s.as_mut(),
+        Some(u.as_mut()),
+        par,
+        MemStack::new(&mut mem),
+        Default::default(),
+    )
+    .expect("faer self_adjoint_evd");
+    s[0] + u[(0, 0)]
+}
+
+/// Medians of faer's phases on the matrix of [`faer_only`]: the dense copy, the
+/// Householder tridiagonalisation `A = Q T Qᵀ` (`tridiag_in_place`), the
+/// back-transformation `U = Q Z` (the blocked Householder sequence applied to an n×n
+/// matrix) and the whole `self_adjoint_evd`; the tridiagonal divide and conquer is
+/// not public, so its time is inferred as evd − tridiagonalisation −
+/// back-transformation.
+fn faer_phases(op: &Operator, repeat: usize) -> serde_json::Value {
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::linalg::evd::tridiag;
+    use faer::linalg::householder;
+    let dense = || {
+        use meshlap::operator::symmetrize::{diagonal_symmetrizer, symmetrized_dense, Scaling};
+        if meshlap::operator::symmetrize::is_symmetric(&op.matrix) {
+            op.matrix.to_dense()
+        } else {
+            let s = diagonal_symmetrizer(&op.matrix).expect("symmetrizable operator");
+            symmetrized_dense(&op.matrix, Scaling::Similarity(&s))
+        }
+    };
+    let (t_dense, _) = time(repeat, dense);
+    let a = dense();
+    let n = a.nrows();
+    let par = faer::Par::rayon(meshlap::spectral::basis::PARALLELISM_DEGREE);
+    let bs = faer::linalg::qr::no_pivoting::factor::recommended_block_size::<f64>(n, n);
+    let mut trid = a.clone();
+    let mut h = faer::Mat::<f64>::zeros(bs, n - 1);
+    let (t_tridiag, _) = time(repeat, || {
+        trid.copy_from(&a);
+        let mut mem = MemBuffer::new(tridiag::tridiag_in_place_scratch::<f64>(
+            n,
+            par,
+            Default::default(),
+        ));
+        tridiag::tridiag_in_place(
+            trid.as_mut(),
+            h.as_mut(),
+            par,
+            MemStack::new(&mut mem),
+            Default::default(),
+        );
+    });
+    let mut u = faer::Mat::<f64>::identity(n, n);
+    let (t_back, _) = time(repeat, || {
+        let mut mem = MemBuffer::new(
+            householder::apply_block_householder_sequence_on_the_left_in_place_scratch::<f64>(
+                n - 1,
+                bs,
+                n,
+            ),
+        );
+        householder::apply_block_householder_sequence_on_the_left_in_place_with_conj(
+            trid.as_ref().submatrix(1, 0, n - 1, n - 1),
+            h.as_ref(),
+            faer::Conj::No,
+            u.as_mut().subrows_mut(1, n - 1),
+            par,
+            MemStack::new(&mut mem),
+        );
+    });
+    let (t_evd, _) = time(repeat, || faer_only_on(&a));
+    serde_json::json!({"dense": t_dense, "tridiagonalisation": t_tridiag,
+        "back_transformation": t_back, "self_adjoint_evd": t_evd,
+        "divide_and_conquer_inferred": t_evd - t_tridiag - t_back})
 }
 
 /// Streaming-copy bandwidth (bytes read + written per second) of `threads` rayon

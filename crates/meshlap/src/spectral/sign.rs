@@ -92,42 +92,74 @@ fn col_norm(a: &Mat<f64>, j: usize) -> f64 {
 /// `V_cᵀ·P = Q·R` with `P[i][q] = probe(i, q)·probe_scale[i]`. Plain loops in index
 /// order, not faer's CPU-dispatched kernels, so that a bit-reproducible
 /// decomposition stays bit-reproducible.
+///
+/// `clusters` are disjoint and ascending (as [`clusters`] returns them); columns
+/// outside every cluster are left alone. The clusters are independent, so they are
+/// processed in parallel on the current rayon pool, each by the same sequential
+/// arithmetic: the result does not depend on the thread count. O(n·Σk²) flops (O(n²)
+/// for a simple spectrum), one pass over each column.
 pub(crate) fn canonicalize(
     v: &mut Mat<f64>,
     clusters: &[(usize, usize)],
     probe_scale: Option<&[f64]>,
 ) {
+    use rayon::prelude::*;
     let n = v.nrows();
     let kmax = clusters.iter().map(|c| c.1).max().unwrap_or(0);
-    let probes = Mat::from_fn(n, kmax, |i, q| {
-        probe(i, q) * probe_scale.map_or(1.0, |s| s[i])
-    });
-    let dot = |v: &Mat<f64>, j: usize, q: usize| -> f64 {
-        (0..n)
-            .map(|i| v[(i, j)] * probes[(i, q)])
-            .fold(0.0, |s, x| s + x)
-    };
+    let probes: Vec<Vec<f64>> = (0..kmax)
+        .into_par_iter()
+        .map(|q| {
+            (0..n)
+                .map(|i| probe(i, q) * probe_scale.map_or(1.0, |s| s[i]))
+                .collect()
+        })
+        .collect();
+    // One disjoint block of columns per cluster.
+    let mut blocks = Vec::with_capacity(clusters.len());
+    let mut rest = v.as_mut();
+    let mut offset = 0;
     for &(start, k) in clusters {
-        if k == 1 {
-            if dot(v, start, 0) < 0.0 {
-                for i in 0..n {
-                    v[(i, start)] = -v[(i, start)];
-                }
-            }
-            continue;
+        assert!(start >= offset, "clusters must be disjoint and ascending");
+        let (block, tail) = rest.split_at_col_mut(start - offset).1.split_at_col_mut(k);
+        blocks.push(block);
+        rest = tail;
+        offset = start + k;
+    }
+    blocks
+        .into_par_iter()
+        .with_min_len(8)
+        .for_each(|block| canonicalize_cluster(block, &probes));
+}
+
+/// [`canonicalize`] on one cluster's columns (n×k, contiguous columns).
+fn canonicalize_cluster(mut v: faer::MatMut<'_, f64>, probes: &[Vec<f64>]) {
+    let (n, k) = (v.nrows(), v.ncols());
+    let dot = |x: &[f64], r: &[f64]| -> f64 {
+        x.iter().zip(r).map(|(a, b)| a * b).fold(0.0, |s, x| s + x)
+    };
+    if k == 1 {
+        let col = v.col_mut(0).try_as_col_major_mut().unwrap().as_slice_mut();
+        if dot(col, &probes[0]) < 0.0 {
+            col.iter_mut().for_each(|x| *x = -*x);
         }
-        let mut c = Mat::from_fn(k, k, |p, q| dot(v, start + p, q));
-        orthonormalize(&mut c);
-        let mut row = vec![0.0; k];
-        for i in 0..n {
-            for (q, r) in row.iter_mut().enumerate() {
-                *r = (0..k)
-                    .map(|p| v[(i, start + p)] * c[(p, q)])
-                    .fold(0.0, |s, x| s + x);
-            }
-            for (q, &r) in row.iter().enumerate() {
-                v[(i, start + q)] = r;
-            }
+        return;
+    }
+    let mut c = Mat::from_fn(k, k, |p, q| {
+        dot(
+            v.as_ref().col(p).try_as_col_major().unwrap().as_slice(),
+            &probes[q],
+        )
+    });
+    orthonormalize(&mut c);
+    let mut row = vec![0.0; k];
+    for i in 0..n {
+        for (q, r) in row.iter_mut().enumerate() {
+            *r = (0..k)
+                .map(|p| v[(i, p)] * c[(p, q)])
+                .fold(0.0, |s, x| s + x);
+        }
+        for (q, &r) in row.iter().enumerate() {
+            v[(i, q)] = r;
         }
     }
 }

@@ -622,21 +622,33 @@ fn symmetrized(
     canonicalize(&mut u, &cl, inv_sqrt.as_deref());
     let mut scale = vec![1.0; k];
     if let Some(is) = &inv_sqrt {
-        for j in 0..k {
-            let mut c2 = 0.0;
-            for i in 0..n {
-                let e = u[(i, j)] * is[i];
-                u[(i, j)] = e;
-                c2 += e * e;
-            }
-            if opts.normalization == Normalization::Unit {
-                let inv = 1.0 / c2.sqrt();
-                for i in 0..n {
-                    u[(i, j)] *= inv;
+        // e_j = S^{-1/2} u_j, and with unit normalisation e_j/‖e_j‖ and g_j = ‖e_j‖²:
+        // one pass per column, columns in parallel (per-column arithmetic, so the
+        // result does not depend on the thread count).
+        use rayon::prelude::*;
+        let unit = opts.normalization == Normalization::Unit;
+        u.as_mut()
+            .par_col_chunks_mut(1)
+            .zip(scale.par_iter_mut())
+            .with_min_len(8)
+            .for_each(|(col, g)| {
+                let col = col
+                    .col_mut(0)
+                    .try_as_col_major_mut()
+                    .unwrap()
+                    .as_slice_mut();
+                let mut c2 = 0.0;
+                for (x, &s) in col.iter_mut().zip(is) {
+                    let e = *x * s;
+                    *x = e;
+                    c2 += e * e;
                 }
-                scale[j] = c2;
-            }
-        }
+                if unit {
+                    let inv = 1.0 / c2.sqrt();
+                    col.iter_mut().for_each(|x| *x *= inv);
+                    *g = c2;
+                }
+            });
     }
     Ok(EigenBasis {
         path,

@@ -392,3 +392,62 @@ fn lowest_basis_is_the_first_columns_bit_for_bit() {
         }
     }
 }
+
+/// Above faer's parallel thresholds (tridiagonalisation in parallel below
+/// rem²/2 ≥ 192·256, divide and conquer above 128, canonicalisation and
+/// normalisation in parallel chunks): residuals `‖F e − λ e‖`, orthonormality in the
+/// basis' inner product, and agreement with faer's own `self_adjoint_evd` of the same
+/// symmetric matrix `A` (= F, or `S^{1/2} F S^{-1/2}` for the TL): the same
+/// eigenvalues, and per cluster the same eigenspace (`‖U_cᵀ W_c‖²_F = k` for the
+/// Euclidean-orthonormal `w_j = g_j^{1/2} S^{1/2} e_j`).
+#[test]
+fn large_bases_match_faer_and_are_orthonormal() {
+    use crate::operator::symmetrize::{symmetrized_dense, Scaling};
+    for m in [
+        builtin::icosphere(3).unwrap(),
+        builtin::torus(32, 20).unwrap(),
+    ] {
+        assert!(m.n_vertices() >= 640);
+        for kind in [
+            OperatorKind::Kirchhoff,
+            OperatorKind::Sql,
+            OperatorKind::Tutte,
+        ] {
+            let o = op(&m, kind);
+            let b = EigenBasis::compute(&o, &Default::default()).unwrap();
+            let big = b.eigenvalues().last().unwrap().abs().max(1.0);
+            let r = b.max_residual(&o.matrix, None);
+            assert!(r <= 1e-10 * big, "{kind}: residual {r}");
+            let orth = b.orthonormality_error().unwrap();
+            assert!(orth <= 1e-10, "{kind}: orthonormality {orth}");
+            let s = b.weights().map(<[f64]>::to_vec);
+            let a = match &s {
+                None => o.matrix.to_dense(),
+                Some(s) => symmetrized_dense(&o.matrix, Scaling::Similarity(s)),
+            };
+            let (lam, u) = dense_symmetric(
+                &a,
+                parallelism(),
+                DenseSolver::Faer,
+                a.nrows(),
+                BasisOptions::default().cluster_tolerance,
+            )
+            .unwrap();
+            assert_eq!(lam, b.eigenvalues(), "{kind}");
+            let n = b.n();
+            let w = Mat::from_fn(n, n, |i, j| {
+                b.coefficient_scale()[j].sqrt()
+                    * s.as_ref().map_or(1.0, |s| s[i].sqrt())
+                    * b.vectors()[(i, j)]
+            });
+            for &(start, k) in b.clusters() {
+                let g = u.as_ref().subcols(start, k).transpose() * w.as_ref().subcols(start, k);
+                let f2 = g.norm_l2().powi(2);
+                assert!(
+                    (f2 - k as f64).abs() < 1e-9,
+                    "{kind}: cluster {start}+{k}: {f2}"
+                );
+            }
+        }
+    }
+}
