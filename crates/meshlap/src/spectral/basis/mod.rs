@@ -588,7 +588,6 @@ fn symmetrized(
     opts: &BasisOptions,
     count: usize,
 ) -> Result<EigenBasis, SpectralError> {
-    let n = f.nrows();
     let path = if weights.is_none() {
         EigenPath::Symmetric
     } else {
