@@ -310,26 +310,33 @@ fn cholesky_solve_kernel(m: &Mat<f64>, g: &mut Mat<f64>) -> Option<()> {
     }
     let y = &mut y[0];
     for c in c4..nc {
-        // L y = g.
-        for i in 0..n {
-            y[i] = (g[(i, c)] - dot4(&l[i * n..i * n + i], &y[..i])) / l[i * n + i];
-        }
-        // Lᵀ x = y, x overwriting y from the bottom up: once x_i is known, subtract
-        // its multiple of row i of L from the entries above (each entry receives its
-        // updates in the fixed order i = n−1, n−2, …).
-        for i in (0..n).rev() {
-            let xi = y[i] / l[i * n + i];
-            y[i] = xi;
-            let (head, _) = y.split_at_mut(i);
-            for (yk, &lik) in head.iter_mut().zip(&l[i * n..i * n + i]) {
-                *yk -= lik * xi;
-            }
-        }
-        for i in 0..n {
-            g[(i, c)] = y[i];
-        }
+        solve_column(&l, n, g, c, y);
     }
     Some(())
+}
+
+/// Column `c` of `g` (n rows) replaced by `(L Lᵀ)⁻¹ g_c`, one row at a time: `l` is
+/// L row-major (row i is `l[i·n .. i·n + i + 1]`), `y` an n-value scratch.
+#[inline(always)]
+fn solve_column(l: &[f64], n: usize, g: &mut Mat<f64>, c: usize, y: &mut [f64]) {
+    // L y = g.
+    for i in 0..n {
+        y[i] = (g[(i, c)] - dot4(&l[i * n..i * n + i], &y[..i])) / l[i * n + i];
+    }
+    // Lᵀ x = y, x overwriting y from the bottom up: once x_i is known, subtract
+    // its multiple of row i of L from the entries above (each entry receives its
+    // updates in the fixed order i = n−1, n−2, …).
+    for i in (0..n).rev() {
+        let xi = y[i] / l[i * n + i];
+        y[i] = xi;
+        let (head, _) = y.split_at_mut(i);
+        for (yk, &lik) in head.iter_mut().zip(&l[i * n..i * n + i]) {
+            *yk -= lik * xi;
+        }
+    }
+    for i in 0..n {
+        g[(i, c)] = y[i];
+    }
 }
 
 /// The one-column, one-row-at-a-time form of [`cholesky_solve_fixed`] (the format's
@@ -356,24 +363,7 @@ pub(super) fn cholesky_solve_reference(m: &Mat<f64>, g: &mut Mat<f64>) -> Option
     }
     let mut y = vec![0.0f64; n];
     for c in 0..g.ncols() {
-        // L y = g.
-        for i in 0..n {
-            y[i] = (g[(i, c)] - dot4(&l[i * n..i * n + i], &y[..i])) / l[i * n + i];
-        }
-        // Lᵀ x = y, x overwriting y from the bottom up: once x_i is known, subtract
-        // its multiple of row i of L from the entries above (each entry receives its
-        // updates in the fixed order i = n−1, n−2, …).
-        for i in (0..n).rev() {
-            let xi = y[i] / l[i * n + i];
-            y[i] = xi;
-            let (head, _) = y.split_at_mut(i);
-            for (yk, &lik) in head.iter_mut().zip(&l[i * n..i * n + i]) {
-                *yk -= lik * xi;
-            }
-        }
-        for i in 0..n {
-            g[(i, c)] = y[i];
-        }
+        solve_column(&l, n, g, c, &mut y);
     }
     Some(())
 }
