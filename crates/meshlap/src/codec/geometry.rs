@@ -3,7 +3,7 @@
 //! step that rate control tries.
 
 use super::spatial::{self, SpatialParams};
-use super::spectral::{self, SpectralEncoder, SpectralParams, SpectralStats};
+use super::spectral::{self, SpectralEncoder, SpectralParams, SpectralStats, CACHE_BYTES};
 use super::{CodecError, GeometryMode};
 use crate::mesh::topology::Topology;
 
@@ -48,7 +48,15 @@ impl<'a> Coders<'a> {
             || {
                 modes
                     .contains(&GeometryMode::Spectral)
-                    .then(|| SpectralEncoder::new(topo, positions, spectral_params))
+                    .then(|| {
+                        // One encode at a fixed step: nothing to reuse, so stream the
+                        // bases (bounded memory); rate control keeps them if they fit.
+                        let budget = match fixed_step {
+                            Some(_) => 0,
+                            None => CACHE_BYTES,
+                        };
+                        SpectralEncoder::with_cache_budget(topo, positions, spectral_params, budget)
+                    })
                     .transpose()
             },
             || {

@@ -3,7 +3,9 @@
 
 use super::coefficients::Models;
 use super::header::Header;
-use super::patches::{bases_of, border_and_loose, layout, Arithmetic};
+use super::patches::{
+    bases_of, border_and_loose, chunks, layout, predictor_owners, stream, Arithmetic, CHUNK_BYTES,
+};
 use super::residuals::Residuals;
 use crate::codec::container::ByteReader;
 use crate::codec::entropy::RangeDecoder;
@@ -17,6 +19,17 @@ use rayon::prelude::*;
 /// products and the predictor are computed in fixed-order arithmetic (the same bits
 /// on every CPU); versions 4 and 5 with faer's, as they were written.
 pub fn decode(topo: &Topology, data: &[u8], version: u16) -> Result<Vec<[f64; 3]>, CodecError> {
+    decode_chunked(topo, data, version, CHUNK_BYTES)
+}
+
+/// [`decode`] computing the bases in chunks of about `chunk` bytes
+/// ([`CHUNK_BYTES`]; the result does not depend on it).
+pub(super) fn decode_chunked(
+    topo: &Topology,
+    data: &[u8],
+    version: u16,
+    chunk: usize,
+) -> Result<Vec<[f64; 3]>, CodecError> {
     let mut r = ByteReader::new(data, "geometry header");
     let Header { params, step } = Header::read(&mut r)?;
     let arith = Arithmetic::for_version(version);
@@ -54,23 +67,41 @@ pub fn decode(topo: &Topology, data: &[u8], version: u16) -> Result<Vec<[f64; 3]
             Arithmetic::Faer => usize::MAX,
         })
         .collect();
-    let bases = bases_of(topo, &params, arith, layout, |p| need[p])?;
-    let synth = bases
-        .par_iter()
-        .zip(coefs.par_iter().zip(&need))
-        .map(|(b, (q, &need))| {
-            if need < q.nrows() {
-                b.synthesize(&q.subrows(0, need).to_owned())
-            } else {
-                b.synthesize(q)
-            }
-        })
-        .collect::<Result<Vec<_>, _>>()?;
-    for (b, x) in bases.iter().zip(&synth) {
-        let xhat = b.pred.as_ref().map(|pr| pr.predict(&rec));
-        b.place(xhat.as_ref(), x, &mut rec);
-    }
-    let (border, loose) = border_and_loose(topo, &bases);
+    // Bases and syntheses a chunk at a time (bounded memory at any mesh size), the
+    // next chunk computed while the predictions of the current one are added.
+    let owner = predictor_owners(n, &params, &layout);
+    let compute = |r: std::ops::Range<usize>| {
+        let bases = bases_of(
+            topo,
+            &params,
+            arith,
+            &layout,
+            owner.as_deref(),
+            r.clone(),
+            |p| need[p],
+        )?;
+        let synth = bases
+            .par_iter()
+            .zip(r)
+            .map(|(b, p)| {
+                let q = &coefs[p];
+                if need[p] < q.nrows() {
+                    b.synthesize(&q.subrows(0, need[p]).to_owned())
+                } else {
+                    b.synthesize(q)
+                }
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok((bases, synth))
+    };
+    stream(&chunks(&layout, chunk), compute, |_, (bases, synth)| {
+        for (b, x) in bases.iter().zip(&synth) {
+            let xhat = b.pred.as_ref().map(|pr| pr.predict(&rec));
+            b.place(xhat.as_ref(), x, &mut rec);
+        }
+        Ok(())
+    })?;
+    let (border, loose) = border_and_loose(topo, &layout);
     Residuals::new(&border, &loose, params.border_residuals).code(
         topo,
         &mut rec,

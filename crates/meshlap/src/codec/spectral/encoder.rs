@@ -4,7 +4,10 @@
 use super::coefficients::{octave, Models, FREQ_BANDS};
 use super::header::Header;
 use super::params::SpectralParams;
-use super::patches::{bases, border_and_loose, Arithmetic, PatchBasis};
+use super::patches::{
+    bases_of, border_and_loose, chunks, layout, predictor_owners, stream, Arithmetic, PatchBasis,
+    PatchLayout, CHUNK_BYTES,
+};
 use super::residuals::Residuals;
 use crate::codec::entropy::RangeEncoder;
 use crate::codec::quantize::{dead_zone, nearest};
@@ -36,6 +39,15 @@ pub struct SpectralStats {
     pub bytes: usize,
 }
 
+/// The arithmetic of the current format (version 6): fixed-order products, the same
+/// on every CPU.
+const ARITH: Arithmetic = Arithmetic::Fixed;
+
+/// A patch's coordinates (n_p×3, the basis' row order) from the positions (n×3).
+fn patch_coordinates(b: &PatchBasis, positions: &[[f64; 3]]) -> Mat<f64> {
+    Mat::from_fn(b.verts.len(), 3, |i, k| positions[b.verts[i] as usize][k])
+}
+
 /// A coded spectral geometry stream.
 #[derive(Clone, Debug)]
 pub struct EncodedSpectral {
@@ -47,54 +59,117 @@ pub struct EncodedSpectral {
     pub stats: SpectralStats,
 }
 
-/// Precomputed state of the spectral encoder (bases are reused by rate control).
+/// Bytes of dense bases ([`PatchLayout`]'s n_p² values per patch) that
+/// [`SpectralEncoder::new`] keeps for rate control's repeated encodes; above it every
+/// encode computes the bases again, a chunk at a time. With their predictors and
+/// allocations the kept bases take about twice this.
+pub const CACHE_BYTES: usize = 1 << 30;
+
+/// The bases: kept for every encode, or computed again by each.
+enum Bases {
+    /// Every patch's basis and unquantized coefficients (m×3).
+    Kept(Vec<PatchBasis>, Vec<Mat<f64>>),
+    /// Computed in chunks of about `chunk` bytes ([`CHUNK_BYTES`]) during each
+    /// encode ([`stream`]), with the predictors' patch owners.
+    Streamed {
+        owner: Option<Vec<u32>>,
+        chunk: usize,
+    },
+}
+
+/// Precomputed state of the spectral encoder: the partition and, when they fit
+/// [`CACHE_BYTES`] (or the budget given to [`SpectralEncoder::with_cache_budget`]),
+/// the bases that rate control reuses.
 pub struct SpectralEncoder<'a> {
     topo: &'a Topology,
     params: SpectralParams,
-    bases: Vec<PatchBasis>,
-    /// Unquantized coefficients per patch, m×3.
-    coefs: Vec<Mat<f64>>,
+    layout: Vec<PatchLayout>,
+    bases: Bases,
     positions: &'a [[f64; 3]],
     border: Vec<bool>,
     residuals: Residuals,
 }
 
+/// The state of one encode pass, patch after patch.
+struct Pass {
+    enc: RangeEncoder,
+    models: Models,
+    rec: Vec<[f64; 3]>,
+    octave_bits: [f64; FREQ_BANDS],
+}
+
 impl<'a> SpectralEncoder<'a> {
     /// Partitions, decomposes and transforms; `positions` (n×3) are in the
     /// connectivity coder's (decoded) vertex order, `topo` is the decoded
-    /// connectivity.
+    /// connectivity. The bases are kept for later encodes when they fit
+    /// [`CACHE_BYTES`].
     pub fn new(
         topo: &'a Topology,
         positions: &'a [[f64; 3]],
         params: SpectralParams,
     ) -> Result<Self, CodecError> {
+        Self::with_cache_budget(topo, positions, params, CACHE_BYTES)
+    }
+
+    /// [`Self::new`] keeping the bases only when they take at most `budget` bytes
+    /// (n_p² values per patch); else each [`Self::encode`] computes them again, a chunk
+    /// at a time, so the memory stays bounded at any mesh size. A single encode (a
+    /// fixed step) costs the same either way, and the stream is the same bytes.
+    pub fn with_cache_budget(
+        topo: &'a Topology,
+        positions: &'a [[f64; 3]],
+        params: SpectralParams,
+        budget: usize,
+    ) -> Result<Self, CodecError> {
+        Self::with_budgets(topo, positions, params, budget, CHUNK_BYTES)
+    }
+
+    /// [`Self::with_cache_budget`] streaming in chunks of about `chunk` bytes.
+    pub(super) fn with_budgets(
+        topo: &'a Topology,
+        positions: &'a [[f64; 3]],
+        params: SpectralParams,
+        budget: usize,
+        chunk: usize,
+    ) -> Result<Self, CodecError> {
         params.validate()?;
-        // The current format (version 6): fixed-order products, the same on every CPU.
-        let bases = bases(topo, &params, Arithmetic::Fixed)?;
-        let coefs = bases
-            .par_iter()
-            .map(|b| {
-                let np = b.verts.len();
-                let mut x = Mat::<f64>::zeros(np, 3);
-                for (i, &v) in b.verts.iter().enumerate() {
-                    for k in 0..3 {
-                        x[(i, k)] = positions[v as usize][k];
-                    }
-                }
-                b.analyze(&x)
-            })
-            .collect::<Result<Vec<_>, _>>()?;
-        let (border, loose) = border_and_loose(topo, &bases);
+        let layout = layout(topo, &params)?;
+        let owner = predictor_owners(topo.n_vertices(), &params, &layout);
+        let total: usize = layout.iter().map(|l| l.verts.len().pow(2) * 8).sum();
+        let bases = if total <= budget {
+            let b = bases_of(
+                topo,
+                &params,
+                ARITH,
+                &layout,
+                owner.as_deref(),
+                0..layout.len(),
+                |_| usize::MAX,
+            )?;
+            let c = b
+                .par_iter()
+                .map(|b| b.analyze(&patch_coordinates(b, positions)))
+                .collect::<Result<Vec<_>, _>>()?;
+            Bases::Kept(b, c)
+        } else {
+            Bases::Streamed { owner, chunk }
+        };
+        let (border, loose) = border_and_loose(topo, &layout);
         let residuals = Residuals::new(&border, &loose, params.border_residuals);
         Ok(SpectralEncoder {
             topo,
             params,
+            layout,
             bases,
-            coefs,
             positions,
             border,
             residuals,
         })
+    }
+
+    /// Whether each encode computes the bases again (they did not fit the budget).
+    pub fn streams(&self) -> bool {
+        matches!(self.bases, Bases::Streamed { .. })
     }
 
     /// Codes the geometry with global step `step`; returns the stream, the
@@ -108,6 +183,43 @@ impl<'a> SpectralEncoder<'a> {
         self.encode_measured(step, false)
     }
 
+    /// Codes one patch: its prediction from the earlier patches, its quantized
+    /// coefficients, and its reconstruction into `pass.rec`.
+    fn encode_patch(
+        &self,
+        pass: &mut Pass,
+        b: &PatchBasis,
+        c: &Mat<f64>,
+        step: f64,
+        measure: bool,
+    ) -> Result<(), CodecError> {
+        let (xhat, chat) = match &b.pred {
+            Some(pr) => {
+                let xh = pr.predict(&pass.rec);
+                let ch = b.analyze(&xh)?;
+                (Some(xh), Some(ch))
+            }
+            None => (None, None),
+        };
+        let Pass {
+            enc,
+            models,
+            octave_bits,
+            ..
+        } = pass;
+        let q = models.code_patch(c.nrows(), step, self.params.band_slope, |j, k, s, model| {
+            let base = chat.as_ref().map_or(0.0, |ch| ch[(j, k)]);
+            let qi = dead_zone(c[(j, k)] - base, s, self.params.dead_zone)?;
+            if measure {
+                octave_bits[octave(j)] += model.cost(qi) as f64;
+            }
+            model.encode(enc, qi);
+            Ok(qi)
+        })?;
+        b.place(xhat.as_ref(), &b.synthesize(&q)?, &mut pass.rec);
+        Ok(())
+    }
+
     fn encode_measured(&self, step: f64, measure: bool) -> Result<EncodedSpectral, CodecError> {
         if !(step.is_finite() && step > 0.0) {
             return Err(ParameterError::Step(step).into());
@@ -118,35 +230,54 @@ impl<'a> SpectralEncoder<'a> {
             step,
         }
         .write(&mut out)?;
-        let mut enc = RangeEncoder::new();
-        let mut models = Models::new();
         let n = self.topo.n_vertices();
-        let mut rec = vec![[0.0f64; 3]; n];
-        let mut octave_bits = [0.0f64; FREQ_BANDS];
-        for (b, c) in self.bases.iter().zip(&self.coefs) {
-            let (xhat, chat) = match &b.pred {
-                Some(pr) => {
-                    let xh = pr.predict(&rec);
-                    let ch = b.analyze(&xh)?;
-                    (Some(xh), Some(ch))
+        let mut pass = Pass {
+            enc: RangeEncoder::new(),
+            models: Models::new(),
+            rec: vec![[0.0f64; 3]; n],
+            octave_bits: [0.0f64; FREQ_BANDS],
+        };
+        match &self.bases {
+            Bases::Kept(bases, coefs) => {
+                for (b, c) in bases.iter().zip(coefs) {
+                    self.encode_patch(&mut pass, b, c, step, measure)?;
                 }
-                None => (None, None),
-            };
-            let q =
-                models.code_patch(c.nrows(), step, self.params.band_slope, |j, k, s, model| {
-                    let base = chat.as_ref().map_or(0.0, |ch| ch[(j, k)]);
-                    let qi = dead_zone(c[(j, k)] - base, s, self.params.dead_zone)?;
-                    if measure {
-                        octave_bits[octave(j)] += model.cost(qi) as f64;
+            }
+            Bases::Streamed { owner, chunk } => {
+                let ranges = chunks(&self.layout, *chunk);
+                let compute = |r: std::ops::Range<usize>| {
+                    let b = bases_of(
+                        self.topo,
+                        &self.params,
+                        ARITH,
+                        &self.layout,
+                        owner.as_deref(),
+                        r,
+                        |_| usize::MAX,
+                    )?;
+                    let c = b
+                        .par_iter()
+                        .map(|b| b.analyze(&patch_coordinates(b, self.positions)))
+                        .collect::<Result<Vec<_>, _>>()?;
+                    Ok((b, c))
+                };
+                stream(&ranges, compute, |_, (bases, coefs)| {
+                    for (b, c) in bases.iter().zip(&coefs) {
+                        self.encode_patch(&mut pass, b, c, step, measure)?;
                     }
-                    model.encode(&mut enc, qi);
-                    Ok(qi)
+                    Ok(())
                 })?;
-            b.place(xhat.as_ref(), &b.synthesize(&q)?, &mut rec);
+            }
         }
+        let Pass {
+            mut enc,
+            mut models,
+            mut rec,
+            octave_bits,
+        } = pass;
         let mut stats = SpectralStats {
-            patches: self.bases.len(),
-            coefficients: self.coefs.iter().map(|c| c.nrows()).sum(),
+            patches: self.layout.len(),
+            coefficients: self.layout.iter().map(|l| l.m).sum(),
             octave_bpv: if measure {
                 octave_bits.iter().map(|b| b / n.max(1) as f64).collect()
             } else {
@@ -155,8 +286,8 @@ impl<'a> SpectralEncoder<'a> {
             ..Default::default()
         };
         let (mut be, mut bn, mut ie, mut inn) = (0.0, 0usize, 0.0, 0usize);
-        for b in &self.bases {
-            for &v in &b.verts {
+        for l in &self.layout {
+            for &v in &l.verts {
                 let e = (DVec3::from(rec[v as usize]) - DVec3::from(self.positions[v as usize]))
                     .length_squared();
                 if self.border[v as usize] {

@@ -42,6 +42,15 @@
 //! times the basis cost; BENCHMARKS.md). Patches are at most [`MAX_PATCH`] vertices
 //! (a hostile file cannot ask for more).
 //!
+//! **Memory.** A patch's dense basis takes n_p² values (80 KB at the default 100),
+//! so a 10-million-vertex mesh's bases would take about 8 GB. The layout of the
+//! patches (vertices and faces) is kept for all of them; the bases are computed a chunk
+//! of about 64 MiB at a time (`patches::stream`: the next chunk in parallel while the
+//! current one is coded in order), by the decoder always and by the encoder when they
+//! exceed [`CACHE_BYTES`] or when only one encode is needed (a fixed step); under
+//! rate control bases that fit are kept for the repeated encodes. Streaming changes no
+//! bit of the stream or of the decoding (tested).
+//!
 //! **Eigensolver.** Bases come from [`crate::spectral::dense_evd`] (selected by
 //! [`crate::spectral::DenseSolver::Reproducible`]) and the canonicalization in
 //! `spectral::basis` (plain loops in index order): the arithmetic is fixed-order and
@@ -72,7 +81,7 @@ mod residuals;
 mod tests;
 
 pub use decoder::decode;
-pub use encoder::{EncodedSpectral, SpectralEncoder, SpectralStats};
+pub use encoder::{EncodedSpectral, SpectralEncoder, SpectralStats, CACHE_BYTES};
 pub use params::{
     Keep, SpectralParams, MAX_BAND_SLOPE, MAX_DEAD_ZONE, MAX_PATCH, MIN_DEAD_ZONE, MIN_PATCH,
 };

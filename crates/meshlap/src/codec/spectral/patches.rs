@@ -167,20 +167,32 @@ impl PatchBasis {
     }
 }
 
-/// A patch before its basis: what the partition and the connectivity give.
+/// A patch before its basis: what the partition and the connectivity give. Small
+/// (its vertices and faces): the submesh, its connectivity and its operator are
+/// built only when the basis is computed ([`patch_basis`]), so a layout of every
+/// patch of a 10-million-vertex mesh stays within a few hundred MB.
 pub(super) struct PatchLayout {
     /// The patch vertices that lie on a face of the patch (global numbering; the
     /// basis' row order).
     pub verts: Vec<u32>,
-    /// The patch submesh over `verts` (local numbering, positions unused) and its
-    /// connectivity, from which the operator is assembled.
-    sub: Option<(TriMesh, Topology)>,
+    /// The patch's faces over `verts` (local numbering); empty for a patch without
+    /// faces.
+    faces: Vec<[u32; 3]>,
     /// Coefficients kept.
     pub m: usize,
 }
 
-/// The submesh of one patch (vertices `patch`, global; `faces` its faces, global): vertices on no face of the patch are left out (coded as loose vertices).
-fn patch_layout(patch: &[u32], faces: &[[u32; 3]], keep: Keep) -> Result<PatchLayout, CodecError> {
+impl PatchLayout {
+    /// Bytes of the patch's dense basis (n_p² values), the unit of
+    /// [`chunks`]' budget.
+    fn basis_bytes(&self) -> usize {
+        self.verts.len() * self.verts.len() * std::mem::size_of::<f64>()
+    }
+}
+
+/// The layout of one patch (vertices `patch`, global; `faces` its faces, global):
+/// vertices on no face of the patch are left out (coded as loose vertices).
+fn patch_layout(patch: &[u32], faces: &[[u32; 3]], keep: Keep) -> PatchLayout {
     let mut local = std::collections::HashMap::with_capacity(patch.len());
     for (i, &v) in patch.iter().enumerate() {
         local.insert(v, i as u32);
@@ -208,46 +220,40 @@ fn patch_layout(patch: &[u32], faces: &[[u32; 3]], keep: Keep) -> Result<PatchLa
         .collect();
     let np = verts.len();
     let verts: Vec<u32> = verts.iter().map(|&i| patch[i as usize]).collect();
-    if np == 0 {
-        return Ok(PatchLayout {
-            verts,
-            sub: None,
-            m: 0,
-        });
-    }
-    let sub = TriMesh::new(vec![[0.0; 3]; np], faces);
-    let st = Topology::new(&sub).map_err(CodecError::PatchTopology)?;
-    Ok(PatchLayout {
+    PatchLayout {
         verts,
-        sub: Some((sub, st)),
-        m: keep.count(np),
-    })
+        faces,
+        m: if np == 0 { 0 } else { keep.count(np) },
+    }
 }
 
 /// The basis of a patch ([`crate::spectral::EigenBasis`]: canonical, deterministic
-/// eigenvectors, ascending eigenvalues): all of it for `need = usize::MAX`, else at
-/// least its first `need` vectors ([`EigenBasis::compute_lowest`], the same bits);
-/// none for `need = 0` or a patch without faces.
+/// eigenvectors, ascending eigenvalues) of the operator `kind` on the patch submesh:
+/// all of it for `need = usize::MAX`, else at least its first `need` vectors
+/// ([`EigenBasis::compute_lowest`], the same bits); none for `need = 0` or a patch
+/// without faces.
 fn patch_basis(
-    layout: PatchLayout,
+    layout: &PatchLayout,
     kind: OperatorKind,
     need: usize,
     arith: Arithmetic,
 ) -> Result<PatchBasis, CodecError> {
-    let basis = match &layout.sub {
-        Some((sub, st)) if need > 0 => {
-            let op = Operator::assemble(kind, sub, st, &OperatorOptions::default())
-                .map_err(CodecError::PatchOperator)?;
-            let opts = BasisOptions {
-                dense_solver: DenseSolver::Reproducible,
-                ..Default::default()
-            };
-            Some(EigenBasis::compute_lowest(&op, &opts, need).map_err(CodecError::PatchBasis)?)
-        }
-        _ => None,
+    let np = layout.verts.len();
+    let basis = if np > 0 && need > 0 {
+        let sub = TriMesh::new(vec![[0.0; 3]; np], layout.faces.clone());
+        let st = Topology::new(&sub).map_err(CodecError::PatchTopology)?;
+        let op = Operator::assemble(kind, &sub, &st, &OperatorOptions::default())
+            .map_err(CodecError::PatchOperator)?;
+        let opts = BasisOptions {
+            dense_solver: DenseSolver::Reproducible,
+            ..Default::default()
+        };
+        Some(EigenBasis::compute_lowest(&op, &opts, need).map_err(CodecError::PatchBasis)?)
+    } else {
+        None
     };
     Ok(PatchBasis {
-        verts: layout.verts,
+        verts: layout.verts.clone(),
         basis,
         m: layout.m,
         pred: None,
@@ -255,8 +261,8 @@ fn patch_basis(
     })
 }
 
-/// The partition into patches and each patch's submesh, in coding order (the
-/// submeshes in parallel). Depends on the connectivity only.
+/// The partition into patches and each patch's layout, in coding order (in
+/// parallel). Depends on the connectivity only.
 pub(super) fn layout(
     topo: &Topology,
     params: &SpectralParams,
@@ -278,52 +284,47 @@ pub(super) fn layout(
             pfaces[p as usize].push(*f);
         }
     }
-    patches
+    Ok(patches
         .par_iter()
         .zip(pfaces.par_iter())
         .map(|(patch, faces)| patch_layout(patch, faces, params.keep))
-        .collect()
+        .collect())
 }
 
-/// The bases of every patch, in coding order (in parallel; each decomposition is
-/// sequential), with their predictors when `params.predicted`; `arith` says how
-/// their products are computed (the format version's).
-pub(super) fn bases(
-    topo: &Topology,
+/// Patch of each vertex in `layout` (`u32::MAX`: loose vertex), for the predictors
+/// when `params.predicted` (`None` otherwise).
+pub(super) fn predictor_owners(
+    n: usize,
     params: &SpectralParams,
-    arith: Arithmetic,
-) -> Result<Vec<PatchBasis>, CodecError> {
-    bases_of(topo, params, arith, layout(topo, params)?, |_| usize::MAX)
+    layout: &[PatchLayout],
+) -> Option<Vec<u32>> {
+    params
+        .predicted
+        .then(|| owners(n, layout.iter().map(|l| l.verts.as_slice())))
 }
 
-/// The bases of the patches of `layout` ([`layout`]) with their predictors, as
-/// [`bases`]; patch `p` gets at least its first `need(p)` vectors (all for
-/// `usize::MAX`; none for 0, its synthesis then being zero): the decoder, which knows
-/// the coefficients before the bases, needs the vectors up to a patch's last
-/// non-zero coefficient only. Bases and predictors are computed together in one
-/// parallel pass (they are independent: the predictors need the vertex sets only).
+/// The bases of the patches `range` of `layout` ([`layout`]), in coding order (in
+/// parallel; each decomposition is sequential), with their predictors when `owner`
+/// is given ([`predictor_owners`]); `arith` says how their products are computed
+/// (the format version's). Patch `p` gets at least its first `need(p)` vectors (all
+/// for `usize::MAX`; none for 0, its synthesis then being zero): the decoder, which
+/// knows the coefficients before the bases, needs the vectors up to a patch's last
+/// non-zero coefficient only. Bases and predictors are computed together (they are
+/// independent: the predictors need the vertex sets only).
 pub(super) fn bases_of(
     topo: &Topology,
     params: &SpectralParams,
     arith: Arithmetic,
-    layout: Vec<PatchLayout>,
+    layout: &[PatchLayout],
+    owner: Option<&[u32]>,
+    range: std::ops::Range<usize>,
     need: impl Fn(usize) -> usize + Sync,
 ) -> Result<Vec<PatchBasis>, CodecError> {
-    let n = topo.n_vertices();
-    let owner = params.predicted.then(|| {
-        let mut owner = vec![u32::MAX; n];
-        for (p, l) in layout.iter().enumerate() {
-            for &v in &l.verts {
-                owner[v as usize] = p as u32;
-            }
-        }
-        owner
-    });
-    layout
-        .into_par_iter()
-        .enumerate()
-        .map(|(p, l)| {
-            let pred = match &owner {
+    layout[range.clone()]
+        .par_iter()
+        .zip(range)
+        .map(|(l, p)| {
+            let pred = match owner {
                 Some(owner) if !l.verts.is_empty() => {
                     patch_prediction(topo, owner, &l.verts, p as u32, arith)
                 }
@@ -336,11 +337,64 @@ pub(super) fn bases_of(
         .collect()
 }
 
-/// Patch of each vertex in the patch bases (`u32::MAX`: loose vertex).
-fn owners(n: usize, bases: &[PatchBasis]) -> Vec<u32> {
+/// Bytes of dense bases computed at once by [`stream`]: with two chunks alive (one
+/// being coded, the next being computed) the bases of any mesh take about twice
+/// this, plus their predictors.
+pub(super) const CHUNK_BYTES: usize = 64 << 20;
+
+/// Consecutive ranges of patches whose dense bases ([`PatchLayout::basis_bytes`]) take
+/// at most `budget` bytes each (a single larger patch makes a range of its own).
+pub(super) fn chunks(layout: &[PatchLayout], budget: usize) -> Vec<std::ops::Range<usize>> {
+    let mut out = Vec::new();
+    let (mut start, mut bytes) = (0, 0usize);
+    for (p, l) in layout.iter().enumerate() {
+        let b = l.basis_bytes();
+        if p > start && bytes + b > budget {
+            out.push(start..p);
+            (start, bytes) = (p, 0);
+        }
+        bytes += b;
+    }
+    if start < layout.len() {
+        out.push(start..layout.len());
+    }
+    out
+}
+
+/// Runs `compute` on each range of `ranges` in order and hands its result to
+/// `consume` (with the range), computing the next range while the current one is
+/// consumed: the patches' bases (parallel, independent of the coded positions) overlap
+/// the sequential coding that needs them in order, and at most two ranges' results
+/// are alive at once.
+pub(super) fn stream<T: Send>(
+    ranges: &[std::ops::Range<usize>],
+    compute: impl Fn(std::ops::Range<usize>) -> Result<T, CodecError> + Sync,
+    mut consume: impl FnMut(std::ops::Range<usize>, T) -> Result<(), CodecError> + Send,
+) -> Result<(), CodecError> {
+    let Some(first) = ranges.first() else {
+        return Ok(());
+    };
+    let mut next = Some(compute(first.clone())?);
+    for (i, r) in ranges.iter().enumerate() {
+        let cur = next
+            .take()
+            .ok_or(CodecError::Internal("stream: no chunk"))?;
+        let (done, computed) = rayon::join(
+            || consume(r.clone(), cur),
+            || ranges.get(i + 1).map(|r| compute(r.clone())).transpose(),
+        );
+        done?;
+        next = computed?;
+    }
+    Ok(())
+}
+
+/// Patch of each vertex given each patch's vertices in order (`u32::MAX`: in no
+/// patch, a loose vertex).
+fn owners<'v>(n: usize, patches: impl Iterator<Item = &'v [u32]>) -> Vec<u32> {
     let mut owner = vec![u32::MAX; n];
-    for (p, b) in bases.iter().enumerate() {
-        for &v in &b.verts {
+    for (p, verts) in patches.enumerate() {
+        for &v in verts {
             owner[v as usize] = p as u32;
         }
     }
@@ -349,9 +403,9 @@ fn owners(n: usize, bases: &[PatchBasis]) -> Vec<u32> {
 
 /// Vertices adjacent to a vertex of another patch (`border[v]`), and the vertices in
 /// no patch basis (loose, ascending).
-pub(super) fn border_and_loose(topo: &Topology, bases: &[PatchBasis]) -> (Vec<bool>, Vec<u32>) {
+pub(super) fn border_and_loose(topo: &Topology, layout: &[PatchLayout]) -> (Vec<bool>, Vec<u32>) {
     let n = topo.n_vertices();
-    let owner = owners(n, bases);
+    let owner = owners(n, layout.iter().map(|l| l.verts.as_slice()));
     let mut border = vec![false; n];
     for v in 0..n {
         if owner[v] == u32::MAX {

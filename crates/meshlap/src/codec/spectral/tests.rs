@@ -256,3 +256,107 @@ fn fixed_order_cholesky_matches_faer() {
     m[(1, 1)] = -1.0;
     assert!(cholesky_solve_fixed(&m, &mut Mat::zeros(3, 1)).is_none());
 }
+
+#[test]
+fn streamed_bases_give_the_same_stream_and_decoding() {
+    // Above the cache budget the encoder computes the bases again on every encode, a
+    // chunk at a time, overlapping the next chunk with the current one's coding; the
+    // decoder always streams. Neither may change a bit: chunks of one patch (1 byte),
+    // of a few patches, and one chunk of everything, against the kept bases.
+    for (spec, op) in [
+        ("builtin:torus:40:24", OperatorKind::Kirchhoff),
+        ("builtin:icosphere:3", OperatorKind::Sql),
+        ("builtin:grid:20", OperatorKind::Tutte),
+    ] {
+        let m = builtin::from_spec(spec).unwrap();
+        let topo = Topology::new(&m).unwrap();
+        let params = SpectralParams {
+            operator: op,
+            patch_size: 60,
+            ..Default::default()
+        };
+        let kept = SpectralEncoder::new(&topo, &m.positions, params).unwrap();
+        assert!(!kept.streams());
+        for div in [64.0, 4096.0] {
+            let step = m.bbox_diagonal() / div;
+            let want = kept.encode(step).unwrap();
+            for chunk in [1, 200_000, usize::MAX] {
+                let streamed =
+                    SpectralEncoder::with_budgets(&topo, &m.positions, params, 0, chunk).unwrap();
+                assert!(streamed.streams());
+                let got = streamed.encode(step).unwrap();
+                assert_eq!(got.bytes, want.bytes, "{spec} diag/{div} chunk {chunk}");
+                assert!(
+                    got.decoded
+                        .iter()
+                        .flatten()
+                        .zip(want.decoded.iter().flatten())
+                        .all(|(a, b)| a.to_bits() == b.to_bits()),
+                    "{spec} diag/{div} chunk {chunk}"
+                );
+                assert_eq!(got.stats.patches, want.stats.patches);
+                assert_eq!(got.stats.coefficients, want.stats.coefficients);
+                assert_eq!(got.stats.octave_bpv, want.stats.octave_bpv);
+                let dec = super::decoder::decode_chunked(
+                    &topo,
+                    &want.bytes,
+                    crate::codec::container::VERSION,
+                    chunk,
+                )
+                .unwrap();
+                assert!(
+                    dec.iter()
+                        .flatten()
+                        .zip(want.decoded.iter().flatten())
+                        .all(|(a, b)| a.to_bits() == b.to_bits()),
+                    "{spec} diag/{div} decoder chunk {chunk}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn chunks_cover_every_patch_in_order_within_the_budget() {
+    let m = builtin::from_spec("builtin:torus:40:24").unwrap();
+    let topo = Topology::new(&m).unwrap();
+    let params = SpectralParams {
+        patch_size: 50,
+        ..Default::default()
+    };
+    let layout = super::patches::layout(&topo, &params).unwrap();
+    let bytes = |r: &std::ops::Range<usize>| -> usize {
+        layout[r.clone()]
+            .iter()
+            .map(|l| l.verts.len().pow(2) * 8)
+            .sum()
+    };
+    let largest = layout
+        .iter()
+        .map(|l| l.verts.len().pow(2) * 8)
+        .max()
+        .unwrap();
+    for budget in [0, 1, largest, 3 * largest, usize::MAX] {
+        let r = super::patches::chunks(&layout, budget);
+        assert_eq!(r.first().unwrap().start, 0);
+        assert_eq!(r.last().unwrap().end, layout.len());
+        assert!(r
+            .windows(2)
+            .all(|w| w[0].end == w[1].start && !w[0].is_empty()));
+        // Within the budget unless a single patch exceeds it.
+        assert!(
+            r.iter().all(|c| c.len() == 1 || bytes(c) <= budget),
+            "{budget}"
+        );
+        // Greedy: a chunk ends only where the next patch would not fit.
+        assert!(r
+            .windows(2)
+            .all(|w| bytes(&(w[0].start..w[0].end + 1)) > budget));
+        if budget == usize::MAX {
+            assert_eq!(r.len(), 1);
+        }
+        if budget <= 1 {
+            assert_eq!(r.len(), layout.len());
+        }
+    }
+}
