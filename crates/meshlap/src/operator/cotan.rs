@@ -54,7 +54,7 @@ crate::names::option_names!(MassKind, OperatorError, |s| OperatorError::UnknownO
 /// The per-face geometry (cotangents, areas, mass shares) is computed in parallel over
 /// chunks of faces; the per-face values are then added into the edge weights and the
 /// masses in face order, and the matrix is filled column by column
-/// ([`super::assemble::one_ring_matrix`]), so every entry is the same sum in the same
+/// (`assemble::one_ring_matrix`), so every entry is the same sum in the same
 /// order on any number of threads.
 pub fn cotan(
     mesh: &TriMesh,

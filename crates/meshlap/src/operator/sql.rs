@@ -107,7 +107,7 @@ pub fn sql_diagonal(topo: &Topology, d: &[f64], convention: BoundaryDiagonal) ->
 ///
 /// The edge weights are computed in parallel in edge order (sequential reads of the
 /// edge arrays), then the matrix is filled column by column
-/// ([`super::assemble::one_ring_columns`]) with the boundary diagonal of vertex j
+/// (`assemble::one_ring_columns`) with the boundary diagonal of vertex j
 /// summed over its boundary edges in edge order — so the result equals, bit for bit,
 /// `diag` from [`sql_diagonal`] minus `W` from [`sql_edge_weights`].
 pub fn sql(topo: &Topology, convention: BoundaryDiagonal) -> Result<SparseMatrix, OperatorError> {

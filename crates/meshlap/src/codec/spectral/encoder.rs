@@ -59,7 +59,7 @@ pub struct EncodedSpectral {
     pub stats: SpectralStats,
 }
 
-/// Bytes of dense bases ([`PatchLayout`]'s n_p² values per patch) that
+/// Bytes of dense bases (n_p² values per patch) that
 /// [`SpectralEncoder::new`] keeps for rate control's repeated encodes; above it every
 /// encode computes the bases again, a chunk at a time. With their predictors and
 /// allocations the kept bases take about twice this.
