@@ -12,7 +12,7 @@ use crate::SparseMatrix;
 /// `Σ_k T_kj · (row k of T)ᵀ`, with `T_jj = 1` and `T_kj = −1/d_k` for k ∈ N(j), summed
 /// in ascending k so that `J_ij` and `J_ji` add the same products `T_ki·T_kj` in the
 /// same order: J is symmetric bit for bit. Two-ring pattern filled in place
-/// ([`assemble::two_ring_matrix`]).
+/// (`assemble::two_ring_matrix`).
 pub fn sstl(topo: &Topology) -> Result<SparseMatrix, OperatorError> {
     // −1/d_k once per vertex, not once per product.
     let neg_inv: Vec<f64> = degrees_checked(topo)?.iter().map(|&d| -1.0 / d).collect();

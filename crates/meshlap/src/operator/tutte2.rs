@@ -8,7 +8,7 @@ use crate::SparseMatrix;
 
 /// Assembles `T²`: column j is `Σ_k T_kj · (column k of T)` over k = j, then the
 /// neighbours of j ascending, with `T_kk = 1`, `T_ik = −1/d_i` for i ∈ N(k). Two-ring
-/// pattern filled in place ([`assemble::two_ring_matrix`]).
+/// pattern filled in place (`assemble::two_ring_matrix`).
 pub fn tutte2(topo: &Topology) -> Result<SparseMatrix, OperatorError> {
     // −1/d_i once per vertex, not once per product.
     let neg_inv: Vec<f64> = degrees_checked(topo)?.iter().map(|&d| -1.0 / d).collect();
