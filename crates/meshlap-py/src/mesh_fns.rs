@@ -215,7 +215,7 @@ fn compress<'py>(
     }
     opts.preserve_order = preserve_order;
     let c = compute(py, || {
-        meshlap::codec::compress(&input.mesh, &input.topology, &opts)
+        meshlap::codec::compress_owned(&input.mesh, input.topology, &opts)
     })
     .or_raise(py)?;
     Ok((PyBytes::new(py, &c.bytes), json(py, &c.report)?))

@@ -46,6 +46,22 @@ fn advise_huge(start: usize, len: usize) {
 #[cfg(not(target_os = "linux"))]
 fn advise_huge(_start: usize, _len: usize) {}
 
+/// Returns the allocator's free memory to the system: glibc's `malloc_trim(0)`, which
+/// releases every whole free page of its heaps, not only the top. glibc otherwise keeps
+/// freed blocks below its (adaptive, up to 32 MiB) mmap threshold in its heaps, so
+/// dropping a large structure in the middle of a long job would not lower the
+/// resident memory of what follows. Called once a large structure is freed (the
+/// compressor's input connectivity); costs a walk of the free lists. A no-op on
+/// other systems.
+pub(crate) fn release_free_memory() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: malloc_trim only returns free pages of the allocator's own heaps to the
+    // kernel; it touches no live allocation.
+    unsafe {
+        libc::malloc_trim(0);
+    }
+}
+
 /// Parallel writes into distinct positions of a slice: the scatter of a counting
 /// sort, whose slots come from atomic counters, so no two writers share one.
 /// Holding the `&mut` borrow for `'a` keeps everyone else out.

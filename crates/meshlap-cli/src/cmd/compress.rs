@@ -2,7 +2,7 @@
 
 use crate::common::{print_json, MeshInOut};
 use meshlap::codec::{
-    compress, CompressOptions, CompressReport, Compressed, GeometryMode, Keep, Quantization,
+    compress_owned, CompressOptions, CompressReport, Compressed, GeometryMode, Keep, Quantization,
     SpatialParams, SpectralParams,
 };
 use meshlap::operator::OperatorKind;
@@ -113,11 +113,11 @@ impl Args {
 }
 
 pub fn run(args: &Args) -> meshlap::Result<()> {
-    let input = args.io.mesh.open()?;
-    let c = compress(&input.mesh, &input.topology, &args.options())?;
+    let meshlap::input::Input { mesh, topology, .. } = args.io.mesh.open()?;
+    let c = compress_owned(&mesh, topology, &args.options())?;
     meshlap::io::write_atomic(&args.io.output, |w| w.write_all(&c.bytes))?;
     let distortion = if args.measure {
-        Some(c.distortion(&input.mesh, args.samples)?)
+        Some(c.distortion(&mesh, args.samples)?)
     } else {
         None
     };

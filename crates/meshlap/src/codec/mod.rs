@@ -300,6 +300,28 @@ pub fn compress(
     topo: &Topology,
     opts: &CompressOptions,
 ) -> Result<Compressed, CodecError> {
+    compress_cow(mesh, std::borrow::Cow::Borrowed(topo), opts)
+}
+
+/// [`compress`] taking `mesh`'s connectivity by value: it is freed as soon as the
+/// connectivity coder is done with it, before the decoded-order connectivity the
+/// geometry coders need is built, so the peak memory holds one connectivity instead of
+/// two (about 180 bytes per vertex less; the command line uses it). The same file.
+///
+/// Errors: as [`compress`].
+pub fn compress_owned(
+    mesh: &TriMesh,
+    topo: Topology,
+    opts: &CompressOptions,
+) -> Result<Compressed, CodecError> {
+    compress_cow(mesh, std::borrow::Cow::Owned(topo), opts)
+}
+
+fn compress_cow(
+    mesh: &TriMesh,
+    topo: std::borrow::Cow<'_, Topology>,
+    opts: &CompressOptions,
+) -> Result<Compressed, CodecError> {
     opts.validate()?;
     mesh.validate().map_err(CodecError::Mesh)?;
     let n = mesh.n_vertices();
@@ -310,18 +332,21 @@ pub fn compress(
     {
         return Err(CodecError::DegenerateFace { face });
     }
-    let unreferenced = (0..n as u32).filter(|&v| topo.degree(VertexId(v)) == 0);
+    let unreferenced = (0..n as u32).filter(|&v| topo.as_ref().degree(VertexId(v)) == 0);
     if let Some(vertex) = unreferenced.clone().next() {
         return Err(CodecError::Unreferenced {
             vertex,
             count: unreferenced.count(),
         });
     }
-    let cut = rejoin::split(topo)?;
+    let cut = rejoin::split(&topo)?;
     let copies = cut.copies(n);
     let (conn, rejoin_section, order, faces) = if copies == 0 {
-        let conn = connectivity::encode(topo)?;
-        let (order, faces) = (conn.order.clone(), conn.faces.clone());
+        let mut conn = connectivity::encode(&topo)?;
+        let (order, faces) = (
+            std::mem::take(&mut conn.order),
+            std::mem::take(&mut conn.faces),
+        );
         (conn, None, order, faces)
     } else {
         let stopo = Topology::from_faces(cut.parent.len(), &cut.faces).map_err(CodecError::Mesh)?;
@@ -334,6 +359,13 @@ pub fn compress(
             .collect();
         (conn, Some(bytes), order, faces)
     };
+    // The input's connectivity and its cut are no longer needed: free them (when
+    // owned) before the decoded-order connectivity is built.
+    drop(cut);
+    if let std::borrow::Cow::Owned(t) = topo {
+        drop(t);
+        crate::mem::release_free_memory();
+    }
     let positions: Vec<[f64; 3]> = order.iter().map(|&v| mesh.positions[v as usize]).collect();
     let dtopo = Topology::from_faces(n, &faces).map_err(CodecError::Mesh)?;
     let diag = mesh.bbox_diagonal().max(f64::MIN_POSITIVE);
