@@ -46,13 +46,25 @@ fn unit_rows(m: MatRef<'_, f64>) -> bool {
     m.row_stride() == 1 || m.nrows() <= 1
 }
 
-/// `Vᵀ W` (s×p) for tall `V` (n×s) and `W` (n×p).
+/// Columns of `W` from which [`tn`] uses faer's (compute-bound) GEMM on each
+/// thread's rows instead of the streaming kernels: these read all of `V` once per
+/// group of 8 columns of `W`, so for a wide `W` (the refinement's b×b Gram matrices
+/// of a band, `W` n×200) they stream `V` 25 times where a packed GEMM reads it about
+/// once per cache block.
+const WIDE_FROM: usize = 32;
+
+/// `Vᵀ W` (s×p) for tall `V` (n×s) and `W` (n×p). Deterministic for a given thread
+/// count (a fixed split of the rows, each part summed on one thread).
 pub fn tn(v: MatRef<'_, f64>, w: MatRef<'_, f64>) -> Mat<f64> {
     assert_eq!(v.nrows(), w.nrows(), "tn: row counts differ");
     fn go(v: MatRef<'_, f64>, w: MatRef<'_, f64>, threads: usize) -> Mat<f64> {
         if threads <= 1 {
             let mut c = Mat::<f64>::zeros(v.ncols(), w.ncols());
-            product_seq::<true>(v, w, c.as_mut());
+            if w.ncols() >= WIDE_FROM && v.ncols() >= WIDE_FROM {
+                matmul(c.as_mut(), Accum::Replace, v.transpose(), w, 1.0, Par::Seq);
+            } else {
+                product_seq::<true>(v, w, c.as_mut());
+            }
             return c;
         }
         let h = v.nrows() / 2;
@@ -401,6 +413,27 @@ mod tests {
         let mut x = Mat::<f64>::zeros(n, m);
         crate::spectral::krylov_schur::random_fill(x.as_mut(), seed);
         x
+    }
+
+    /// The wide path (faer's GEMM per row part) matches the product, on and around
+    /// the width where it takes over, and is the same bits on every call.
+    #[test]
+    fn wide_products_match_and_repeat() {
+        for &(n, s, p) in &[
+            (9000usize, 40usize, 31usize),
+            (9000, 40, 32),
+            (20_000, 64, 50),
+        ] {
+            let v = filled(n, s, 3 + p as u64);
+            let w = filled(n, p, 4 + p as u64);
+            let c = tn(v.as_ref(), w.as_ref());
+            let want = v.transpose() * &w;
+            assert!(
+                (&c - &want).norm_max() <= 1e-13 * (n as f64).sqrt(),
+                "tn n={n} s={s} p={p}"
+            );
+            assert!(c == tn(v.as_ref(), w.as_ref()), "tn is deterministic");
+        }
     }
 
     #[test]

@@ -41,9 +41,9 @@
 //!    distance `r` has found *every* eigenvalue in the window `(σ − r + δ, σ + r − δ)`
 //!    (`δ = 10⁻⁸·max(1, |σ| + r)`; eigenvalues at distance `r − δ … r` may be an
 //!    incomplete multiple eigenvalue and are left to the next band). Bands are chained
-//!    so that the windows overlap: the next shift is `U + 0.35·b·s` (`s` the mean
+//!    so that the windows overlap: the next shift is `U + 0.7·b·s/2` (`s` the mean
 //!    eigenvalue spacing of the last band, so that the next window of about `±b·s/2`
-//!    reaches below `U`; at most `U + 0.55 r`), `U` the upper edge
+//!    reaches 30 % of its radius below `U`; at most `U + 0.55 r`), `U` the upper edge
 //!    of the windows so far; a band whose window does not reach down to `U` is redone
 //!    with the shift halved towards `U`. From each band only the eigenvalues in
 //!    `[U, new upper edge)` are kept, so the overlaps are deduplicated and every
@@ -174,6 +174,15 @@ pub struct BandInfo {
     pub kept: usize,
     /// Upper edge of the windows after this band.
     pub upper_edge: f64,
+    /// Krylov–Schur restarts (all runs of the band, including the searches for
+    /// missed copies of repeated eigenvalues).
+    pub restarts: usize,
+    /// Vectors `A_σ` was applied to (each one forward and one backward solve with the
+    /// band's factors), including the refinement's.
+    pub solves: usize,
+    /// Numeric LDLᵀ factorizations of `K − xM` (at the shift, unless it was the first
+    /// band's trial factorization, and for the inertia count at the upper edge).
+    pub factorizations: usize,
 }
 
 /// The k smallest eigenpairs; see the module documentation.
