@@ -71,6 +71,26 @@ fn peak_rss_kb() -> Option<u64> {
     line.split_whitespace().nth(1)?.parse().ok()
 }
 
+/// Resets the peak resident set size (VmHWM) to the current one (`echo 5 >
+/// /proc/self/clear_refs`, Linux ≥ 4.0), so a later [`peak_rss_kb`] is the peak of
+/// what ran in between. Returns false where that is not available.
+fn reset_peak_rss() -> bool {
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
+}
+
+/// User and system CPU seconds of this process so far, all threads (`/proc/self/stat`
+/// fields 14 and 15, in Linux's fixed `USER_HZ` = 100 ticks a second): the load-
+/// independent measure of a phase's work on a shared machine.
+fn cpu_seconds() -> Option<(f64, f64)> {
+    let s = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // The command name (field 2) is in parentheses and may hold spaces.
+    let rest = &s[s.rfind(')')? + 2..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks = |i: usize| f.get(i)?.parse::<f64>().ok();
+    // `rest` starts at field 3, so field k is f[k − 3].
+    Some((ticks(11)? / 100.0, ticks(12)? / 100.0))
+}
+
 fn main() {
     if let Err(e) = run() {
         eprintln!("meshlap-bench: error: {e}");
@@ -385,13 +405,33 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             let keep: f64 = flag(&args, "--keep").unwrap_or("0.1").parse()?;
             let kind: OperatorKind = flag(&args, "--kind").unwrap_or("sql").parse()?;
             let mut info = serde_json::Value::Null;
+            // Per phase: user and system CPU seconds and the peak RSS of the phase
+            // (with what earlier phases still hold), both independent of the load.
+            // The whole run's peak is the largest phase peak.
+            let peak = std::cell::Cell::new(None::<u64>);
+            let phase = |start: Option<(f64, f64)>| {
+                let (u0, s0) = start.unwrap_or_default();
+                let (u1, s1) = cpu_seconds().unwrap_or_default();
+                let rss = peak_rss_kb();
+                peak.set(peak.get().max(rss));
+                let out = serde_json::json!({"user_s": u1 - u0, "sys_s": s1 - s0,
+                    "peak_rss_kb": rss});
+                reset_peak_rss();
+                out
+            };
             let (m, t) = time(repeat, || {
+                reset_peak_rss();
+                let mut c = cpu_seconds();
                 let t0 = Instant::now();
                 let input = open(&mesh, &OpenOptions::default()).unwrap();
                 let t_open = t0.elapsed().as_secs_f64();
+                let cpu_open = phase(c);
+                c = cpu_seconds();
                 let opts = meshlap::partition::PartitionOptions::new(p);
                 let part = meshlap::partition::partition(&input.topology, &opts).unwrap();
                 let t_part = t0.elapsed().as_secs_f64() - t_open;
+                let cpu_part = phase(c);
+                c = cpu_seconds();
                 let rec = meshlap::spectral::patchwise::patchwise_positions(
                     &input.mesh,
                     &part,
@@ -401,6 +441,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                 )
                 .unwrap();
                 let t_all = t0.elapsed().as_secs_f64();
+                let cpu_transform = phase(c);
                 let err = rec
                     .iter()
                     .zip(&input.mesh.positions)
@@ -412,12 +453,14 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                 info = serde_json::json!({"vertices": input.mesh.n_vertices(),
                     "patches": part.n_patches(), "open_s": t_open, "partition_s": t_part,
                     "transform_s": t_all - t_open - t_part, "max_displacement": err,
-                    "bbox_diagonal": input.mesh.bbox_diagonal()});
+                    "bbox_diagonal": input.mesh.bbox_diagonal(),
+                    "cpu": {"open": cpu_open, "partition": cpu_part,
+                        "transform": cpu_transform}});
             });
             out.insert(
                 "project_patches".into(),
                 serde_json::json!({"median": m, "times": t, "info": info,
-                    "peak_rss_kb": peak_rss_kb()}),
+                    "peak_rss_kb": peak.get().max(peak_rss_kb())}),
             );
         }
         _ => return Err(usage.into()),

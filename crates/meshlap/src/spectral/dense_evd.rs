@@ -123,6 +123,27 @@ pub fn symmetric_evd_lowest_by(
     Some((lam, faer::Mat::from_fn(n, count, |i, j| z[i * count + j])))
 }
 
+/// Steps 3–4 of the method on a symmetric tridiagonal matrix that another routine
+/// produced (`d` its n diagonal entries, `e` its n − 1 off-diagonal ones, both scaled
+/// so that their largest magnitude is of order 1): all eigenvalues, ascending, and
+/// the eigenvectors of the `count` smallest (clamped to n), row-major n×count
+/// (`z[i·count + j]` = component i of vector j), unit Euclidean norm. O(n² + n·count),
+/// portable build. `None` if the QL iteration does not converge or `d`, `e` do not
+/// have n and n − 1 entries (n ≥ 1).
+pub(crate) fn tridiagonal_lowest(
+    d: &[f64],
+    e: &[f64],
+    count: usize,
+) -> Option<(Vec<f64>, Vec<f64>)> {
+    let n = d.len();
+    if n == 0 || e.len() + 1 != n {
+        return None;
+    }
+    let lam = ql_eigenvalues(d, e)?;
+    let z = tridiagonal_vectors(d, e, &lam, count.min(n));
+    Some((lam, z))
+}
+
 /// `2^e` for |e| ≤ 1000, exactly.
 fn pow2(e: i32) -> f64 {
     f64::from_bits(((e + 1023) as u64) << 52)
