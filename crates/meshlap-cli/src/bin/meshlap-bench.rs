@@ -45,6 +45,28 @@ fn time<T>(repeat: usize, mut f: impl FnMut() -> T) -> (f64, Vec<f64>) {
     (median(times.clone()), times)
 }
 
+type BoxError = Box<dyn std::error::Error>;
+
+/// [`time`] for a fallible run: the first error ends the timing and is returned (a
+/// bad mesh or option is an error message, never a panic).
+fn try_time<T>(
+    repeat: usize,
+    mut f: impl FnMut() -> Result<T, BoxError>,
+) -> Result<(f64, Vec<f64>), BoxError> {
+    let mut err = None;
+    let r = time(repeat, || {
+        if err.is_none() {
+            if let Err(e) = f() {
+                err = Some(e);
+            }
+        }
+    });
+    match err {
+        Some(e) => Err(e),
+        None => Ok(r),
+    }
+}
+
 /// `{"median": …, "times": […]}` of `repeat` runs of `f`.
 fn timing<T>(repeat: usize, f: impl FnMut() -> T) -> serde_json::Value {
     let (m, t) = time(repeat, f);
@@ -313,9 +335,10 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                     // The basis and the coefficients X of the positions (n×3): what
                     // `numpy.linalg.eig` + `numpy.linalg.solve(E, x)` computes.
                     let x = meshlap::spectral::positions_to_mat(&input.mesh.positions);
-                    let t = timing(repeat, || {
-                        let b = EigenBasis::compute(&op, &opts).unwrap();
-                        meshlap::spectral::forward(&b, x.as_ref()).map(|c| c.nrows())
+                    EigenBasis::compute(&op, &opts)?;
+                    let t = timing(repeat, || -> Result<usize, BoxError> {
+                        let b = EigenBasis::compute(&op, &opts)?;
+                        Ok(meshlap::spectral::forward(&b, x.as_ref())?.nrows())
                     });
                     out.insert(format!("{name}-coefficients"), t);
                 }
@@ -341,28 +364,26 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             let input = open(&mesh, &OpenOptions::default())?;
             out.insert("vertices".into(), input.mesh.n_vertices().into());
             let mut last = None;
-            let (m, t) = time(repeat, || {
-                let op = Operator::on_input(kind, &input).unwrap();
-                let mut opts = meshlap::spectral::partial::PartialParams::new(count);
-                if let Some(t) = flag(&args, "--tol") {
-                    opts.tolerance = t.parse().unwrap();
-                }
-                if let Some(b) = flag(&args, "--band") {
-                    opts.band_size = b.parse().unwrap();
-                }
-                if let Some(b) = flag(&args, "--block") {
-                    opts.block_size = b.parse().unwrap();
-                }
-                last = Some(
-                    meshlap::spectral::partial::operator_partial_spectrum(
-                        &op,
-                        true,
-                        &opts,
-                        &mut |_, _| {},
-                    )
-                    .unwrap(),
-                );
-            });
+            let mut opts = meshlap::spectral::partial::PartialParams::new(count);
+            if let Some(t) = flag(&args, "--tol") {
+                opts.tolerance = t.parse()?;
+            }
+            if let Some(b) = flag(&args, "--band") {
+                opts.band_size = b.parse()?;
+            }
+            if let Some(b) = flag(&args, "--block") {
+                opts.block_size = b.parse()?;
+            }
+            let (m, t) = try_time(repeat, || {
+                let op = Operator::on_input(kind, &input)?;
+                last = Some(meshlap::spectral::partial::operator_partial_spectrum(
+                    &op,
+                    true,
+                    &opts,
+                    &mut |_, _| {},
+                )?);
+                Ok(())
+            })?;
             let ps = last.ok_or("no run")?;
             let max_res = ps.residuals.iter().fold(0.0f64, |a, &b| a.max(b));
             // Orthonormality of the eigenvectors (untimed): max |VᵀV − I|.
@@ -389,10 +410,11 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             out.insert("vertices".into(), input.mesh.n_vertices().into());
             let opts = meshlap::partition::PartitionOptions::new(p);
             let mut stats = None;
-            let (m, t) = time(repeat, || {
-                let part = meshlap::partition::partition(&input.topology, &opts).unwrap();
+            let (m, t) = try_time(repeat, || {
+                let part = meshlap::partition::partition(&input.topology, &opts)?;
                 stats = Some(part.stats().clone());
-            });
+                Ok(())
+            })?;
             out.insert(
                 "partition".into(),
                 serde_json::json!({"median": m, "times": t, "stats": stats}),
@@ -419,16 +441,16 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                 reset_peak_rss();
                 out
             };
-            let (m, t) = time(repeat, || {
+            let (m, t) = try_time(repeat, || {
                 reset_peak_rss();
                 let mut c = cpu_seconds();
                 let t0 = Instant::now();
-                let input = open(&mesh, &OpenOptions::default()).unwrap();
+                let input = open(&mesh, &OpenOptions::default())?;
                 let t_open = t0.elapsed().as_secs_f64();
                 let cpu_open = phase(c);
                 c = cpu_seconds();
                 let opts = meshlap::partition::PartitionOptions::new(p);
-                let part = meshlap::partition::partition(&input.topology, &opts).unwrap();
+                let part = meshlap::partition::partition(&input.topology, &opts)?;
                 let t_part = t0.elapsed().as_secs_f64() - t_open;
                 let cpu_part = phase(c);
                 c = cpu_seconds();
@@ -438,8 +460,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                     kind,
                     keep,
                     &|_, _| {},
-                )
-                .unwrap();
+                )?;
                 let t_all = t0.elapsed().as_secs_f64();
                 let cpu_transform = phase(c);
                 let err = rec
@@ -456,7 +477,8 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                     "bbox_diagonal": input.mesh.bbox_diagonal(),
                     "cpu": {"open": cpu_open, "partition": cpu_part,
                         "transform": cpu_transform}});
-            });
+                Ok(())
+            })?;
             out.insert(
                 "project_patches".into(),
                 serde_json::json!({"median": m, "times": t, "info": info,
