@@ -48,6 +48,25 @@ fn patch_coordinates(b: &PatchBasis, positions: &[[f64; 3]]) -> Mat<f64> {
     Mat::from_fn(b.verts.len(), 3, |i, k| positions[b.verts[i] as usize][k])
 }
 
+/// The full bases of the patches `range` of `layout` (with their predictors when
+/// `owner` is given) and the unquantized coefficients (m×3) of the positions (n×3) on
+/// them, in parallel.
+fn bases_and_coefficients(
+    topo: &Topology,
+    params: &SpectralParams,
+    layout: &[PatchLayout],
+    owner: Option<&[u32]>,
+    positions: &[[f64; 3]],
+    range: std::ops::Range<usize>,
+) -> Result<(Vec<PatchBasis>, Vec<Mat<f64>>), CodecError> {
+    let b = bases_of(topo, params, ARITH, layout, owner, range, |_| usize::MAX)?;
+    let c = b
+        .par_iter()
+        .map(|b| b.analyze(&patch_coordinates(b, positions)))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok((b, c))
+}
+
 /// A coded spectral geometry stream.
 #[derive(Clone, Debug)]
 pub struct EncodedSpectral {
@@ -137,19 +156,14 @@ impl<'a> SpectralEncoder<'a> {
         let owner = predictor_owners(topo.n_vertices(), &params, &layout);
         let total: usize = layout.iter().map(|l| l.verts.len().pow(2) * 8).sum();
         let bases = if total <= budget {
-            let b = bases_of(
+            let (b, c) = bases_and_coefficients(
                 topo,
                 &params,
-                ARITH,
                 &layout,
                 owner.as_deref(),
+                positions,
                 0..layout.len(),
-                |_| usize::MAX,
             )?;
-            let c = b
-                .par_iter()
-                .map(|b| b.analyze(&patch_coordinates(b, positions)))
-                .collect::<Result<Vec<_>, _>>()?;
             Bases::Kept(b, c)
         } else {
             Bases::Streamed { owner, chunk }
@@ -245,21 +259,15 @@ impl<'a> SpectralEncoder<'a> {
             }
             Bases::Streamed { owner, chunk } => {
                 let ranges = chunks(&self.layout, *chunk);
-                let compute = |r: std::ops::Range<usize>| {
-                    let b = bases_of(
+                let compute = |r| {
+                    bases_and_coefficients(
                         self.topo,
                         &self.params,
-                        ARITH,
                         &self.layout,
                         owner.as_deref(),
+                        self.positions,
                         r,
-                        |_| usize::MAX,
-                    )?;
-                    let c = b
-                        .par_iter()
-                        .map(|b| b.analyze(&patch_coordinates(b, self.positions)))
-                        .collect::<Result<Vec<_>, _>>()?;
-                    Ok((b, c))
+                    )
                 };
                 stream(&ranges, compute, |_, (bases, coefs)| {
                     for (b, c) in bases.iter().zip(&coefs) {
