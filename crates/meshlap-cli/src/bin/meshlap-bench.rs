@@ -16,7 +16,7 @@
 //! (compress and decompress in memory, default settings or `--patch-size P`, `--mode M`,
 //! `--bits Q`, `--target-bpv B`; non-manifold vertices split first),
 //! `partial` (the `--count` smallest eigenpairs by banded shift-invert block
-//! Krylov–Schur; `--tol`, `--band`, `--block` override `PartialParams`), `partition`
+//! Krylov–Schur; `--tol`, `--band`, `--block`, `--no-refine` override `PartialParams`), `partition`
 //! (METIS patches of `--patch-size`), `project-patches` (partition + patch-wise
 //! truncated ED reconstruction, end to end, with the peak RSS).
 
@@ -123,7 +123,7 @@ fn main() {
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let usage = "usage: meshlap-bench load|operators|topology|io|read|spectrum|solvers|codec|partial|partition|project-patches MESH \
-                 [--repeat N] [--kind K] [--general] [--phases] [--lambda L] [--export DIR] [--count K] [--tol T] [--band B] [--block P] [--patch-size P] [--mode M] [--bits Q] [--target-bpv B] \
+                 [--repeat N] [--kind K] [--general] [--phases] [--lambda L] [--export DIR] [--count K] [--tol T] [--band B] [--block P] [--no-refine] [--patch-size P] [--mode M] [--bits Q] [--target-bpv B] \
                  | dump MESH DIR | write MESH OUT [--repeat N]";
     let task = args.first().ok_or(usage)?.clone();
     let mesh = args.get(1).ok_or(usage)?.clone();
@@ -376,6 +376,9 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             }
             if let Some(b) = flag(&args, "--block") {
                 opts.block_size = b.parse()?;
+            }
+            if args.iter().any(|a| a == "--no-refine") {
+                opts.refine = false;
             }
             let (m, t) = try_time(repeat, || {
                 let op = Operator::on_input(kind, &input)?;

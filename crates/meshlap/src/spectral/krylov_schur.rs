@@ -646,11 +646,12 @@ pub fn largest_magnitude(
         // Restart: keep k Ritz vectors and the residual block.
         info.restarts += 1;
         let k = (nev + 3 * (m - nev) / 10).clamp(nev, m - p);
-        let y = ritz_vectors(v.as_ref().subcols(0, s), q, &order[..k]);
         let resid_block = v.as_ref().subcols(s, p).to_owned();
         let q_last = Mat::from_fn(p, k, |i, j| q[(s - p + i, order[j])]);
         let coupling = r_last * &q_last;
-        v.as_mut().subcols_mut(0, k).copy_from(&y);
+        // The kept Ritz vectors V Q[:, order[..k]], in place (see `nn_in_place`).
+        let qsel = Mat::from_fn(s, k, |i, j| q[(i, order[j])]);
+        thin_products::nn_in_place(v.as_mut().subcols_mut(0, s), qsel.as_ref());
         v.as_mut().subcols_mut(k, p).copy_from(&resid_block);
         h.fill(0.0);
         for (j, &i) in order[..k].iter().enumerate() {

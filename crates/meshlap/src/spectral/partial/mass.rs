@@ -315,8 +315,8 @@ impl Metric {
             Self::Diagonal { sqrt, .. } => {
                 let s: Vec<f64> = sqrt.iter().map(|&r| scale(r)).collect();
                 for j in 0..x.ncols() {
-                    for (i, &si) in s.iter().enumerate() {
-                        x[(i, j)] *= si;
+                    for (v, &si) in x.as_mut().col_mut(j).iter_mut().zip(&s) {
+                        *v *= si;
                     }
                 }
                 return;

@@ -23,13 +23,12 @@
 use super::mass::Metric;
 use super::solve::ShiftInvert;
 use crate::spectral::krylov_schur::BlockOperator;
-use crate::spectral::thin_products::tn;
+use crate::spectral::thin_products::{nn_in_place, tn};
 use crate::SparseMatrix;
-use faer::linalg::matmul::matmul;
 use faer::linalg::triangular_solve::{
     solve_lower_triangular_in_place, solve_upper_triangular_in_place,
 };
-use faer::{Accum, Col, Mat, Par, Side};
+use faer::{Accum, Col, Mat, MatMut, MatRef, Par, Side};
 
 /// The refined pairs `(θ, w)` (ascending θ, `‖w‖ = 1`) of the band's pairs `found`
 /// (symmetric coordinates), or `None` when the refinement cannot be trusted (a
@@ -46,9 +45,12 @@ pub(super) fn polish(
     if b == 0 || b >= n {
         return None;
     }
-    let w = Mat::from_fn(n, b, |i, j| found[j].1[i]);
+    // Two n×b work matrices: `x` holds W, then C⁻ᵀY; `y` holds Y, then the new
+    // vectors (in place). With the product K C⁻ᵀY and the output, at most four n×b
+    // matrices are alive besides `found`.
+    let mut x = Mat::from_fn(n, b, |i, j| found[j].1[i]);
     let mut y = Mat::<f64>::zeros(n, b);
-    op.apply_block(w.as_ref(), y.as_mut());
+    op.apply_block(x.as_ref(), y.as_mut());
     // Scale each column back to unit length (the columns of A_σ W are the μ-scaled
     // w's), so that the QR sees a well-conditioned block.
     for j in 0..b {
@@ -64,25 +66,21 @@ pub(super) fn polish(
     // Ĥ = L⁻¹ (YᵀÂY) L⁻ᵀ = U Θ Uᵀ and the vectors are Y L⁻ᵀ U. Three n×b×b products
     // instead of a Householder QR and two products. A Cholesky failure (a
     // rank-deficient Y) keeps the Krylov–Schur pairs.
-    // Deterministic for a given thread count (fixed row split), unlike a parallel
-    // GEMM: the results must not change from run to run.
+    // Every product is deterministic for a given thread count (a fixed split of rows
+    // or columns, each part on one thread), unlike faer's parallel GEMM: the results
+    // must not change from run to run.
     let g = tn(y.as_ref(), y.as_ref());
     let llt = g.llt(Side::Lower).ok()?;
     let l = llt.L();
     // Â Y: x = M^{-1/2} Y (C⁻ᵀ Y), K x, then M^{-1/2} (C⁻¹) again.
-    let mut x = y.clone();
+    x.copy_from(&y);
     metric.solve_ct(x.as_mut());
     let mut kx = Mat::<f64>::zeros(n, b);
-    faer::sparse::linalg::matmul::sparse_dense_matmul(
-        kx.as_mut(),
-        Accum::Replace,
-        k.as_ref(),
-        x.as_ref(),
-        1.0,
-        Par::Seq,
-    );
+    sparse_times(k, x.as_ref(), kx.as_mut(), rayon::current_num_threads());
+    drop(x);
     metric.solve_c(kx.as_mut());
     let h = tn(y.as_ref(), kx.as_ref());
+    drop(kx);
     // Ĥ = L⁻¹ H L⁻ᵀ (H symmetrised), by two triangular solves.
     let mut hh = Mat::from_fn(b, b, |i, j| 0.5 * (h[(i, j)] + h[(j, i)]));
     solve_lower_triangular_in_place(l, hh.as_mut(), Par::Seq);
@@ -93,20 +91,12 @@ pub(super) fn polish(
     // Coefficients C = L⁻ᵀ U, then the vectors Y C (normalised below).
     let mut c = evd.U().to_owned();
     solve_upper_triangular_in_place(l.transpose(), c.as_mut(), Par::Seq);
-    let mut wn = Mat::<f64>::zeros(n, b);
-    matmul(
-        wn.as_mut(),
-        Accum::Replace,
-        y.as_ref(),
-        c.as_ref(),
-        1.0,
-        Par::Seq,
-    );
+    nn_in_place(y.as_mut(), c.as_ref());
     let s = evd.S();
     let mut out = Vec::with_capacity(b);
     for j in 0..b {
         let theta = s[j];
-        let mut col = wn.col(j).to_owned();
+        let mut col = y.col(j).to_owned();
         let norm = col.norm_l2();
         if !(theta.is_finite() && norm.is_finite() && norm > 0.0) {
             return None;
@@ -115,4 +105,27 @@ pub(super) fn polish(
         out.push((theta, col));
     }
     Some(out)
+}
+
+/// `out ← K x` with the columns of `x` split between `threads` (each column's product
+/// is computed alone, in one order, so the result does not depend on the split).
+fn sparse_times(k: &SparseMatrix, x: MatRef<'_, f64>, out: MatMut<'_, f64>, threads: usize) {
+    if threads <= 1 || x.ncols() <= 1 {
+        faer::sparse::linalg::matmul::sparse_dense_matmul(
+            out,
+            Accum::Replace,
+            k.as_ref(),
+            x,
+            1.0,
+            Par::Seq,
+        );
+        return;
+    }
+    let h = x.ncols() / 2;
+    let (x1, x2) = x.split_at_col(h);
+    let (o1, o2) = out.split_at_col_mut(h);
+    rayon::join(
+        || sparse_times(k, x1, o1, threads / 2),
+        || sparse_times(k, x2, o2, threads - threads / 2),
+    );
 }
