@@ -67,14 +67,21 @@ fn try_time<T>(
     }
 }
 
-/// `{"median": …, "times": […]}` of `repeat` runs of `f`.
-fn timing<T>(repeat: usize, f: impl FnMut() -> T) -> serde_json::Value {
-    let (m, t) = time(repeat, f);
-    serde_json::json!({"median": m, "times": t})
+/// `{"median": …, "times": […]}` of `repeat` runs of the fallible `f`; the first
+/// error ends the timing and is returned (see [`try_time`]).
+fn timing<T, E: Into<BoxError>>(
+    repeat: usize,
+    mut f: impl FnMut() -> Result<T, E>,
+) -> Result<serde_json::Value, BoxError> {
+    let (m, t) = try_time(repeat, || f().map_err(Into::into))?;
+    Ok(serde_json::json!({"median": m, "times": t}))
 }
 
 /// Connectivity alone (read and cleaning excluded), shared by all operators.
-fn topology_timing(input: &meshlap::input::Input, repeat: usize) -> serde_json::Value {
+fn topology_timing(
+    input: &meshlap::input::Input,
+    repeat: usize,
+) -> Result<serde_json::Value, BoxError> {
     timing(repeat, || {
         meshlap::mesh::topology::Topology::new(&input.mesh).map(|t| t.n_edges())
     })
@@ -137,7 +144,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         "load" => {
             let t = timing(repeat, || {
                 open(&mesh, &OpenOptions::default()).map(|i| i.mesh.n_faces())
-            });
+            })?;
             out.insert("load".into(), t);
             // The same work split into its phases: read (or generate), validate +
             // clean, connectivity.
@@ -178,7 +185,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                 }
                 let t = timing(repeat, || {
                     Operator::on_input(kind, &input).map(|o| o.matrix.compute_nnz())
-                });
+                })?;
                 out.insert(kind.name().into(), t);
             }
             if only.is_some() {
@@ -186,13 +193,13 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                 return Ok(());
             }
             // Connectivity is shared by all operators; time it separately.
-            out.insert("topology".into(), topology_timing(&input, repeat));
+            out.insert("topology".into(), topology_timing(&input, repeat)?);
         }
         "topology" => {
             // Connectivity alone (read and cleaning excluded).
             let input = open(&mesh, &OpenOptions::default())?;
             out.insert("vertices".into(), input.mesh.n_vertices().into());
-            out.insert("topology".into(), topology_timing(&input, repeat));
+            out.insert("topology".into(), topology_timing(&input, repeat)?);
         }
         "dump" => {
             // Every operator as Matrix Market, for the scripts to compare entries.
@@ -210,9 +217,11 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             // format, so the peak memory measured outside is this step's alone.
             let dest = std::path::PathBuf::from(args.get(2).ok_or(usage)?);
             let input = open(&mesh, &OpenOptions::default())?;
-            let (w, _) = time(repeat, || {
-                meshlap::io::write_mesh(&dest, &input.mesh, &Default::default()).map(|_| ())
-            });
+            let (w, _) = try_time(repeat, || {
+                meshlap::io::write_mesh(&dest, &input.mesh, &Default::default())
+                    .map(|_| ())
+                    .map_err(BoxError::from)
+            })?;
             let bytes = std::fs::metadata(&dest)?.len() as f64;
             out.insert("vertices".into(), input.mesh.n_vertices().into());
             out.insert(
@@ -224,9 +233,11 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             // Parse MESH (a file) into a mesh, without cleaning or connectivity.
             let path = std::path::PathBuf::from(&mesh);
             let bytes = std::fs::metadata(&path)?.len() as f64;
-            let (r, _) = time(repeat, || {
-                meshlap::io::read_mesh(&path, None).map(|l| l.mesh.n_faces())
-            });
+            let (r, _) = try_time(repeat, || {
+                meshlap::io::read_mesh(&path, None)
+                    .map(|l| l.mesh.n_faces())
+                    .map_err(BoxError::from)
+            })?;
             out.insert(
                 "read".into(),
                 serde_json::json!({"median": r, "bytes": bytes, "mb_s": bytes / r / 1e6}),
@@ -239,13 +250,17 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             let dir = tempfile::tempdir()?;
             for ext in ["ply", "obj"] {
                 let path = dir.path().join(format!("mesh.{ext}"));
-                let (w, _) = time(repeat, || {
-                    meshlap::io::write_mesh(&path, &input.mesh, &Default::default()).map(|_| ())
-                });
+                let (w, _) = try_time(repeat, || {
+                    meshlap::io::write_mesh(&path, &input.mesh, &Default::default())
+                        .map(|_| ())
+                        .map_err(BoxError::from)
+                })?;
                 let bytes = std::fs::metadata(&path)?.len() as f64;
-                let (r, _) = time(repeat, || {
-                    meshlap::io::read_mesh(&path, None).map(|l| l.mesh.n_faces())
-                });
+                let (r, _) = try_time(repeat, || {
+                    meshlap::io::read_mesh(&path, None)
+                        .map(|l| l.mesh.n_faces())
+                        .map_err(BoxError::from)
+                })?;
                 out.insert(
                     ext.into(),
                     serde_json::json!({"write": w, "read": r, "bytes": bytes,
@@ -284,12 +299,16 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             );
             out.insert("patch_size".into(), opts.spectral.patch_size.into());
             let c = meshlap::codec::compress(&mesh_c, &topo, &opts)?;
-            let (e, te) = time(repeat, || {
-                meshlap::codec::compress(&mesh_c, &topo, &opts).map(|c| c.bytes.len())
-            });
-            let (d, td) = time(repeat, || {
-                meshlap::codec::decompress(&c.bytes).map(|m| m.n_faces())
-            });
+            let (e, te) = try_time(repeat, || {
+                meshlap::codec::compress(&mesh_c, &topo, &opts)
+                    .map(|c| c.bytes.len())
+                    .map_err(BoxError::from)
+            })?;
+            let (d, td) = try_time(repeat, || {
+                meshlap::codec::decompress(&c.bytes)
+                    .map(|m| m.n_faces())
+                    .map_err(BoxError::from)
+            })?;
             out.insert("bits_per_vertex".into(), c.report.bits_per_vertex.into());
             out.insert(
                 "geometry_mode".into(),
@@ -329,7 +348,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                     path,
                     ..Default::default()
                 };
-                let t = timing(repeat, || EigenBasis::compute(&op, &opts).map(|b| b.len()));
+                let t = timing(repeat, || EigenBasis::compute(&op, &opts).map(|b| b.len()))?;
                 out.insert(name.into(), t);
                 if only.is_some_and(|k| k.ends_with("-coefficients")) {
                     // The basis and the coefficients X of the positions (n×3): what
@@ -339,7 +358,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                     let t = timing(repeat, || -> Result<usize, BoxError> {
                         let b = EigenBasis::compute(&op, &opts)?;
                         Ok(meshlap::spectral::forward(&b, x.as_ref())?.nrows())
-                    });
+                    })?;
                     out.insert(format!("{name}-coefficients"), t);
                 }
                 if path == EigenPath::General {
@@ -677,19 +696,19 @@ fn solvers(
         let a = solver.system_matrix();
         let with_t = CsrWithTranspose::new(a.clone());
         // A fresh workspace per solve: the buffers are allocated inside the timing.
-        let (med, times) = time(repeat, || {
+        let (med, times) = try_time(repeat, || {
             let mut x = vec![0.0; rhs.len()];
             let ws = &mut Workspace::new();
             let info = if kind_bicg {
                 meshlap::solve::bicg(&with_t, rhs, &mut x, 3, &params.into(), None, ws)
-                    .map(|i| i.info)
-                    .expect("solve")
+                    .map(|i| i.info)?
             } else {
-                meshlap::solve::cg(a, rhs, &mut x, 3, &params, None, ws).expect("solve")
+                meshlap::solve::cg(a, rhs, &mut x, 3, &params, None, ws)?
             };
             last = Some(info);
-        });
-        let info = last.expect("ran");
+            Ok(())
+        })?;
+        let info = last.ok_or("no solve ran (--repeat 0)")?;
         let its = *info.iterations.iter().max().unwrap_or(&1);
         // Memory traffic per iteration (bytes read + written) in n×3 f64 blocks of 24n
         // bytes, for the passes the solvers make. CG: q = Ap fused with pᵀq (matrix,
@@ -718,18 +737,18 @@ fn solvers(
     }
     // Sparse Cholesky of I + λS: symbolic + numeric factorisation + solve of 3 columns.
     let a = cg_sql.system_matrix().to_csc();
-    let (med, times) = time(repeat, || {
-        let c = CholeskySolver::new(&a).expect("SPD");
+    let (med, times) = try_time(repeat, || {
+        let c = CholeskySolver::new(&a)?;
         let mut x = b.clone();
-        c.solve_in_place(&mut x, 3).expect("solve");
-        x[0]
-    });
+        c.solve_in_place(&mut x, 3)?;
+        Ok(x[0])
+    })?;
     let chol = CholeskySolver::new(&a)?;
-    let (solve_med, _) = time(repeat, || {
+    let (solve_med, _) = try_time(repeat, || {
         let mut x = b.clone();
-        chol.solve_in_place(&mut x, 3).expect("solve");
-        x[0]
-    });
+        chol.solve_in_place(&mut x, 3)?;
+        Ok(x[0])
+    })?;
     out.insert(
         "cholesky_sql".into(),
         serde_json::json!({"median": med, "times": times, "solve_only": solve_med}),
