@@ -6,9 +6,9 @@
 //! - [`nn_in_place`]: `V ← V C` for a wide `C` (the restarts' and the refinement's
 //!   coefficients), by faer's GEMM on blocks of rows.
 //!
-//! Both stream `V` once and are memory-bound: `V` is hundreds of basis vectors (the
-//! bunny's 200-pair bands hold up to 500 vectors of 34,817 entries, 140 MB), far
-//! beyond the caches, while `W` is a few MB. The kernels split the rows between the
+//! The first two stream `V` once and are memory-bound: `V` is hundreds of basis
+//! vectors (the bunny's 200-pair bands hold up to 500 vectors of 34,817 entries,
+//! 140 MB), far beyond the caches, while `W` is a few MB. The kernels split the rows between the
 //! rayon threads, walk each thread's rows in chunks of [`CHUNK`] rows (the chunk of
 //! `W`, at most 16×2048×8 B = 256 KiB, stays in L2) and, within a chunk, go down the
 //! contiguous columns of `V`: every byte of `V` is read once, in runs of 16 KiB that
