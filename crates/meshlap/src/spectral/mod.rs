@@ -32,6 +32,7 @@ pub mod krylov_schur;
 pub mod partial;
 pub mod patchwise;
 pub mod project;
+pub(crate) mod refined_evd;
 pub mod sign;
 pub mod smallest;
 pub(crate) mod thin_products;
