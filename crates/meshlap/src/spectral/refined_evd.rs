@@ -7,14 +7,15 @@
 //! ## Why
 //! The Rayleigh–Ritz step of [`super::krylov_schur`] diagonalises the projected
 //! matrix `T` (s×s, s up to 5/2 of the wanted pairs) with faer's dense self-adjoint
-//! eigensolver, whose eigenvectors carry a residual `‖T qᵢ − θᵢ qᵢ‖` of a few
-//! `10⁻¹³·‖T‖` at s ≈ 500 (measured on the bunny's robust_laplacian (L, M): 1.4e-16
-//! with ‖T‖ = 3.8e-4). Krylov–Schur never sees that error: its residual estimate
-//! `‖R Q_last‖` assumes `T qᵢ = θᵢ qᵢ` exactly, and the restart's `H = diag(θ)`
-//! drops it. For a wanted pair far from the shift (`|θᵢ|` 15x below `‖T‖`) it
-//! leaves a true residual of `10⁻¹¹·|θᵢ|` however small the tolerance — the floor
-//! that kept the generalized problems' residuals 50–100x above ARPACK's. One
-//! refinement step brings the residual to about `√s·ε·‖T‖` with four s×s products.
+//! eigensolver, whose eigenvectors on these thick-restart matrices carry residuals
+//! `‖T qᵢ − θᵢ qᵢ‖` hundreds of times above LAPACK's (about `10⁻¹³–10⁻¹²·‖T‖` at
+//! s ≈ 500; figures in BENCHMARKS.md, "Python API"). Krylov–Schur never sees that
+//! error: its residual estimate `‖R Q_last‖` assumes `T qᵢ = θᵢ qᵢ` exactly, and the
+//! restart's `H = diag(θ)` drops it. A wanted pair far from the shift (`|θᵢ|` an
+//! order of magnitude below `‖T‖`) is left with a true residual of about
+//! `10⁻¹¹·|θᵢ|` however small the tolerance — the floor that kept the generalized
+//! problems' residuals far above ARPACK's. One refinement step brings the residual
+//! to about `√s·ε·‖T‖` with four s×s products.
 //!
 //! ## Method
 //! With `R = I − QᵀQ`, `S = Qᵀ T Q` (symmetrised), `λ̃ᵢ = Sᵢᵢ / (1 − Rᵢᵢ)`:
