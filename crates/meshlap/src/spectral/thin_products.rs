@@ -105,6 +105,32 @@ pub fn nn_in_place(v: MatMut<'_, f64>, c: MatRef<'_, f64>) {
     });
 }
 
+/// `f(out, x)` on fixed column halves of `out` and `x` (n×q each), recursively
+/// until one of `threads` is left or fewer than `min_cols` columns remain, the
+/// halves on `rayon::join`. Each part is computed by one sequential call in a split
+/// that depends only on the thread count, so the bits do not change from run to run
+/// (faer's parallel products may). Used where each output column depends only on
+/// the same input column (`K X`, `A B` by columns of `B`).
+pub(crate) fn by_column_halves(
+    out: MatMut<'_, f64>,
+    x: MatRef<'_, f64>,
+    threads: usize,
+    min_cols: usize,
+    f: &(dyn Fn(MatMut<'_, f64>, MatRef<'_, f64>) + Sync),
+) {
+    if threads <= 1 || x.ncols() < min_cols.max(2) {
+        f(out, x);
+        return;
+    }
+    let h = x.ncols() / 2;
+    let (x1, x2) = x.split_at_col(h);
+    let (o1, o2) = out.split_at_col_mut(h);
+    rayon::join(
+        || by_column_halves(o1, x1, threads / 2, min_cols, f),
+        || by_column_halves(o2, x2, threads - threads / 2, min_cols, f),
+    );
+}
+
 /// `W ← W − V C` for tall `V` (n×s), `C` (s×p), `W` (n×p).
 pub fn sub_nn(w: MatMut<'_, f64>, v: MatRef<'_, f64>, c: MatRef<'_, f64>) {
     assert_eq!(v.nrows(), w.nrows(), "sub_nn: row counts differ");

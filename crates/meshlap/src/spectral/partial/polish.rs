@@ -23,12 +23,12 @@
 use super::mass::Metric;
 use super::solve::ShiftInvert;
 use crate::spectral::krylov_schur::BlockOperator;
-use crate::spectral::thin_products::{nn_in_place, tn};
+use crate::spectral::thin_products::{by_column_halves, nn_in_place, tn};
 use crate::SparseMatrix;
 use faer::linalg::triangular_solve::{
     solve_lower_triangular_in_place, solve_upper_triangular_in_place,
 };
-use faer::{Accum, Col, Mat, MatMut, MatRef, Par, Side};
+use faer::{Accum, Col, Mat, Par, Side};
 
 /// The refined pairs `(θ, w)` (ascending θ, `‖w‖ = 1`) of the band's pairs `found`
 /// (symmetric coordinates), or `None` when the refinement cannot be trusted (a
@@ -76,7 +76,23 @@ pub(super) fn polish(
     x.copy_from(&y);
     metric.solve_ct(x.as_mut());
     let mut kx = Mat::<f64>::zeros(n, b);
-    sparse_times(k, x.as_ref(), kx.as_mut(), rayon::current_num_threads());
+    // Split by columns (each column's product alone, in one order).
+    by_column_halves(
+        kx.as_mut(),
+        x.as_ref(),
+        rayon::current_num_threads(),
+        2,
+        &|out, x| {
+            faer::sparse::linalg::matmul::sparse_dense_matmul(
+                out,
+                Accum::Replace,
+                k.as_ref(),
+                x,
+                1.0,
+                Par::Seq,
+            )
+        },
+    );
     drop(x);
     metric.solve_c(kx.as_mut());
     let h = tn(y.as_ref(), kx.as_ref());
@@ -105,27 +121,4 @@ pub(super) fn polish(
         out.push((theta, col));
     }
     Some(out)
-}
-
-/// `out ← K x` with the columns of `x` split between `threads` (each column's product
-/// is computed alone, in one order, so the result does not depend on the split).
-fn sparse_times(k: &SparseMatrix, x: MatRef<'_, f64>, out: MatMut<'_, f64>, threads: usize) {
-    if threads <= 1 || x.ncols() <= 1 {
-        faer::sparse::linalg::matmul::sparse_dense_matmul(
-            out,
-            Accum::Replace,
-            k.as_ref(),
-            x,
-            1.0,
-            Par::Seq,
-        );
-        return;
-    }
-    let h = x.ncols() / 2;
-    let (x1, x2) = x.split_at_col(h);
-    let (o1, o2) = out.split_at_col_mut(h);
-    rayon::join(
-        || sparse_times(k, x1, o1, threads / 2),
-        || sparse_times(k, x2, o2, threads - threads / 2),
-    );
 }
