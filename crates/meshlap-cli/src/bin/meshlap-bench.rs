@@ -8,8 +8,9 @@
 //! GL similarity and by the general eigensolver plus LU; `--kind K` keeps one of
 //! kirchhoff, sql, tutte, tutte-general, or tutte-coefficients (adds the basis plus
 //! the coefficients of the positions); each symmetric case also times faer alone,
-//! `K-faer-only`: dense copy + `self_adjoint_evd`, and `--phases` splits that into
-//! faer's phases), `solvers` (implicit-fairing
+//! `K-faer-only`: dense copy + `self_adjoint_evd`, `K-blocked-only`: dense copy +
+//! `blocked_evd::symmetric_evd`, and `--phases` splits faer's time into its
+//! phases), `solvers` (implicit-fairing
 //! solves of `(I + λS)`, `(I + λT)`, `(D + λK)` with CG/BiCG/Cholesky, a streaming-copy
 //! bandwidth measurement and the memory-traffic bound per iteration; `--lambda L`, and
 //! `--export DIR` writes the matrices and right-hand side for the scipy side), `codec`
@@ -369,6 +370,10 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                 // canonicalisation.
                 let t = timing(repeat, || faer_only(&op))?;
                 out.insert(format!("{name}-faer-only"), t);
+                // meshlap's blocked solver alone on the same matrix (the default of
+                // the basis): dense copy + `blocked_evd::symmetric_evd`.
+                let t = timing(repeat, || blocked_only(&op))?;
+                out.insert(format!("{name}-blocked-only"), t);
                 if args.iter().any(|a| a == "--phases") {
                     out.insert(format!("{name}-phases"), faer_phases(&op, repeat)?);
                 }
@@ -517,6 +522,16 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
 /// default parameters, [`meshlap::spectral::basis::PARALLELISM_DEGREE`] tasks).
 fn faer_only(op: &Operator) -> Result<f64, BoxError> {
     faer_only_on(&faer_dense(op)?)
+}
+
+/// The matrix of [`faer_only`] decomposed by meshlap's blocked solver
+/// (`spectral::blocked_evd`) with the basis' parallelism.
+fn blocked_only(op: &Operator) -> Result<f64, BoxError> {
+    let a = faer_dense(op)?;
+    let par = faer::Par::rayon(meshlap::spectral::basis::PARALLELISM_DEGREE);
+    let (lam, u) = meshlap::spectral::blocked_evd::symmetric_evd(a.as_ref(), par)
+        .ok_or("blocked_evd: no convergence")?;
+    Ok(lam[0] + u[(0, 0)])
 }
 
 /// The dense symmetric matrix of [`faer_only`]: the operator, or for a diagonally

@@ -8,6 +8,8 @@
 //! - [`basis`]: the dense eigenbasis `E` of an operator (symmetric, symmetrized
 //!   through a positive diagonal similarity — the TL through the GL — or general),
 //!   with canonical, deterministic vectors.
+//! - [`blocked_evd`]: the default dense symmetric eigensolver (LAPACK's blocked
+//!   tridiagonalisation, faer's divide and conquer).
 //! - [`dense_evd`]: a bit-reproducible dense symmetric eigensolver for small n (the
 //!   codec's patches), selectable in [`BasisOptions::dense_solver`].
 //! - [`transform`]: the forward ED-transform `X = E⁻¹x`, its inverse and the truncated
@@ -17,6 +19,7 @@
 //!   2011) from the smallest eigenpairs.
 
 pub mod basis;
+pub mod blocked_evd;
 pub mod compaction;
 pub mod dense_evd;
 pub mod descriptors;

@@ -138,8 +138,13 @@ pub enum Normalization {
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum DenseSolver {
-    /// faer's `self_adjoint_evd` (tridiagonalisation, divide and conquer), parallel.
+    /// [`crate::spectral::blocked_evd`]: LAPACK's blocked tridiagonalisation
+    /// (`dsytrd`), faer's tridiagonal divide and conquer and a blocked
+    /// back-transformation, parallel. The fastest above a few hundred vertices.
     #[default]
+    Blocked,
+    /// faer's own `self_adjoint_evd` (unblocked tridiagonalisation, divide and
+    /// conquer), parallel: the reference the blocked solver is checked against.
     Faer,
     /// [`crate::spectral::dense_evd`]: sequential, the same bits on every CPU, and
     /// faster than faer for n up to a few hundred (the codec's patches).
@@ -150,6 +155,7 @@ impl DenseSolver {
     /// Name used on the command line and in JSON.
     pub fn name(self) -> &'static str {
         match self {
+            DenseSolver::Blocked => "blocked",
             DenseSolver::Faer => "faer",
             DenseSolver::Reproducible => "reproducible",
         }
@@ -166,11 +172,12 @@ impl std::str::FromStr for DenseSolver {
     type Err = SpectralError;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         Ok(match s.to_ascii_lowercase().as_str() {
+            "blocked" => DenseSolver::Blocked,
             "faer" => DenseSolver::Faer,
             "reproducible" => DenseSolver::Reproducible,
             _ => {
                 return Err(SpectralError::InvalidArgument(format!(
-                    "unknown dense solver {s:?} (faer or reproducible)"
+                    "unknown dense solver {s:?} (blocked, faer or reproducible)"
                 )))
             }
         })
@@ -202,7 +209,7 @@ impl Default for BasisOptions {
             path: EigenPath::Auto,
             normalization: Normalization::Unit,
             cluster_tolerance: Self::DEFAULT_CLUSTER_TOLERANCE,
-            dense_solver: DenseSolver::Faer,
+            dense_solver: DenseSolver::Blocked,
         }
     }
 }
@@ -532,7 +539,8 @@ fn parallelism() -> Par {
 
 /// Eigenvalues (all, ascending) and eigenvectors of the dense symmetric `a`: with the
 /// reproducible solver those of the `count` smallest eigenvalues, `count` extended to
-/// the end of its cluster (relative gap `cluster_tolerance`); with faer's, all.
+/// the end of its cluster (relative gap `cluster_tolerance`); with the blocked solver
+/// or faer's, all.
 fn dense_symmetric(
     a: &Mat<f64>,
     par: Par,
@@ -555,6 +563,13 @@ fn dense_symmetric(
         return super::dense_evd::symmetric_evd_lowest_by(a.as_ref(), &through_cluster).ok_or(
             SpectralError::NoConvergence {
                 path: "symmetric (reproducible solver)",
+            },
+        );
+    }
+    if solver == DenseSolver::Blocked {
+        return super::blocked_evd::symmetric_evd(a.as_ref(), par).ok_or(
+            SpectralError::NoConvergence {
+                path: "symmetric (blocked solver)",
             },
         );
     }

@@ -1,0 +1,752 @@
+//! Eigendecomposition of a dense symmetric matrix, `A = E Λ Eᵀ` (n×n, Λ ascending,
+//! E orthonormal), with LAPACK's blocked tridiagonalisation (`dsytrd`/`dlatrd`),
+//! faer's tridiagonal divide and conquer and a blocked back-transformation: the
+//! default dense solver of [`crate::spectral::basis`] (the paper's Fig. 3 and every
+//! dense ED transform).
+//!
+//! **Why by hand.** faer's `self_adjoint_evd` reduces one column at a time: each step
+//! reads *and writes* the whole trailing triangle (a fused rank-2 update and product).
+//! LAPACK's `dsytrd` reduces a panel of [`PANEL`] columns with products against the
+//! not-yet-updated trailing matrix plus low-rank corrections (`dlatrd`), and updates
+//! the trailing matrix once per panel with a rank-2·[`PANEL`] `syr2k` (a matrix
+//! product, compute-bound): per column one *read* of the trailing triangle instead of
+//! a read and a write. At the sizes of the paper's experiments (n ≈ 500–3000, 2–70 MB)
+//! the reduction is bound by memory traffic, so this halves its dominant cost. faer
+//! exposes the other two stages (`tridiagonal_self_adjoint_evd`: divide and conquer,
+//! the same code its `self_adjoint_evd` runs; matrix products for the
+//! back-transformation), so only the reduction is written here; the better home for
+//! it is a contribution to faer.
+//!
+//! **Method** (Golub & Van Loan §8.3.1, LAPACK `dsytrd`, `dlatrd`, `dlarfg`,
+//! `dlarft`, `dormtr`):
+//! 1. Scale by a power of two (exact) so that `max |a_ij|` is in `[1, 2)`.
+//! 2. For each panel of columns `i..i+b` of the trailing matrix `A₂₂`: for each
+//!    column, bring it up to date with the panel's earlier reflectors
+//!    (`a ← a − V wᵢᵀ − W vᵢᵀ`), make the Householder reflector `Hᵢ = I − τ v vᵀ`
+//!    that zeroes it below the subdiagonal, and form
+//!    `w = τ (A₂₂ v − V Wᵀ v − W Vᵀ v)`, `w ← w − ½ τ (wᵀv) v` (one fused pass over
+//!    the lower triangle of `A₂₂`, meshlap's own kernel: the axpy of the lower part
+//!    and the dot of the upper part of each column together). Then
+//!    `A₂₂ ← A₂₂ − V Wᵀ − W Vᵀ` on the lower triangle (faer's triangular product).
+//! 3. The eigenvalues and eigenvectors `Z` of the tridiagonal matrix by faer's divide
+//!    and conquer (`faer::linalg::evd::tridiagonal_self_adjoint_evd`).
+//! 4. `E = Q Z` with `Q = H₀ H₁ ⋯ H_{n−2}` by faer's blocked Householder sequence
+//!    (`I − V T⁻¹ Vᵀ` per block, the factor `T` formed here from the reflectors).
+//!
+//! The result is deterministic for a fixed thread count (the product's column split
+//! depends on it). For bit-identical results on any CPU use
+//! [`crate::spectral::dense_evd`].
+
+use faer::linalg::matmul::matmul;
+use faer::linalg::matmul::triangular::{self, BlockStructure};
+use faer::prelude::{Reborrow, ReborrowMut};
+use faer::{Accum, Mat, MatMut, MatRef, Par};
+
+/// Columns reduced per panel before the trailing `syr2k` update (LAPACK's default
+/// `NB` for `dsytrd`).
+pub const PANEL: usize = 32;
+
+/// Below this trailing size the fused product runs on one thread.
+const PAR_MIN: usize = 384;
+
+/// Eigenvalues (ascending) and orthonormal eigenvectors (n×n, column j for λ_j) of
+/// the symmetric matrix whose **lower triangle** is `a` (n×n; the upper triangle is
+/// not read). `par` is the parallelism of the products. `None` if `a` is not square,
+/// has a non-finite entry in its lower triangle, or faer's divide and conquer does not
+/// converge.
+pub fn symmetric_evd(a: MatRef<'_, f64>, par: Par) -> Option<(Vec<f64>, Mat<f64>)> {
+    let n = a.nrows();
+    if a.ncols() != n {
+        return None;
+    }
+    if n == 0 {
+        return Some((Vec::new(), Mat::zeros(0, 0)));
+    }
+    let mut amax = 0.0f64;
+    for j in 0..n {
+        for &x in &a.col(j).try_as_col_major()?.as_slice()[j..] {
+            if !x.is_finite() {
+                return None;
+            }
+            amax = amax.max(x.abs());
+        }
+    }
+    if amax == 0.0 {
+        return Some((vec![0.0; n], Mat::identity(n, n)));
+    }
+    let exp = (((amax.to_bits() >> 52) & 0x7ff) as i32 - 1023).clamp(-1000, 1000);
+    let (scale, unscale) = (pow2(-exp), pow2(exp));
+    let mut w = Mat::<f64>::zeros(n, n);
+    for j in 0..n {
+        let src = &a.col(j).try_as_col_major()?.as_slice()[j..];
+        let dst = &mut w.col_mut(j).try_as_col_major_mut()?.as_slice_mut()[j..];
+        for (d, s) in dst.iter_mut().zip(src) {
+            *d = s * scale;
+        }
+    }
+    let (diag, sub, tau) = tridiagonalize(w.as_mut(), par);
+    let mut z = Mat::<f64>::zeros(n, n);
+    let mut s = faer::diag::Diag::<f64>::zeros(n);
+    {
+        use faer::dyn_stack::{MemBuffer, MemStack};
+        use faer::linalg::evd::{self, ComputeEigenvectors};
+        let mut mem = MemBuffer::new(evd::self_adjoint_evd_scratch::<f64>(
+            n,
+            ComputeEigenvectors::Yes,
+            par,
+            Default::default(),
+        ));
+        let diag = faer::ColRef::from_slice(&diag);
+        let sub = faer::ColRef::from_slice(&sub);
+        evd::tridiagonal_self_adjoint_evd(
+            diag.as_diagonal(),
+            sub.as_diagonal(),
+            s.as_mut(),
+            Some(z.as_mut()),
+            par,
+            MemStack::new(&mut mem),
+            Default::default(),
+        )
+        .ok()?;
+    }
+    back_transform(w.as_ref(), &tau, z.as_mut(), par);
+    let lam: Vec<f64> = (0..n).map(|i| s[i] * unscale).collect();
+    if lam.iter().any(|x| !x.is_finite()) {
+        return None;
+    }
+    Some((lam, z))
+}
+
+/// `2^e` for |e| ≤ 1000, exactly.
+fn pow2(e: i32) -> f64 {
+    f64::from_bits(((e + 1023) as u64) << 52)
+}
+
+/// Reduces the symmetric matrix whose lower triangle is `a` (n×n, n ≥ 1) to
+/// tridiagonal form `Qᵀ A Q = T` (`dsytrd`, lower). Returns T's diagonal (n), its
+/// subdiagonal (n entries, the last 0) and the n − 1 reflector coefficients τ; the
+/// reflector `v_j` (unit at row j + 1) is left in `a[j+2.., j]`, and `a[j+1, j]`
+/// holds T's subdiagonal entry.
+fn tridiagonalize(mut a: MatMut<'_, f64>, par: Par) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let n = a.nrows();
+    let mut d = vec![0.0f64; n];
+    let mut e = vec![0.0f64; n];
+    let mut tau = vec![0.0f64; n.saturating_sub(1)];
+    let mut wbuf = Mat::<f64>::zeros(n, PANEL);
+    let mut ybufs = vec![vec![0.0f64; n]; par.degree().max(1)];
+    let mut ubuf = Mat::<f64>::zeros(n, 4 * PANEL);
+    let mut i0 = 0;
+    while i0 + 1 < n {
+        let m = n - i0;
+        let nb = PANEL.min(m - 1);
+        let mut sub = a.rb_mut().submatrix_mut(i0, i0, m, m);
+        let mut w = wbuf.as_mut().submatrix_mut(0, 0, m, nb);
+        panel(
+            sub.rb_mut(),
+            w.rb_mut(),
+            &mut e[i0..i0 + nb],
+            &mut tau[i0..i0 + nb],
+            par,
+            &mut ybufs,
+        );
+        {
+            let (_, _, v, a22) = sub.rb_mut().split_at_mut(nb, nb);
+            syr2k_lower(a22, v.rb(), w.rb().subrows(nb, m - nb), &mut ubuf, par);
+        }
+        for j in 0..nb {
+            sub[(j + 1, j)] = e[i0 + j];
+            d[i0 + j] = sub[(j, j)];
+        }
+        i0 += nb;
+    }
+    d[n - 1] = a[(n - 1, n - 1)];
+    (d, e, tau)
+}
+
+/// Columns per block of [`syr2k_lower`].
+const SYR2K_BLOCK: usize = 48;
+
+/// `A ← A − V Wᵀ − W Vᵀ` on the lower triangle of `a` (r×r; `v`, `w` r×b): one
+/// product `[V W] [W V]ᵀ` of inner dimension 2b per block of [`SYR2K_BLOCK`]
+/// columns, restricted to the rows at and below the block (the strict upper
+/// triangle inside a diagonal block is written too: it is never read). The blocks
+/// run in parallel, each product on one thread. faer's triangular product reaches
+/// about a third of the speed of plain products here (measured), hence the blocks.
+fn syr2k_lower(
+    mut a: MatMut<'_, f64>,
+    v: MatRef<'_, f64>,
+    w: MatRef<'_, f64>,
+    ubuf: &mut Mat<f64>,
+    par: Par,
+) {
+    let (r, b) = (v.nrows(), v.ncols());
+    if r == 0 || b == 0 {
+        return;
+    }
+    let (mut u, mut z) = ubuf
+        .as_mut()
+        .submatrix_mut(0, 0, r, 4 * b)
+        .split_at_col_mut(2 * b);
+    u.rb_mut().subcols_mut(0, b).copy_from(v);
+    u.rb_mut().subcols_mut(b, b).copy_from(w);
+    z.rb_mut().subcols_mut(0, b).copy_from(w);
+    z.rb_mut().subcols_mut(b, b).copy_from(v);
+    let (u, z) = (u.rb(), z.rb());
+    let mut blocks = Vec::with_capacity(r.div_ceil(SYR2K_BLOCK));
+    let mut rest = a.rb_mut();
+    let mut c0 = 0;
+    while c0 < r {
+        let cb = SYR2K_BLOCK.min(r - c0);
+        let (block, tail) = rest.split_at_col_mut(cb);
+        blocks.push((c0, block.subrows_mut(c0, r - c0)));
+        rest = tail;
+        c0 += cb;
+    }
+    let update = |(c0, block): (usize, MatMut<'_, f64>)| {
+        let cb = block.ncols();
+        matmul(
+            block,
+            Accum::Add,
+            u.subrows(c0, r - c0),
+            z.subrows(c0, cb).transpose(),
+            -1.0,
+            Par::Seq,
+        );
+    };
+    if par.degree() > 1 && r >= PAR_MIN {
+        use rayon::prelude::*;
+        blocks.into_par_iter().for_each(update);
+    } else {
+        blocks.into_iter().for_each(update);
+    }
+}
+
+/// `dlatrd` (lower) on the trailing matrix `a` (m×m): reduces its first `w.ncols()`
+/// columns (< m) and fills `w` (m×nb) so that the update of `a[nb.., nb..]` is
+/// `− V Wᵀ − W Vᵀ`. On return `a[j+1, j] = 1` (the reflector's unit, restored by the
+/// caller), `e[j]` holds the subdiagonal entry and `tau[j]` the coefficient.
+fn panel(
+    mut a: MatMut<'_, f64>,
+    mut w: MatMut<'_, f64>,
+    e: &mut [f64],
+    tau: &mut [f64],
+    par: Par,
+    ybufs: &mut [Vec<f64>],
+) {
+    let m = a.nrows();
+    let nb = w.ncols();
+    let mut t = Mat::<f64>::zeros(nb, 1);
+    for i in 0..nb {
+        // Bring column i up to date with the panel's reflectors 0..i.
+        if i > 0 {
+            let (vl, mut right) = a.rb_mut().split_at_col_mut(i);
+            let (wl, _) = w.rb_mut().split_at_col_mut(i);
+            let mut ai = right.rb_mut().col_mut(0).subrows_mut(i, m - i);
+            let (vl, wl) = (vl.rb(), wl.rb());
+            matmul(
+                ai.rb_mut().as_mat_mut(),
+                Accum::Add,
+                vl.subrows(i, m - i),
+                wl.row(i).transpose().as_mat(),
+                -1.0,
+                Par::Seq,
+            );
+            matmul(
+                ai.rb_mut().as_mat_mut(),
+                Accum::Add,
+                wl.subrows(i, m - i),
+                vl.row(i).transpose().as_mat(),
+                -1.0,
+                Par::Seq,
+            );
+        }
+        // The reflector that zeroes a[i+2.., i] (`dlarfg`, with τ recomputed as
+        // 2 / vᵀv as faer does, so that the back-transformation's factor — built from
+        // v alone — describes exactly the reflector applied here; a zero tail gets
+        // τ = 0, the identity, whose factor entry is 1/τ = ∞ as in faer).
+        let t_i;
+        {
+            let col = a
+                .rb_mut()
+                .col_mut(i)
+                .try_as_col_major_mut()
+                .unwrap()
+                .as_slice_mut();
+            let (head, tail) = col[i + 1..].split_at_mut(1);
+            let alpha = head[0];
+            let xnorm = faer::ColRef::from_slice(tail).norm_l2();
+            if xnorm == 0.0 {
+                t_i = 0.0;
+                e[i] = alpha;
+            } else {
+                let beta = -alpha.hypot(xnorm).copysign(alpha);
+                let s = 1.0 / (alpha - beta);
+                tail.iter_mut().for_each(|x| *x *= s);
+                let tn = faer::ColRef::from_slice(tail).norm_l2();
+                t_i = 2.0 / tn.mul_add(tn, 1.0);
+                e[i] = beta;
+            }
+            head[0] = 1.0;
+            tau[i] = t_i;
+        }
+        // w = τ (A₂₂ v − V Wᵀ v − W Vᵀ v), then w ← w − ½ τ (wᵀ v) v.
+        let r = m - i - 1;
+        let (left, right) = a.rb_mut().split_at_col_mut(i + 1);
+        let (left, right) = (left.rb(), right.rb());
+        let v = left.col(i).subrows(i + 1, r);
+        let (wl, wr) = w.rb_mut().split_at_col_mut(i);
+        let mut wi = wr.col_mut(0).subrows_mut(i + 1, r);
+        symv_lower(
+            right.submatrix(i + 1, 0, r, r),
+            v.try_as_col_major().unwrap().as_slice(),
+            wi.rb_mut().try_as_col_major_mut().unwrap().as_slice_mut(),
+            par,
+            ybufs,
+        );
+        if i > 0 {
+            let vl = left.submatrix(i + 1, 0, r, i);
+            let wl = wl.rb().submatrix(i + 1, 0, r, i);
+            let mut ti = t.as_mut().subrows_mut(0, i);
+            for (x, y) in [(wl, vl), (vl, wl)] {
+                matmul(
+                    ti.rb_mut(),
+                    Accum::Replace,
+                    x.transpose(),
+                    v.as_mat(),
+                    1.0,
+                    Par::Seq,
+                );
+                matmul(
+                    wi.rb_mut().as_mat_mut(),
+                    Accum::Add,
+                    y,
+                    ti.rb(),
+                    -1.0,
+                    Par::Seq,
+                );
+            }
+        }
+        let wi = wi.try_as_col_major_mut().unwrap().as_slice_mut();
+        let v = v.try_as_col_major().unwrap().as_slice();
+        wi.iter_mut().for_each(|x| *x *= t_i);
+        let dot: f64 = wi.iter().zip(v).map(|(x, y)| x * y).sum();
+        let alpha = -0.5 * t_i * dot;
+        wi.iter_mut().zip(v).for_each(|(x, y)| *x += alpha * y);
+    }
+}
+
+/// `y = A v` for the symmetric `A` whose lower triangle is `a` (r×r), one pass over
+/// the lower triangle: column j adds `a[j.., j] v_j` to `y[j..]` and `a[j+1.., j]ᵀ
+/// v[j+1..]` to `y_j`. With `par`, the columns are split into ranges of equal
+/// triangle area, each thread summing into its own buffer of `ybufs`.
+fn symv_lower(a: MatRef<'_, f64>, v: &[f64], y: &mut [f64], par: Par, ybufs: &mut [Vec<f64>]) {
+    let r = a.nrows();
+    let threads = if r < PAR_MIN {
+        1
+    } else {
+        par.degree().clamp(1, ybufs.len())
+    };
+    if threads == 1 {
+        y.fill(0.0);
+        crate::cpu::dispatch(Symv {
+            a,
+            v,
+            y,
+            cols: 0..r,
+        });
+        return;
+    }
+    let bound = |t: usize| -> usize {
+        if t == threads {
+            r
+        } else {
+            ((1.0 - (1.0 - t as f64 / threads as f64).sqrt()) * r as f64) as usize
+        }
+    };
+    use rayon::prelude::*;
+    ybufs[..threads]
+        .par_iter_mut()
+        .enumerate()
+        .for_each(|(t, buf)| {
+            let y = &mut buf[..r];
+            y.fill(0.0);
+            crate::cpu::dispatch(Symv {
+                a,
+                v,
+                y,
+                cols: bound(t)..bound(t + 1),
+            });
+        });
+    y.copy_from_slice(&ybufs[0][..r]);
+    for buf in &ybufs[1..threads] {
+        y.iter_mut().zip(&buf[..r]).for_each(|(a, b)| *a += b);
+    }
+}
+
+/// The fused product of [`symv_lower`] over the columns `cols` (adds into `y`), four
+/// columns per pass so that `y` and `v` are read once per four matrix columns.
+struct Symv<'a, 'y> {
+    a: MatRef<'a, f64>,
+    v: &'a [f64],
+    y: &'y mut [f64],
+    cols: std::ops::Range<usize>,
+}
+
+/// Columns per pass of [`Symv`].
+const GROUP: usize = 4;
+
+impl Symv<'_, '_> {
+    /// Column `j`'s slice from row `from` on.
+    #[inline(always)]
+    fn col(&self, j: usize, from: usize) -> &[f64] {
+        &self.a.col(j).try_as_col_major().unwrap().as_slice()[from..]
+    }
+
+    /// The triangle of a group: rows and columns `j..j+g` of the lower triangle.
+    #[inline(always)]
+    fn head(&mut self, j: usize, g: usize) {
+        for c in j..j + g {
+            let vc = self.v[c];
+            let mut acc = 0.0;
+            for r in c..j + g {
+                let x = self.a[(r, c)];
+                if r == c {
+                    acc += x * vc;
+                } else {
+                    self.y[r] += x * vc;
+                    acc += x * self.v[r];
+                }
+            }
+            self.y[c] += acc;
+        }
+    }
+}
+
+impl crate::cpu::Kernel for Symv<'_, '_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn portable(mut self) {
+        let cols = self.cols.clone();
+        let mut j = cols.start;
+        while j < cols.end {
+            let g = GROUP.min(cols.end - j);
+            self.head(j, g);
+            let from = j + g;
+            let mut s = [0.0f64; GROUP];
+            for c in 0..g {
+                let vc = self.v[j + c];
+                let col = &self.a.col(j + c).try_as_col_major().unwrap().as_slice()[from..];
+                for (k, x) in col.iter().enumerate() {
+                    self.y[from + k] += x * vc;
+                    s[c] += x * self.v[from + k];
+                }
+            }
+            for c in 0..g {
+                self.y[j + c] += s[c];
+            }
+            j += g;
+        }
+    }
+
+    /// Four columns per pass with 256-bit fused multiply-adds (LLVM does not
+    /// vectorise the portable loop's mixed axpy and dot).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn avx2_fma(mut self) {
+        use std::arch::x86_64::*;
+        let r = self.a.nrows();
+        let cols = self.cols.clone();
+        let mut j = cols.start;
+        while j < cols.end {
+            let g = GROUP.min(cols.end - j);
+            self.head(j, g);
+            let from = j + g;
+            let len = r - from;
+            if g < GROUP {
+                for c in 0..g {
+                    let vc = self.v[j + c];
+                    let mut acc = 0.0;
+                    for k in from..r {
+                        let x = self.a[(k, j + c)];
+                        self.y[k] = x.mul_add(vc, self.y[k]);
+                        acc = x.mul_add(self.v[k], acc);
+                    }
+                    self.y[j + c] += acc;
+                }
+                j += g;
+                continue;
+            }
+            let (c0, c1, c2, c3) = (
+                self.col(j, from).as_ptr(),
+                self.col(j + 1, from).as_ptr(),
+                self.col(j + 2, from).as_ptr(),
+                self.col(j + 3, from).as_ptr(),
+            );
+            let main = len - len % 4;
+            let mut lanes = [[0.0f64; 4]; GROUP];
+            // SAFETY: AVX2 and FMA are enabled (`crate::cpu::dispatch`); the four
+            // column slices, `v[from..]` and `y[from..]` all have `len` entries and
+            // every access is at an index below `main ≤ len`.
+            unsafe {
+                let pv = self.v[from..].as_ptr();
+                let py = self.y[from..].as_mut_ptr();
+                let b0 = _mm256_set1_pd(self.v[j]);
+                let b1 = _mm256_set1_pd(self.v[j + 1]);
+                let b2 = _mm256_set1_pd(self.v[j + 2]);
+                let b3 = _mm256_set1_pd(self.v[j + 3]);
+                let mut s0 = _mm256_setzero_pd();
+                let mut s1 = _mm256_setzero_pd();
+                let mut s2 = _mm256_setzero_pd();
+                let mut s3 = _mm256_setzero_pd();
+                let mut k = 0;
+                while k < main {
+                    let x = _mm256_loadu_pd(pv.add(k));
+                    let a0 = _mm256_loadu_pd(c0.add(k));
+                    let a1 = _mm256_loadu_pd(c1.add(k));
+                    let a2 = _mm256_loadu_pd(c2.add(k));
+                    let a3 = _mm256_loadu_pd(c3.add(k));
+                    let mut yy = _mm256_loadu_pd(py.add(k));
+                    yy = _mm256_fmadd_pd(b0, a0, yy);
+                    yy = _mm256_fmadd_pd(b1, a1, yy);
+                    yy = _mm256_fmadd_pd(b2, a2, yy);
+                    yy = _mm256_fmadd_pd(b3, a3, yy);
+                    _mm256_storeu_pd(py.add(k), yy);
+                    s0 = _mm256_fmadd_pd(a0, x, s0);
+                    s1 = _mm256_fmadd_pd(a1, x, s1);
+                    s2 = _mm256_fmadd_pd(a2, x, s2);
+                    s3 = _mm256_fmadd_pd(a3, x, s3);
+                    k += 4;
+                }
+                _mm256_storeu_pd(lanes[0].as_mut_ptr(), s0);
+                _mm256_storeu_pd(lanes[1].as_mut_ptr(), s1);
+                _mm256_storeu_pd(lanes[2].as_mut_ptr(), s2);
+                _mm256_storeu_pd(lanes[3].as_mut_ptr(), s3);
+            }
+            let mut s = lanes.map(|l| (l[0] + l[1]) + (l[2] + l[3]));
+            for k in from + main..r {
+                let x = self.v[k];
+                let mut yk = self.y[k];
+                for (c, sc) in s.iter_mut().enumerate() {
+                    let ac = self.a[(k, j + c)];
+                    yk = ac.mul_add(self.v[j + c], yk);
+                    *sc = ac.mul_add(x, *sc);
+                }
+                self.y[k] = yk;
+            }
+            for (c, sc) in s.iter().enumerate() {
+                self.y[j + c] += sc;
+            }
+            j += GROUP;
+        }
+    }
+}
+
+/// `z ← Q z` with `Q = H₀ ⋯ H_{n−2}` from [`tridiagonalize`] (`dormtr`): faer's
+/// blocked Householder sequence, with each block's factor `T` (`H_j ⋯ H_{j+b−1} =
+/// I − V T⁻¹ Vᵀ`, upper triangular: `T_cc = v_cᵀv_c / 2 = 1/τ_c`, `T_rc = v_rᵀv_c`)
+/// formed here from the reflectors. An identity reflector (τ = 0) has `T_cc = ∞`,
+/// faer's own encoding: its solve with `T` gives that reflector's component 0.
+fn back_transform(a: MatRef<'_, f64>, tau: &[f64], z: MatMut<'_, f64>, par: Par) {
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::linalg::householder;
+    let n = a.nrows();
+    if n < 2 {
+        return;
+    }
+    let nr = n - 1;
+    let bs = faer::linalg::qr::no_pivoting::factor::recommended_block_size::<f64>(n, n).max(1);
+    let mut factor = Mat::<f64>::zeros(bs, nr);
+    let essentials = a.submatrix(1, 0, nr, nr);
+    for j0 in (0..nr).step_by(bs) {
+        let b = bs.min(nr - j0);
+        let rows = nr - j0;
+        // V (rows×b): unit lower trapezoidal, v_c's tail in a[j0+c+2.., j0+c].
+        let mut v = Mat::<f64>::zeros(rows, b);
+        for c in 0..b {
+            v[(c, c)] = 1.0;
+            let src = &essentials
+                .col(j0 + c)
+                .try_as_col_major()
+                .unwrap()
+                .as_slice()[j0 + c + 1..];
+            let dst = &mut v.col_mut(c).try_as_col_major_mut().unwrap().as_slice_mut()[c + 1..];
+            dst.copy_from_slice(src);
+        }
+        let mut t = factor.as_mut().submatrix_mut(0, j0, b, b);
+        triangular::matmul(
+            t.rb_mut(),
+            BlockStructure::StrictTriangularUpper,
+            Accum::Replace,
+            v.transpose(),
+            BlockStructure::Rectangular,
+            v.as_ref(),
+            BlockStructure::Rectangular,
+            1.0,
+            Par::Seq,
+        );
+        for c in 0..b {
+            t[(c, c)] = 1.0 / tau[j0 + c];
+        }
+    }
+    let mut mem = MemBuffer::new(
+        householder::apply_block_householder_sequence_on_the_left_in_place_scratch::<f64>(
+            nr,
+            bs,
+            z.ncols(),
+        ),
+    );
+    householder::apply_block_householder_sequence_on_the_left_in_place_with_conj(
+        essentials,
+        factor.as_ref(),
+        faer::Conj::No,
+        z.subrows_mut(1, nr),
+        par,
+        MemStack::new(&mut mem),
+    );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::SplitMix64;
+
+    fn random_symmetric(n: usize, seed: u64) -> Mat<f64> {
+        let mut rng = SplitMix64::new(seed);
+        let mut a = Mat::<f64>::zeros(n, n);
+        for j in 0..n {
+            for i in j..n {
+                let x = rng.next_f64() - 0.5;
+                a[(i, j)] = x;
+                a[(j, i)] = x;
+            }
+        }
+        a
+    }
+
+    fn check(a: &Mat<f64>, par: Par) {
+        let n = a.nrows();
+        let (lam, e) = symmetric_evd(a.as_ref(), par).unwrap();
+        let norm = a.norm_l2().max(f64::MIN_POSITIVE);
+        let r = a * &e - &e * faer::ColRef::from_slice(&lam).as_diagonal();
+        let res = r.norm_max() / norm;
+        let orth = (e.transpose() * &e - Mat::<f64>::identity(n, n)).norm_max();
+        assert!(
+            res < 1e-13 * (n as f64).sqrt().max(1.0),
+            "n={n} residual {res}"
+        );
+        assert!(
+            orth < 1e-13 * (n as f64).sqrt().max(1.0),
+            "n={n} orthogonality {orth}"
+        );
+        assert!(lam.windows(2).all(|w| w[0] <= w[1]));
+        // The eigenvalues agree with faer's own solver.
+        let faer_lam = a.self_adjoint_eigenvalues(faer::Side::Lower).unwrap();
+        for (x, y) in lam.iter().zip(&faer_lam) {
+            assert!((x - y).abs() < 1e-12 * norm, "λ {x} vs faer {y}");
+        }
+    }
+
+    #[test]
+    fn random_matrices_across_panel_boundaries() {
+        for (k, n) in [1usize, 2, 3, 31, 32, 33, 34, 65, 130, 200, 401, 500]
+            .into_iter()
+            .enumerate()
+        {
+            let a = random_symmetric(n, 17 + k as u64);
+            check(&a, Par::Seq);
+            check(&a, Par::rayon(2));
+        }
+    }
+
+    #[test]
+    fn path_laplacian_closed_form() {
+        // Kirchhoff operator of a path of n vertices: λ_k = 2 − 2 cos(πk/n).
+        let n = 450;
+        let mut a = Mat::<f64>::zeros(n, n);
+        for i in 0..n {
+            let deg = if i == 0 || i == n - 1 { 1.0 } else { 2.0 };
+            a[(i, i)] = deg;
+            if i + 1 < n {
+                a[(i + 1, i)] = -1.0;
+                a[(i, i + 1)] = -1.0;
+            }
+        }
+        check(&a, Par::rayon(2));
+        let (lam, _) = symmetric_evd(a.as_ref(), Par::rayon(2)).unwrap();
+        for (k, l) in lam.iter().enumerate() {
+            let exact = 2.0 - 2.0 * (std::f64::consts::PI * k as f64 / n as f64).cos();
+            assert!((l - exact).abs() < 1e-12, "λ_{k} = {l}, exact {exact}");
+        }
+    }
+
+    #[test]
+    fn already_tridiagonal_diagonal_and_zero() {
+        // Zero tails (τ = 0) everywhere: a diagonal matrix.
+        let n = 100;
+        let a = Mat::<f64>::from_fn(n, n, |i, j| if i == j { (i % 7) as f64 - 3.0 } else { 0.0 });
+        check(&a, Par::rayon(2));
+        let z = Mat::<f64>::zeros(n, n);
+        let (lam, e) = symmetric_evd(z.as_ref(), Par::Seq).unwrap();
+        assert!(lam.iter().all(|&x| x == 0.0));
+        assert_eq!(e, Mat::<f64>::identity(n, n));
+        // Scaled far from 1: the power-of-two scaling keeps the relative accuracy.
+        let a = random_symmetric(80, 5) * faer::Scale(1e-200);
+        check(&a, Par::Seq);
+    }
+
+    #[test]
+    fn fused_product_both_builds_match_the_dense_product() {
+        // Column ranges that start and end inside and outside groups of four; the
+        // size is above `PAR_MIN` so that the threaded split runs too.
+        let r = PAR_MIN + 19;
+        let a = random_symmetric(r, 11);
+        let mut rng = SplitMix64::new(12);
+        let v: Vec<f64> = (0..r).map(|_| rng.next_f64() - 0.5).collect();
+        let exact = &a * faer::ColRef::from_slice(&v);
+        let mut lower = a.clone();
+        for j in 0..r {
+            for i in 0..j {
+                lower[(i, j)] = f64::NAN; // the upper triangle is never read
+            }
+        }
+        for cuts in [vec![0, r], vec![0, 1, 6, 99, 100, 301, r], vec![0, 4, 8, r]] {
+            let (mut yp, mut yd) = (vec![0.0; r], vec![0.0; r]);
+            for c in cuts.windows(2) {
+                let k = Symv {
+                    a: lower.as_ref(),
+                    v: &v,
+                    y: &mut yp,
+                    cols: c[0]..c[1],
+                };
+                crate::cpu::Kernel::portable(k);
+                let k = Symv {
+                    a: lower.as_ref(),
+                    v: &v,
+                    y: &mut yd,
+                    cols: c[0]..c[1],
+                };
+                crate::cpu::dispatch(k);
+            }
+            for i in 0..r {
+                assert!((yp[i] - exact[i]).abs() < 1e-12, "portable row {i}");
+                assert!((yd[i] - exact[i]).abs() < 1e-12, "dispatched row {i}");
+            }
+        }
+        let mut ybufs = vec![vec![0.0; r]; 2];
+        let mut y = vec![0.0; r];
+        symv_lower(lower.as_ref(), &v, &mut y, Par::rayon(2), &mut ybufs);
+        for i in 0..r {
+            assert!((y[i] - exact[i]).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn rejects_non_finite_and_non_square() {
+        let mut a = random_symmetric(40, 3);
+        a[(30, 2)] = f64::NAN;
+        assert!(symmetric_evd(a.as_ref(), Par::Seq).is_none());
+        let b = Mat::<f64>::zeros(3, 4);
+        assert!(symmetric_evd(b.as_ref(), Par::Seq).is_none());
+    }
+}
