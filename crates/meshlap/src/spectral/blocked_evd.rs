@@ -74,8 +74,7 @@ pub fn symmetric_evd(a: MatRef<'_, f64>, par: Par) -> Option<(Vec<f64>, Mat<f64>
     if amax == 0.0 {
         return Some((vec![0.0; n], Mat::identity(n, n)));
     }
-    let exp = (((amax.to_bits() >> 52) & 0x7ff) as i32 - 1023).clamp(-1000, 1000);
-    let (scale, unscale) = (pow2(-exp), pow2(exp));
+    let (scale, unscale) = super::dense_evd::power_of_two_scaling(amax);
     let mut w = Mat::<f64>::zeros(n, n);
     for j in 0..n {
         let src = &a.col(j).try_as_col_major()?.as_slice()[j..];
@@ -115,11 +114,6 @@ pub fn symmetric_evd(a: MatRef<'_, f64>, par: Par) -> Option<(Vec<f64>, Mat<f64>
         return None;
     }
     Some((lam, z))
-}
-
-/// `2^e` for |e| ≤ 1000, exactly.
-fn pow2(e: i32) -> f64 {
-    f64::from_bits(((e + 1023) as u64) << 52)
 }
 
 /// Reduces the symmetric matrix whose lower triangle is `a` (n×n, n ≥ 1) to
@@ -243,22 +237,16 @@ fn panel(
             let (wl, _) = w.rb_mut().split_at_col_mut(i);
             let mut ai = right.rb_mut().col_mut(0).subrows_mut(i, m - i);
             let (vl, wl) = (vl.rb(), wl.rb());
-            matmul(
-                ai.rb_mut().as_mat_mut(),
-                Accum::Add,
-                vl.subrows(i, m - i),
-                wl.row(i).transpose().as_mat(),
-                -1.0,
-                Par::Seq,
-            );
-            matmul(
-                ai.rb_mut().as_mat_mut(),
-                Accum::Add,
-                wl.subrows(i, m - i),
-                vl.row(i).transpose().as_mat(),
-                -1.0,
-                Par::Seq,
-            );
+            for (x, y) in [(vl, wl), (wl, vl)] {
+                matmul(
+                    ai.rb_mut().as_mat_mut(),
+                    Accum::Add,
+                    x.subrows(i, m - i),
+                    y.row(i).transpose().as_mat(),
+                    -1.0,
+                    Par::Seq,
+                );
+            }
         }
         // The reflector that zeroes a[i+2.., i] (`dlarfg`, with τ recomputed as
         // 2 / vᵀv as faer does, so that the back-transformation's factor — built from

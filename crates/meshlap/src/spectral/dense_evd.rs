@@ -96,9 +96,7 @@ pub fn symmetric_evd_lowest_by(
             faer::Mat::from_fn(n, count, |i, j| f64::from(u8::from(i == j))),
         ));
     }
-    // 2^-e with e the binary exponent of amax (exact scaling).
-    let exp = (((amax.to_bits() >> 52) & 0x7ff) as i32 - 1023).clamp(-1000, 1000);
-    let (scale, unscale) = (pow2(-exp), pow2(exp));
+    let (scale, unscale) = power_of_two_scaling(amax);
     let mut w = vec![0.0f64; n * n];
     for j in 0..n {
         for i in j..n {
@@ -142,6 +140,13 @@ pub(crate) fn tridiagonal_lowest(
     let lam = ql_eigenvalues(d, e)?;
     let z = tridiagonal_vectors(d, e, &lam, count.min(n));
     Some((lam, z))
+}
+
+/// The exact scaling `(2^−e, 2^e)`, with e the binary exponent of `amax` clamped to
+/// ±1000, that brings `amax` (positive, finite) into `[1, 2)`.
+pub(crate) fn power_of_two_scaling(amax: f64) -> (f64, f64) {
+    let exp = (((amax.to_bits() >> 52) & 0x7ff) as i32 - 1023).clamp(-1000, 1000);
+    (pow2(-exp), pow2(exp))
 }
 
 /// `2^e` for |e| ≤ 1000, exactly.
