@@ -27,15 +27,20 @@
 //!    `w = τ (A₂₂ v − V Wᵀ v − W Vᵀ v)`, `w ← w − ½ τ (wᵀv) v` (one fused pass over
 //!    the lower triangle of `A₂₂`, meshlap's own kernel: the axpy of the lower part
 //!    and the dot of the upper part of each column together). Then
-//!    `A₂₂ ← A₂₂ − V Wᵀ − W Vᵀ` on the lower triangle (faer's triangular product).
+//!    `A₂₂ ← A₂₂ − V Wᵀ − W Vᵀ` on the lower triangle (`syr2k`, as faer products
+//!    over blocks of columns).
 //! 3. The eigenvalues and eigenvectors `Z` of the tridiagonal matrix by faer's divide
 //!    and conquer (`faer::linalg::evd::tridiagonal_self_adjoint_evd`).
 //! 4. `E = Q Z` with `Q = H₀ H₁ ⋯ H_{n−2}` by faer's blocked Householder sequence
 //!    (`I − V T⁻¹ Vᵀ` per block, the factor `T` formed here from the reflectors).
 //!
-//! The result is deterministic for a fixed thread count (the product's column split
-//! depends on it). For bit-identical results on any CPU use
+//! The result is deterministic for a fixed parallelism (the product's column split
+//! depends on `par`). For bit-identical results on any CPU use
 //! [`crate::spectral::dense_evd`].
+//!
+//! **Sign convention.** The solver takes any symmetric matrix; meshlap gives it the
+//! positive semi-definite operators `F = D − W` of the paper (libigl and pmp use the
+//! negative), so the eigenvalues come out ascending from the smoothest vector.
 
 use faer::linalg::matmul::matmul;
 use faer::linalg::matmul::triangular::{self, BlockStructure};
@@ -51,9 +56,9 @@ const PAR_MIN: usize = 384;
 
 /// Eigenvalues (ascending) and orthonormal eigenvectors (n×n, column j for λ_j) of
 /// the symmetric matrix whose **lower triangle** is `a` (n×n; the upper triangle is
-/// not read). `par` is the parallelism of the products. `None` if `a` is not square,
-/// has a non-finite entry in its lower triangle, or faer's divide and conquer does not
-/// converge.
+/// not read; columns contiguous). `par` is the parallelism of the products. `None` if
+/// `a` is not square or not column-major, has a non-finite entry in its lower
+/// triangle, or faer's divide and conquer does not converge.
 pub fn symmetric_evd(a: MatRef<'_, f64>, par: Par) -> Option<(Vec<f64>, Mat<f64>)> {
     let n = a.nrows();
     if a.ncols() != n {
@@ -164,8 +169,8 @@ const SYR2K_BLOCK: usize = 48;
 /// product `[V W] [W V]ᵀ` of inner dimension 2b per block of [`SYR2K_BLOCK`]
 /// columns, restricted to the rows at and below the block (the strict upper
 /// triangle inside a diagonal block is written too: it is never read). The blocks
-/// run in parallel, each product on one thread. faer's triangular product reaches
-/// about a third of the speed of plain products here (measured), hence the blocks.
+/// run in parallel, each product on one thread. faer's triangular product was
+/// measured slower here (BENCHMARKS.md, "Spectra"), hence the blocks.
 fn syr2k_lower(
     mut a: MatMut<'_, f64>,
     v: MatRef<'_, f64>,
