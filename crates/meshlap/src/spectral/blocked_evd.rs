@@ -413,6 +413,23 @@ impl Symv<'_, '_> {
             self.y[c] += acc;
         }
     }
+
+    /// The rows below a group's triangle, one column at a time: `y[j+g..] += a[j+g..,
+    /// c] v_c` and `y_c += a[j+g.., c]ᵀ v[j+g..]` for `c` in `j..j+g`.
+    #[inline(always)]
+    fn columns(&mut self, j: usize, g: usize) {
+        let (a, from) = (self.a, j + g);
+        for c in j..j + g {
+            let vc = self.v[c];
+            let col = &a.col(c).try_as_col_major().unwrap().as_slice()[from..];
+            let mut acc = 0.0;
+            for (k, x) in col.iter().enumerate() {
+                self.y[from + k] += x * vc;
+                acc += x * self.v[from + k];
+            }
+            self.y[c] += acc;
+        }
+    }
 }
 
 impl crate::cpu::Kernel for Symv<'_, '_> {
@@ -425,19 +442,7 @@ impl crate::cpu::Kernel for Symv<'_, '_> {
         while j < cols.end {
             let g = GROUP.min(cols.end - j);
             self.head(j, g);
-            let from = j + g;
-            let mut s = [0.0f64; GROUP];
-            for c in 0..g {
-                let vc = self.v[j + c];
-                let col = &self.a.col(j + c).try_as_col_major().unwrap().as_slice()[from..];
-                for (k, x) in col.iter().enumerate() {
-                    self.y[from + k] += x * vc;
-                    s[c] += x * self.v[from + k];
-                }
-            }
-            for c in 0..g {
-                self.y[j + c] += s[c];
-            }
+            self.columns(j, g);
             j += g;
         }
     }
@@ -457,16 +462,7 @@ impl crate::cpu::Kernel for Symv<'_, '_> {
             let from = j + g;
             let len = r - from;
             if g < GROUP {
-                for c in 0..g {
-                    let vc = self.v[j + c];
-                    let mut acc = 0.0;
-                    for k in from..r {
-                        let x = self.a[(k, j + c)];
-                        self.y[k] = x.mul_add(vc, self.y[k]);
-                        acc = x.mul_add(self.v[k], acc);
-                    }
-                    self.y[j + c] += acc;
-                }
+                self.columns(j, g);
                 j += g;
                 continue;
             }

@@ -140,7 +140,7 @@ pub enum Normalization {
 pub enum DenseSolver {
     /// [`crate::spectral::blocked_evd`]: LAPACK's blocked tridiagonalisation
     /// (`dsytrd`), faer's tridiagonal divide and conquer and a blocked
-    /// back-transformation, parallel. The fastest above a few hundred vertices.
+    /// back-transformation, parallel. Faster than faer's own as n grows (BENCHMARKS.md).
     #[default]
     Blocked,
     /// faer's own `self_adjoint_evd` (unblocked tridiagonalisation, divide and
