@@ -123,23 +123,133 @@ pub fn symmetric_evd_lowest_by(
 
 /// Steps 3–4 of the method on a symmetric tridiagonal matrix that another routine
 /// produced (`d` its n diagonal entries, `e` its n − 1 off-diagonal ones, both scaled
-/// so that their largest magnitude is of order 1): all eigenvalues, ascending, and
-/// the eigenvectors of the `count` smallest (clamped to n), row-major n×count
-/// (`z[i·count + j]` = component i of vector j), unit Euclidean norm. O(n² + n·count),
-/// portable build. `None` if the QL iteration does not converge or `d`, `e` do not
-/// have n and n − 1 entries (n ≥ 1).
+/// so that their largest magnitude is of order 1): the `count` smallest eigenvalues
+/// (clamped to n), ascending, and their eigenvectors, row-major n×count
+/// (`z[i·count + j]` = component i of vector j), unit Euclidean norm. The eigenvalues
+/// come from the QL iteration (all n, O(n²) dependent divisions) or, when `count` ≤
+/// n / [`BISECTION_FRACTION`], from bisection on Sturm counts ([`lowest_by_bisection`],
+/// [`BISECTION_LANES`] independent counts at a time); both to an absolute accuracy of
+/// a few ε‖T‖. Runs on the build `crate::cpu::dispatch` picks, as [`symmetric_evd`]
+/// does: the same bits on every CPU. `None` if the QL iteration does not converge,
+/// an entry is not finite, or `d`, `e` do not have n and n − 1 entries (n ≥ 1).
 pub(crate) fn tridiagonal_lowest(
     d: &[f64],
     e: &[f64],
     count: usize,
 ) -> Option<(Vec<f64>, Vec<f64>)> {
+    struct Lowest<'a>(&'a [f64], &'a [f64], usize);
+    impl crate::cpu::Kernel for Lowest<'_> {
+        type Output = Option<(Vec<f64>, Vec<f64>)>;
+        #[inline(always)]
+        fn portable(self) -> Self::Output {
+            let Lowest(d, e, count) = self;
+            let n = d.len();
+            let count = count.min(n);
+            let lam = if count * BISECTION_FRACTION <= n {
+                lowest_by_bisection(d, e, count)
+            } else {
+                let mut lam = ql_eigenvalues(d, e)?;
+                lam.truncate(count);
+                lam
+            };
+            let z = tridiagonal_vectors(d, e, &lam, count);
+            Some((lam, z))
+        }
+    }
     let n = d.len();
-    if n == 0 || e.len() + 1 != n {
+    if n == 0 || e.len() + 1 != n || d.iter().chain(e).any(|x| !x.is_finite()) {
         return None;
     }
-    let lam = ql_eigenvalues(d, e)?;
-    let z = tridiagonal_vectors(d, e, &lam, count.min(n));
-    Some((lam, z))
+    crate::cpu::dispatch(Lowest(d, e, count))
+}
+
+/// [`tridiagonal_lowest`] bisects when at most one eigenvalue in this many is wanted.
+const BISECTION_FRACTION: usize = 4;
+
+/// Sturm counts [`lowest_by_bisection`] runs together (independent chains of
+/// divisions the CPU overlaps; four AVX2 vectors).
+const BISECTION_LANES: usize = 16;
+
+/// The `count` smallest eigenvalues (ascending, count ≤ n) of the symmetric
+/// tridiagonal (`d`, off-diagonal `e`, finite) by bisection (LAPACK `dstebz`): the
+/// number of eigenvalues below x is the number of negative pivots of the LDLᵀ
+/// factorisation of `T − xI` (`q₀ = d₀ − x`, `q_i = d_i − x − e²_{i−1}/q_{i−1}`, a
+/// pivot smaller than `pivmin` in magnitude replaced by −`pivmin`: Kahan's
+/// backward-stable count). Each eigenvalue's interval starts as Gershgorin's and
+/// halves until it is narrower than `2ε max(|lo|, |hi|) + 2ε‖T‖∞`; the midpoint is
+/// returned.
+#[inline(always)]
+fn lowest_by_bisection(d: &[f64], e: &[f64], count: usize) -> Vec<f64> {
+    const L: usize = BISECTION_LANES;
+    let n = d.len();
+    let e2: Vec<f64> = e.iter().map(|x| x * x).collect();
+    let tnorm = infinity_norm(d, e).max(f64::MIN_POSITIVE);
+    let pivmin = f64::MIN_POSITIVE * e2.iter().fold(1.0f64, |a, &b| a.max(b));
+    let (mut gl, mut gu) = (f64::INFINITY, f64::NEG_INFINITY);
+    for i in 0..n {
+        let r = if i > 0 { e[i - 1].abs() } else { 0.0 } + if i + 1 < n { e[i].abs() } else { 0.0 };
+        gl = gl.min(d[i] - r);
+        gu = gu.max(d[i] + r);
+    }
+    let atol = 2.0 * f64::EPSILON * tnorm;
+    // Widen as dstebz does, so rounding in the counts cannot push an end inside.
+    gl -= atol + 2.0 * f64::EPSILON * gl.abs();
+    gu += atol + 2.0 * f64::EPSILON * gu.abs();
+    let mut lam = vec![0.0f64; count];
+    for j0 in (0..count).step_by(L) {
+        let mut lo = [gl; L];
+        let mut hi = [gu; L];
+        // Lane l looks for eigenvalue j0 + l (the spare lanes of the last group
+        // repeat the last index): λ_j ∈ [lo, hi) with count(lo) ≤ j < count(hi).
+        let target: [u32; L] = std::array::from_fn(|l| (j0 + l).min(count - 1) as u32);
+        // About 55 halvings reach the width; the cap only guards subnormal ‖T‖.
+        for _ in 0..256 {
+            let mut done = true;
+            for l in 0..L {
+                let w = 2.0 * f64::EPSILON * lo[l].abs().max(hi[l].abs()) + atol;
+                done &= hi[l] - lo[l] <= w;
+            }
+            if done {
+                break;
+            }
+            let x: [f64; L] = std::array::from_fn(|l| 0.5 * (lo[l] + hi[l]));
+            let mut q = [0.0f64; L];
+            let mut neg = [0u32; L];
+            for l in 0..L {
+                q[l] = d[0] - x[l];
+            }
+            for i in 0..n {
+                if i > 0 {
+                    for l in 0..L {
+                        q[l] = (d[i] - x[l]) - e2[i - 1] / q[l];
+                    }
+                }
+                for l in 0..L {
+                    if q[l].abs() <= pivmin {
+                        q[l] = -pivmin;
+                    }
+                    neg[l] += u32::from(q[l] < 0.0);
+                }
+            }
+            for l in 0..L {
+                if neg[l] > target[l] {
+                    hi[l] = x[l];
+                } else {
+                    lo[l] = x[l];
+                }
+            }
+        }
+        for l in 0..L.min(count - j0) {
+            lam[j0 + l] = 0.5 * (lo[l] + hi[l]);
+        }
+    }
+    // Midpoints of nested intervals are ascending up to the tolerance; make it exact.
+    for j in 1..count {
+        if lam[j] < lam[j - 1] {
+            lam[j] = lam[j - 1];
+        }
+    }
+    lam
 }
 
 /// The exact scaling `(2^−e, 2^e)`, with e the binary exponent of `amax` clamped to
@@ -509,7 +619,7 @@ impl TridiagonalLu {
 }
 
 /// Eigenvectors of the tridiagonal (`d`, `e`) for the `count` smallest of the
-/// ascending eigenvalues `lam`, by inverse iteration (see the module documentation),
+/// ascending eigenvalues `lam` (at least `count` of them), by inverse iteration (see the module documentation),
 /// [`LANES`] at a time; row-major n×count. Vector j depends only on vectors < j.
 #[inline(always)]
 fn tridiagonal_vectors(d: &[f64], e: &[f64], lam: &[f64], count: usize) -> Vec<f64> {
@@ -540,9 +650,9 @@ fn tridiagonal_vectors(d: &[f64], e: &[f64], lam: &[f64], count: usize) -> Vec<f
     let tiny = f64::EPSILON * tnorm;
     // Shifts and clusters first: vector j is orthogonalised against the vectors
     // first[j]..j (eigenvalues chained by gaps ≤ ortol).
-    let mut shift = vec![0.0f64; n];
-    let mut first = vec![0usize; n];
-    for j in 0..n {
+    let mut shift = vec![0.0f64; count];
+    let mut first = vec![0usize; count];
+    for j in 0..count {
         if j == 0 || lam[j] - lam[j - 1] > ortol {
             first[j] = j;
             shift[j] = lam[j];
@@ -936,6 +1046,116 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Tridiagonals with known or hard spectra: (d, e, name).
+    fn hard_tridiagonals() -> Vec<(Vec<f64>, Vec<f64>, &'static str)> {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let mut out = Vec::new();
+        for &n in &[1usize, 2, 3, 7, 40, 157, 300] {
+            let d = (0..n).map(|_| rng.gen_range(-1.0..1.0)).collect();
+            let e = (0..n - 1).map(|_| rng.gen_range(-1.0..1.0)).collect();
+            out.push((d, e, "random"));
+        }
+        // 1-2-1 Toeplitz: λ_k = 2 − 2cos(kπ/(n + 1)).
+        out.push((vec![2.0; 120], vec![-1.0; 119], "toeplitz"));
+        // Wilkinson W₂₁⁺: pairs agreeing to many digits.
+        let d = (0..21).map(|i: i32| f64::from((10 - i).abs())).collect();
+        out.push((d, vec![1.0; 20], "wilkinson"));
+        // Three identical blocks split by exact zeros: every eigenvalue triple.
+        let mut d = Vec::new();
+        let mut e = Vec::new();
+        for b in 0..3 {
+            if b > 0 {
+                e.push(0.0);
+            }
+            d.extend([1.0, 0.5, 0.25, 2.0]);
+            e.extend([0.3, -0.7, 0.1]);
+        }
+        out.push((d, e, "blocks"));
+        // Graded, a zero eigenvalue (a path graph's Laplacian), and a constant diagonal
+        // with negligible coupling.
+        out.push((
+            (0..50).map(|i| 2f64.powi(-i)).collect(),
+            (0..49).map(|i| 2f64.powi(-i - 1)).collect(),
+            "graded",
+        ));
+        let mut d = vec![2.0; 80];
+        d[0] = 1.0;
+        d[79] = 1.0;
+        out.push((d, vec![-1.0; 79], "path laplacian"));
+        out.push((vec![1.0; 60], vec![1e-20; 59], "tiny coupling"));
+        out
+    }
+
+    #[test]
+    fn bisection_matches_the_ql_eigenvalues() {
+        for (d, e, name) in hard_tridiagonals() {
+            let n = d.len();
+            let ql = ql_eigenvalues(&d, &e).unwrap();
+            let tnorm = infinity_norm(&d, &e);
+            for count in [1, n / 4, n / 2, n] {
+                let count = count.clamp(1, n);
+                let bis = lowest_by_bisection(&d, &e, count);
+                assert_eq!(bis.len(), count);
+                for j in 0..count {
+                    assert!(
+                        (bis[j] - ql[j]).abs() <= 1e-13 * tnorm,
+                        "{name} n={n} j={j}: bisection {} QL {}",
+                        bis[j],
+                        ql[j]
+                    );
+                }
+                assert!(bis.windows(2).all(|w| w[0] <= w[1]), "{name}");
+            }
+            if name == "toeplitz" {
+                for (k, &l) in ql.iter().enumerate() {
+                    let exact =
+                        2.0 - 2.0 * ((k + 1) as f64 * std::f64::consts::PI / (n + 1) as f64).cos();
+                    assert!((l - exact).abs() < 1e-14, "{k}: {l} vs {exact}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn tridiagonal_lowest_gives_orthonormal_eigenvectors_on_both_routes() {
+        for (d, e, name) in hard_tridiagonals() {
+            let n = d.len();
+            let tnorm = infinity_norm(&d, &e);
+            // n / 4 takes the bisection route, n / 2 and n the QL route.
+            for count in [n / 4, n / 2, n] {
+                let count = count.max(1);
+                let (lam, z) = tridiagonal_lowest(&d, &e, count).unwrap();
+                assert_eq!((lam.len(), z.len()), (count, n * count), "{name}");
+                for j in 0..count {
+                    let v = |i: usize| z[i * count + j];
+                    let mut r = 0.0f64;
+                    for i in 0..n {
+                        let mut t = (d[i] - lam[j]) * v(i);
+                        if i > 0 {
+                            t += e[i - 1] * v(i - 1);
+                        }
+                        if i + 1 < n {
+                            t += e[i] * v(i + 1);
+                        }
+                        r = r.max(t.abs());
+                    }
+                    assert!(
+                        r <= 1e-12 * tnorm.max(1e-300),
+                        "{name} n={n} j={j}: residual {r}"
+                    );
+                    for k in 0..=j {
+                        let g: f64 = (0..n).map(|i| z[i * count + j] * z[i * count + k]).sum();
+                        let want = if j == k { 1.0 } else { 0.0 };
+                        assert!((g - want).abs() < 1e-12, "{name} n={n} ({j},{k}): {g}");
+                    }
+                }
+            }
+        }
+        assert!(tridiagonal_lowest(&[1.0, f64::NAN], &[0.5], 1).is_none());
+        assert!(tridiagonal_lowest(&[1.0, 2.0], &[f64::INFINITY], 1).is_none());
+        assert!(tridiagonal_lowest(&[1.0, 2.0], &[], 1).is_none());
     }
 
     #[test]

@@ -145,8 +145,8 @@ pub fn patchwise_positions(
 /// `Q Z_m Z_mᵀ Qᵀ y`: the orthogonal projection of `y` (n×k) onto the span of the
 /// eigenvectors of the `m` smallest eigenvalues of the dense symmetric `a` (n×n,
 /// consumed), computed as `A = Q T Qᵀ` (faer's `tridiag_in_place`, sequential),
-/// T's eigenvalues and lowest m eigenvectors `Z_m` by QL and inverse iteration
-/// ([`crate::spectral::dense_evd`]'s steps 3–4), and `Qᵀ`, `Q` applied to y's k
+/// T's lowest m eigenvalues and eigenvectors `Z_m` by bisection (or QL) and inverse
+/// iteration ([`crate::spectral::dense_evd`]'s steps 3–4), and `Qᵀ`, `Q` applied to y's k
 /// columns only: O(4n³/3 + 4n²k + 2nmk) flops, without forming any eigenvector of
 /// `a`. `a` is first scaled by an exact power of two so its largest entry is in
 /// [1, 2), as `dense_evd` does. `None` if an entry is not finite or the QL iteration
@@ -163,7 +163,8 @@ fn lowest_projection(
         apply_block_householder_sequence_on_the_left_in_place_with_conj as apply_q,
         apply_block_householder_sequence_transpose_on_the_left_in_place_with_conj as apply_qt,
     };
-    use faer::{Conj, Par};
+    use faer::linalg::matmul::matmul;
+    use faer::{Accum, Conj, Par};
     let n = a.nrows();
     let k = y.ncols();
     let m = m.min(n);
@@ -189,8 +190,7 @@ fn lowest_projection(
         }
         return Some(y);
     }
-    let exp = (((amax.to_bits() >> 52) & 0x7ff) as i32 - 1023).clamp(-1000, 1000);
-    let scale = 2f64.powi(-exp);
+    let (scale, _) = crate::spectral::dense_evd::power_of_two_scaling(amax);
     for j in 0..n {
         for i in 0..n {
             a[(i, j)] *= scale;
@@ -217,23 +217,17 @@ fn lowest_projection(
         stack,
     );
     // g = Z_mᵀ y (m×k), then y = Z_m g.
-    let mut g = vec![0.0f64; m * k];
-    for i in 0..n {
-        let zi = &z[i * m..(i + 1) * m];
-        for c in 0..k {
-            let yi = y[(i, c)];
-            for (j, &zij) in zi.iter().enumerate() {
-                g[c * m + j] = zij.mul_add(yi, g[c * m + j]);
-            }
-        }
-    }
-    for i in 0..n {
-        let zi = &z[i * m..(i + 1) * m];
-        for c in 0..k {
-            let gc = &g[c * m..(c + 1) * m];
-            y[(i, c)] = zi.iter().zip(gc).map(|(a, b)| a * b).sum();
-        }
-    }
+    let z = faer::MatRef::from_row_major_slice(&z, n, m);
+    let mut g = faer::Mat::<f64>::zeros(m, k);
+    matmul(
+        g.as_mut(),
+        Accum::Replace,
+        z.transpose(),
+        y.as_ref(),
+        1.0,
+        Par::Seq,
+    );
+    matmul(y.as_mut(), Accum::Replace, z, g.as_ref(), 1.0, Par::Seq);
     apply_q(
         basis,
         h.as_ref(),
