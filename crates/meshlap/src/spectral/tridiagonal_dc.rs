@@ -212,14 +212,40 @@ pub fn tridiagonal_evd(
     let mut perm: Vec<usize> = (0..n).collect();
     perm.sort_by(|&a, &b| d[a].total_cmp(&d[b]));
     let lam: Vec<f64> = perm.iter().map(|&p| d[p]).collect();
-    let mut out = Mat::<f64>::zeros(n, n);
-    for (j, &p) in perm.iter().enumerate() {
-        out.col_mut(j).copy_from(z.col(p));
-    }
+    permute_columns(z.as_mut(), &perm);
     if lam.iter().any(|x| !x.is_finite()) {
         return Err(SECULAR_FAILED);
     }
-    Ok((lam, out))
+    Ok((lam, z))
+}
+
+/// Column j of `q` ← old column `perm[j]` (n×n, columns contiguous), in place: each
+/// cycle of the permutation through one spare column.
+fn permute_columns(mut q: MatMut<'_, f64>, perm: &[usize]) {
+    let n = perm.len();
+    let mut done = vec![false; n];
+    let mut spare = vec![0.0f64; q.nrows()];
+    for start in 0..n {
+        if done[start] || perm[start] == start {
+            continue;
+        }
+        spare.copy_from_slice(col(q.rb(), start));
+        let mut j = start;
+        loop {
+            done[j] = true;
+            let p = perm[j];
+            if p == start {
+                col_mut(q.rb_mut(), j).copy_from_slice(&spare);
+                break;
+            }
+            let (dst, src) = q.rb_mut().two_cols_mut(j, p);
+            dst.try_as_col_major_mut()
+                .expect("contiguous")
+                .as_slice_mut()
+                .copy_from_slice(src.rb().try_as_col_major().expect("contiguous").as_slice());
+            j = p;
+        }
+    }
 }
 
 /// Splits a thread budget between the two halves of a recursion.
@@ -424,10 +450,8 @@ fn merge(
     let n12 = ctot[0] + ctot[1];
     let n23 = ctot[1] + ctot[2];
     let (qtop, rest) = q2.split_at_mut(n1 * n12);
-    let (qbot, rest) = rest.split_at_mut(n2 * n23);
-    let qdef = &mut rest[..n * ctot[3]];
-    let mut ddef = Vec::with_capacity(ctot[3]);
-    for (i, &js) in grouped.iter().enumerate() {
+    let qbot = &mut rest[..n2 * n23];
+    for (i, &js) in grouped[..k].iter().enumerate() {
         let src = col(q.rb(), js);
         let ct = coltyp[js];
         if ct == 1 || ct == 2 {
@@ -437,16 +461,26 @@ fn merge(
             let ib = i - ctot[0];
             qbot[ib * n2..(ib + 1) * n2].copy_from_slice(&src[n1..]);
         }
-        if ct == 4 {
-            let id = i - k;
-            qdef[id * n..(id + 1) * n].copy_from_slice(src);
-            ddef.push(d[js]);
+    }
+    // The deflated eigenvectors go to columns k..n. Those already there stay (unlike
+    // `dlaed2`, which copies every one out and back); each one left of k moves into a
+    // column ≥ k freed by an undeflated one (copied to `q2` above).
+    let mut dtail = vec![0.0f64; n - k];
+    let mut free = grouped[..k].iter().copied().filter(|&js| js >= k);
+    for &js in &grouped[k..] {
+        if js >= k {
+            dtail[js - k] = d[js];
+        } else {
+            let slot = free.next().expect("as many free columns as movers");
+            let (src, dst) = q.rb_mut().two_cols_mut(js, slot);
+            dst.try_as_col_major_mut()
+                .expect("contiguous")
+                .as_slice_mut()
+                .copy_from_slice(src.rb().try_as_col_major().expect("contiguous").as_slice());
+            dtail[slot - k] = d[js];
         }
     }
-    for id in 0..ctot[3] {
-        col_mut(q.rb_mut(), k + id).copy_from_slice(&qdef[id * n..(id + 1) * n]);
-    }
-    d[k..].copy_from_slice(&ddef);
+    d[k..].copy_from_slice(&dtail);
 
     // dlaed3: the roots, ẑ by Löwner's formula, the eigenvectors of D + ρ ẑ ẑᵀ.
     let s = &mut sbuf[..k * k];
