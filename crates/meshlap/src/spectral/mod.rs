@@ -9,7 +9,7 @@
 //!   through a positive diagonal similarity — the TL through the GL — or general),
 //!   with canonical, deterministic vectors.
 //! - [`blocked_evd`]: the default dense symmetric eigensolver (LAPACK's blocked
-//!   tridiagonalisation, faer's divide and conquer).
+//!   tridiagonalisation and divide and conquer).
 //! - [`tridiagonal_dc`]: all eigenpairs of a symmetric tridiagonal matrix by LAPACK's
 //!   divide and conquer (`dstedc`), the middle stage of [`blocked_evd`].
 //! - [`dense_evd`]: a bit-reproducible dense symmetric eigensolver for small n (the
