@@ -32,7 +32,8 @@
 //!    orthogonal to working accuracy whatever the gaps (`dlaed3`).
 //! 6. The undeflated eigenvectors of `T` are `Q` times those, as two matrix products
 //!    (`faer::linalg::matmul::matmul` with `par`), each only over the rows of its half
-//!    and the columns nonzero there; the deflated ones are copied.
+//!    and the columns nonzero there; the deflated ones stay where they are, or move
+//!    once into a column freed by an undeflated one.
 //!
 //! **Why by hand.** faer's `tridiagonal_self_adjoint_evd` is a divide and conquer of
 //! the same family, but its merge forms the full n×n matrix of rank-one eigenvectors,
