@@ -4,6 +4,9 @@
 //! builtin:icosphere:9` measures 2.6M vertices. `patch_bases_*`: the codec's dense
 //! patch eigenbases (Kirchhoff operator of every METIS patch of the cow, patches of
 //! about 100 and 150 vertices) through faer and through the reproducible solver.
+//! `tridiagonal_*`: all eigenpairs of the tridiagonal form of the Kirchhoff matrix of
+//! an n-vertex patch (breadth-first from a vertex of icosphere:5), on one thread, by
+//! meshlap's divide and conquer and by faer's.
 
 use meshlap::mesh::{builtin, clean, topology::Topology};
 use meshlap::operator::{Operator, OperatorKind, OperatorOptions};
@@ -74,4 +77,99 @@ fn patch_bases_faer(bencher: divan::Bencher, p: usize) {
 #[divan::bench(args = [100, 150])]
 fn patch_bases_reproducible(bencher: divan::Bencher, p: usize) {
     patch_bases(bencher, p, DenseSolver::Reproducible);
+}
+
+/// The tridiagonal form (diagonal n, off-diagonal n − 1) of the Kirchhoff matrix
+/// `F = D − W` (PSD) of the first n vertices of icosphere:5 in breadth-first order
+/// from vertex 0, reduced by faer's `tridiag_in_place`.
+fn kirchhoff_patch_tridiagonal(n: usize) -> (Vec<f64>, Vec<f64>) {
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    let m = builtin::icosphere(5).unwrap();
+    let nv = m.positions.len();
+    let mut adj = vec![Vec::new(); nv];
+    for f in &m.faces {
+        for k in 0..3 {
+            let (a, b) = (f[k] as usize, f[(k + 1) % 3] as usize);
+            adj[a].push(b);
+            adj[b].push(a);
+        }
+    }
+    let mut index = vec![usize::MAX; nv];
+    let mut order = vec![0usize];
+    index[0] = 0;
+    let mut head = 0;
+    while order.len() < n {
+        let v = order[head];
+        head += 1;
+        for &u in &adj[v] {
+            if index[u] == usize::MAX && order.len() < n {
+                index[u] = order.len();
+                order.push(u);
+            }
+        }
+    }
+    let mut a = faer::Mat::<f64>::zeros(n, n);
+    for (i, &v) in order.iter().enumerate() {
+        for &u in &adj[v] {
+            let j = index[u];
+            if j != usize::MAX && a[(i, j)] == 0.0 {
+                a[(i, j)] = -1.0;
+                a[(i, i)] += 1.0;
+            }
+        }
+    }
+    let mut h = faer::Mat::<f64>::zeros(1, n - 1);
+    let mut mem = MemBuffer::new(faer::linalg::evd::tridiag::tridiag_in_place_scratch::<f64>(
+        n,
+        faer::Par::Seq,
+        Default::default(),
+    ));
+    faer::linalg::evd::tridiag::tridiag_in_place(
+        a.as_mut(),
+        h.as_mut(),
+        faer::Par::Seq,
+        MemStack::new(&mut mem),
+        Default::default(),
+    );
+    let d = (0..n).map(|i| a[(i, i)]).collect();
+    let e = (0..n - 1).map(|i| a[(i + 1, i)]).collect();
+    (d, e)
+}
+
+#[divan::bench(args = [500, 1000, 2000], sample_count = 10)]
+fn tridiagonal_dc(bencher: divan::Bencher, n: usize) {
+    let (d, e) = kirchhoff_patch_tridiagonal(n);
+    bencher.bench(|| {
+        meshlap::spectral::tridiagonal_dc::tridiagonal_evd(divan::black_box(&d), &e, faer::Par::Seq)
+            .unwrap()
+    });
+}
+
+#[divan::bench(args = [500, 1000, 2000], sample_count = 10)]
+fn tridiagonal_faer(bencher: divan::Bencher, n: usize) {
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::linalg::evd::{self, ComputeEigenvectors};
+    let (d, mut e) = kirchhoff_patch_tridiagonal(n);
+    e.push(0.0);
+    bencher.bench(|| {
+        let mut z = faer::Mat::<f64>::zeros(n, n);
+        let mut s = faer::diag::Diag::<f64>::zeros(n);
+        let mut mem = MemBuffer::new(evd::self_adjoint_evd_scratch::<f64>(
+            n,
+            ComputeEigenvectors::Yes,
+            faer::Par::Seq,
+            Default::default(),
+        ));
+        evd::tridiagonal_self_adjoint_evd(
+            faer::ColRef::from_slice(divan::black_box(&d)).as_diagonal(),
+            faer::ColRef::from_slice(&e).as_diagonal(),
+            s.as_mut(),
+            Some(z.as_mut()),
+            faer::Par::Seq,
+            MemStack::new(&mut mem),
+            Default::default(),
+        )
+        .unwrap();
+        (s, z)
+    });
 }

@@ -29,8 +29,8 @@
 //!    and the dot of the upper part of each column together). Then
 //!    `A₂₂ ← A₂₂ − V Wᵀ − W Vᵀ` on the lower triangle (`syr2k`, as faer products
 //!    over blocks of columns).
-//! 3. The eigenvalues and eigenvectors `Z` of the tridiagonal matrix by faer's divide
-//!    and conquer (`faer::linalg::evd::tridiagonal_self_adjoint_evd`).
+//! 3. The eigenvalues and eigenvectors `Z` of the tridiagonal matrix by LAPACK-style
+//!    divide and conquer ([`crate::spectral::tridiagonal_dc`]).
 //! 4. `E = Q Z` with `Q = H₀ H₁ ⋯ H_{n−2}` by faer's blocked Householder sequence
 //!    (`I − V T⁻¹ Vᵀ` per block, the factor `T` formed here from the reflectors).
 //!
@@ -89,30 +89,7 @@ pub fn symmetric_evd(a: MatRef<'_, f64>, par: Par) -> Option<(Vec<f64>, Mat<f64>
         }
     }
     let (diag, sub, tau) = tridiagonalize(w.as_mut(), par);
-    let mut z = Mat::<f64>::zeros(n, n);
-    let mut s = faer::diag::Diag::<f64>::zeros(n);
-    {
-        use faer::dyn_stack::{MemBuffer, MemStack};
-        use faer::linalg::evd::{self, ComputeEigenvectors};
-        let mut mem = MemBuffer::new(evd::self_adjoint_evd_scratch::<f64>(
-            n,
-            ComputeEigenvectors::Yes,
-            par,
-            Default::default(),
-        ));
-        let diag = faer::ColRef::from_slice(&diag);
-        let sub = faer::ColRef::from_slice(&sub);
-        evd::tridiagonal_self_adjoint_evd(
-            diag.as_diagonal(),
-            sub.as_diagonal(),
-            s.as_mut(),
-            Some(z.as_mut()),
-            par,
-            MemStack::new(&mut mem),
-            Default::default(),
-        )
-        .ok()?;
-    }
+    let (s, mut z) = super::tridiagonal_dc::tridiagonal_evd(&diag, &sub[..n - 1], par).ok()?;
     back_transform(w.as_ref(), &tau, z.as_mut(), par);
     let lam: Vec<f64> = (0..n).map(|i| s[i] * unscale).collect();
     if lam.iter().any(|x| !x.is_finite()) {

@@ -9,7 +9,9 @@
 //!   through a positive diagonal similarity — the TL through the GL — or general),
 //!   with canonical, deterministic vectors.
 //! - [`blocked_evd`]: the default dense symmetric eigensolver (LAPACK's blocked
-//!   tridiagonalisation, faer's divide and conquer).
+//!   tridiagonalisation and divide and conquer).
+//! - [`tridiagonal_dc`]: all eigenpairs of a symmetric tridiagonal matrix by LAPACK's
+//!   divide and conquer (`dstedc`), the middle stage of [`blocked_evd`].
 //! - [`dense_evd`]: a bit-reproducible dense symmetric eigensolver for small n (the
 //!   codec's patches), selectable in [`BasisOptions::dense_solver`].
 //! - [`transform`]: the forward ED-transform `X = E⁻¹x`, its inverse and the truncated
@@ -24,6 +26,7 @@ pub mod compaction;
 pub mod dense_evd;
 pub mod descriptors;
 pub mod transform;
+pub mod tridiagonal_dc;
 
 pub use basis::{BasisOptions, DenseSolver, EigenBasis, EigenPath, Normalization, DENSE_LIMIT};
 pub use compaction::{energy_compaction, Compaction};
