@@ -1,6 +1,7 @@
 //! Eigendecomposition of a dense symmetric matrix, `A = E Λ Eᵀ` (n×n, Λ ascending,
 //! E orthonormal), with LAPACK's blocked tridiagonalisation (`dsytrd`/`dlatrd`),
-//! faer's tridiagonal divide and conquer and a blocked back-transformation: the
+//! meshlap's tridiagonal divide and conquer ([`super::tridiagonal_dc`], LAPACK
+//! `dstedc`) and faer's blocked back-transformation: the
 //! default dense solver of [`crate::spectral::basis`] (the paper's Fig. 3 and every
 //! dense ED transform).
 //!
@@ -11,11 +12,11 @@
 //! the trailing matrix once per panel with a rank-2·[`PANEL`] `syr2k` (a matrix
 //! product, compute-bound): per column one *read* of the trailing triangle instead of
 //! a read and a write. At the sizes of the paper's experiments (n ≈ 500–3000, 2–70 MB)
-//! the reduction is bound by memory traffic, so this halves its dominant cost. faer
-//! exposes the other two stages (`tridiagonal_self_adjoint_evd`: divide and conquer,
-//! the same code its `self_adjoint_evd` runs; matrix products for the
-//! back-transformation), so only the reduction is written here; the better home for
-//! it is a contribution to faer.
+//! the reduction is bound by memory traffic, so this halves its dominant cost. faer's
+//! own divide and conquer (`tridiagonal_self_adjoint_evd`) multiplies full n×n
+//! blocks at every merge, deflated columns included, hence [`super::tridiagonal_dc`];
+//! the back-transformation is faer's. The better home for both is a contribution to
+//! faer.
 //!
 //! **Method** (Golub & Van Loan §8.3.1, LAPACK `dsytrd`, `dlatrd`, `dlarfg`,
 //! `dlarft`, `dormtr`):
