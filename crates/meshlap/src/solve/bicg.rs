@@ -116,7 +116,7 @@ pub fn bicg(
 ) -> Result<BicgInfo, BicgError> {
     // The time includes the hand-over to the pool.
     let start = Instant::now();
-    krylov::on_worker(|| bicg_on_worker(start, op, b, x, k, bicg_params, precond, ws))
+    crate::par::on_worker(|| bicg_on_worker(start, op, b, x, k, bicg_params, precond, ws))
 }
 
 /// [`bicg()`] on a worker of rayon's pool, timed from `start`.

@@ -70,7 +70,7 @@ pub fn bicgstab(
 ) -> Result<Info, BicgstabError> {
     // The time includes the hand-over to the pool.
     let start = Instant::now();
-    krylov::on_worker(|| bicgstab_on_worker(start, op, b, x, k, params, ws))
+    crate::par::on_worker(|| bicgstab_on_worker(start, op, b, x, k, params, ws))
 }
 
 /// [`bicgstab()`] on a worker of rayon's pool, timed from `start`.

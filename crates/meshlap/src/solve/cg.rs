@@ -72,7 +72,7 @@ pub fn cg(
 ) -> Result<Info, CgError> {
     // The time includes the hand-over to the pool.
     let start = Instant::now();
-    krylov::on_worker(|| cg_on_worker(start, op, b, x, k, params, precond, ws))
+    crate::par::on_worker(|| cg_on_worker(start, op, b, x, k, params, precond, ws))
 }
 
 /// [`cg()`] on a worker of rayon's pool, timed from `start`.

@@ -64,19 +64,6 @@ impl Workspace {
     }
 }
 
-/// Runs `f` on a worker thread of rayon's current pool (directly when already on
-/// one). A solve makes two to four parallel passes per iteration; called from a
-/// thread outside the pool, each pass would hand its job to the pool, put the caller
-/// to sleep and wake it when done — measured on 2 threads, 4.5 context switches per
-/// pass against 0.4 on a worker, where the passes are shared out by work stealing.
-pub(crate) fn on_worker<R: Send>(f: impl FnOnce() -> R + Send) -> R {
-    if rayon::current_thread_index().is_some() {
-        f()
-    } else {
-        rayon::scope(|_| f())
-    }
-}
-
 /// Checks the arguments shared by every iterative solver: the n×k right-hand side
 /// and initial guess, the column count and the parameters.
 pub(crate) fn check(
@@ -305,14 +292,6 @@ mod tests {
         assert_eq!(gap % 4096, 0);
         let [e] = ws.blocks::<1>(0);
         assert!(e.is_empty());
-    }
-
-    #[test]
-    fn solves_run_on_a_pool_worker() {
-        assert!(rayon::current_thread_index().is_none());
-        assert!(on_worker(|| rayon::current_thread_index().is_some()));
-        let inside = rayon::scope(|_| on_worker(rayon::current_thread_index));
-        assert!(inside.is_some());
     }
 
     #[test]

@@ -61,6 +61,11 @@ const PAR_MIN: usize = 384;
 /// `a` is not square or not column-major, has a non-finite entry in its lower
 /// triangle, or faer's divide and conquer does not converge.
 pub fn symmetric_evd(a: MatRef<'_, f64>, par: Par) -> Option<(Vec<f64>, Mat<f64>)> {
+    // On a pool worker: the reduction makes a parallel pass per column.
+    crate::par::on_worker(|| evd_on_worker(a, par))
+}
+
+fn evd_on_worker(a: MatRef<'_, f64>, par: Par) -> Option<(Vec<f64>, Mat<f64>)> {
     let n = a.nrows();
     if a.ncols() != n {
         return None;
