@@ -29,7 +29,11 @@
 //!    the lower triangle of `A₂₂`, meshlap's own kernel: the axpy of the lower part
 //!    and the dot of the upper part of each column together). Then
 //!    `A₂₂ ← A₂₂ − V Wᵀ − W Vᵀ` on the lower triangle (`syr2k`, as faer products
-//!    over blocks of columns).
+//!    over blocks of columns). With more than one thread, a partner thread spins for
+//!    the length of the reduction and takes parts of each column's product and each
+//!    panel's update ([`Team`]): a rayon fork–join per column costs about as much as
+//!    the column's work at these sizes. The parts are fixed by `par`, not by who
+//!    computes them.
 //! 3. The eigenvalues and eigenvectors `Z` of the tridiagonal matrix by LAPACK-style
 //!    divide and conquer ([`crate::spectral::tridiagonal_dc`]).
 //! 4. `E = Q Z` with `Q = H₀ H₁ ⋯ H_{n−2}` by faer's blocked Householder sequence
@@ -109,13 +113,36 @@ fn evd_on_worker(a: MatRef<'_, f64>, par: Par) -> Option<(Vec<f64>, Mat<f64>)> {
 /// subdiagonal (n entries, the last 0) and the n − 1 reflector coefficients τ; the
 /// reflector `v_j` (unit at row j + 1) is left in `a[j+2.., j]`, and `a[j+1, j]`
 /// holds T's subdiagonal entry.
-fn tridiagonalize(mut a: MatMut<'_, f64>, par: Par) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+fn tridiagonalize(a: MatMut<'_, f64>, par: Par) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let n = a.nrows();
+    if par.degree() > 1 && n > PAR_MIN && rayon::current_num_threads() > 1 {
+        // A partner for the parallel passes (see [`Team`]): the joined closure runs
+        // on another worker if one is free, or after the reduction, when it returns
+        // at once.
+        let team = Team::new();
+        let mut out = None;
+        rayon::join(
+            || {
+                let _end = team.end_on_drop();
+                out = Some(reduce(a, par, Some(&team)));
+            },
+            || team.serve(),
+        );
+        out.expect("the reduction ran")
+    } else {
+        reduce(a, par, None)
+    }
+}
+
+/// The panels of [`tridiagonalize`], with `team` (if any) taking parts of every
+/// parallel pass.
+fn reduce(mut a: MatMut<'_, f64>, par: Par, team: Option<&Team>) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let n = a.nrows();
     let mut d = vec![0.0f64; n];
     let mut e = vec![0.0f64; n];
     let mut tau = vec![0.0f64; n.saturating_sub(1)];
     let mut wbuf = Mat::<f64>::zeros(n, PANEL);
-    let mut ybufs = vec![vec![0.0f64; n]; par.degree().max(1)];
+    let mut ybufs = vec![vec![0.0f64; n]; par.degree().clamp(1, MAX_PARTS)];
     let mut ubuf = Mat::<f64>::zeros(n, 4 * PANEL);
     let mut i0 = 0;
     while i0 + 1 < n {
@@ -129,11 +156,19 @@ fn tridiagonalize(mut a: MatMut<'_, f64>, par: Par) -> (Vec<f64>, Vec<f64>, Vec<
             &mut e[i0..i0 + nb],
             &mut tau[i0..i0 + nb],
             par,
+            team,
             &mut ybufs,
         );
         {
             let (_, _, v, a22) = sub.rb_mut().split_at_mut(nb, nb);
-            syr2k_lower(a22, v.rb(), w.rb().subrows(nb, m - nb), &mut ubuf, par);
+            syr2k_lower(
+                a22,
+                v.rb(),
+                w.rb().subrows(nb, m - nb),
+                &mut ubuf,
+                par,
+                team,
+            );
         }
         for j in 0..nb {
             sub[(j + 1, j)] = e[i0 + j];
@@ -143,6 +178,148 @@ fn tridiagonalize(mut a: MatMut<'_, f64>, par: Par) -> (Vec<f64>, Vec<f64>, Vec<
     }
     d[n - 1] = a[(n - 1, n - 1)];
     (d, e, tau)
+}
+
+/// Most parts of one parallel pass of [`Team`] (bits of its claim mask).
+const MAX_PARTS: usize = 16;
+
+/// Two threads sharing the reduction's parallel passes, as OpenBLAS's threads do: the
+/// reduction makes one parallel `symv` per column (tens of microseconds at n ≈ 1000),
+/// and a rayon fork–join that wakes a sleeping worker costs a good part of that. The
+/// partner ([`Team::serve`]) spins for the length of one reduction and takes parts of
+/// each pass from the back while the caller ([`Team::run`]) takes them from the front;
+/// the caller also takes any part the partner has not claimed, so it never waits for
+/// a partner that has not started (or never will: a busy pool), only for parts
+/// already being computed. Who computes a part never changes what it computes: the
+/// results do not depend on the thread count. Part counts and column ranges stay the
+/// same from one column to the next, so each thread keeps reading the same columns
+/// from its own cache.
+///
+/// State: `state` packs the generation (bits 32..64), the pass's part count (16..32)
+/// and the claimed parts (0..16); `job` is written by the caller only while no part is
+/// claimed or running, and read by the partner only after it has claimed a part of
+/// the current generation (which the caller cannot finish without it).
+struct Team {
+    state: std::sync::atomic::AtomicU64,
+    done: std::sync::atomic::AtomicU32,
+    job: std::cell::UnsafeCell<*const (dyn Fn(usize) + Sync + 'static)>,
+    finished: std::sync::atomic::AtomicBool,
+}
+
+// SAFETY: `job` is only accessed under the protocol described on `Team`.
+unsafe impl Sync for Team {}
+
+/// Sets [`Team::finished`] when dropped (also when the reduction panics, so that the
+/// partner stops spinning and the join returns).
+struct EndOnDrop<'a>(&'a Team);
+
+impl Drop for EndOnDrop<'_> {
+    fn drop(&mut self) {
+        self.0
+            .finished
+            .store(true, std::sync::atomic::Ordering::Release);
+    }
+}
+
+impl Team {
+    fn new() -> Self {
+        fn nothing(_: usize) {}
+        Team {
+            state: std::sync::atomic::AtomicU64::new(0),
+            done: std::sync::atomic::AtomicU32::new(0),
+            job: std::cell::UnsafeCell::new(&nothing as &(dyn Fn(usize) + Sync)),
+            finished: std::sync::atomic::AtomicBool::new(false),
+        }
+    }
+
+    fn end_on_drop(&self) -> EndOnDrop<'_> {
+        EndOnDrop(self)
+    }
+
+    /// Claims part `p` of generation `generation`; false if another thread has, or
+    /// the generation is over.
+    fn claim(&self, generation: u64, p: usize) -> bool {
+        use std::sync::atomic::Ordering::{AcqRel, Acquire};
+        let bit = 1u64 << p;
+        let mut s = self.state.load(Acquire);
+        loop {
+            if s >> 32 != generation || s & bit != 0 {
+                return false;
+            }
+            match self
+                .state
+                .compare_exchange_weak(s, s | bit, AcqRel, Acquire)
+            {
+                Ok(_) => return true,
+                Err(now) => s = now,
+            }
+        }
+    }
+
+    /// Runs `work(0) … work(parts − 1)` (parts ≤ [`MAX_PARTS`]), some of them on the
+    /// partner, and returns when all are done.
+    fn run(&self, parts: usize, work: &(dyn Fn(usize) + Sync)) {
+        use std::sync::atomic::Ordering::{Acquire, Relaxed, Release};
+        debug_assert!(parts <= MAX_PARTS);
+        let generation = (self.state.load(Relaxed) >> 32) + 1;
+        // SAFETY: every part of the previous generation has finished (the last run
+        // waited for them) and the partner reads `job` only after claiming a part of
+        // the generation published below. The lifetime is erased for the duration
+        // of this call only: the partner cannot start a part after `done` reaches
+        // `parts`, and this call does not return before that.
+        unsafe {
+            *self.job.get() = std::mem::transmute::<
+                *const (dyn Fn(usize) + Sync + '_),
+                *const (dyn Fn(usize) + Sync + 'static),
+            >(work);
+        }
+        self.done.store(0, Relaxed);
+        self.state
+            .store((generation << 32) | ((parts as u64) << 16), Release);
+        for p in 0..parts {
+            if self.claim(generation, p) {
+                work(p);
+                self.done.fetch_add(1, Release);
+            }
+        }
+        while (self.done.load(Acquire) as usize) < parts {
+            std::hint::spin_loop();
+        }
+    }
+
+    /// The partner's loop: claims parts of each new pass from the back until the
+    /// reduction ends.
+    fn serve(&self) {
+        use std::sync::atomic::Ordering::{Acquire, Release};
+        let mut seen = 0;
+        while !self.finished.load(Acquire) {
+            let s = self.state.load(Acquire);
+            let generation = s >> 32;
+            if generation == seen {
+                std::hint::spin_loop();
+                continue;
+            }
+            seen = generation;
+            let parts = ((s >> 16) & 0xffff) as usize;
+            for p in (0..parts).rev() {
+                if self.claim(generation, p) {
+                    // SAFETY: see `Team`: the claimed part keeps generation
+                    // `generation` — and its `job` — alive until `done` counts it.
+                    let work = unsafe { &**self.job.get() };
+                    work(p);
+                    self.done.fetch_add(1, Release);
+                }
+            }
+        }
+    }
+}
+
+/// Runs parts `0..parts` of a pass: through `team` if there is one, else in order.
+fn run_parts(team: Option<&Team>, parts: usize, work: &(dyn Fn(usize) + Sync)) {
+    match team {
+        Some(team) if parts > 1 => team.run(parts, work),
+        _ => (0..parts).for_each(work),
+    }
 }
 
 /// Columns per block of [`syr2k_lower`].
@@ -160,6 +337,7 @@ fn syr2k_lower(
     w: MatRef<'_, f64>,
     ubuf: &mut Mat<f64>,
     par: Par,
+    team: Option<&Team>,
 ) {
     let (r, b) = (v.nrows(), v.ncols());
     if r == 0 || b == 0 {
@@ -195,12 +373,30 @@ fn syr2k_lower(
             Par::Seq,
         );
     };
-    if par.degree() > 1 && r >= PAR_MIN {
+    let parts = if r >= PAR_MIN {
+        par.degree().clamp(1, MAX_PARTS)
+    } else {
+        1
+    };
+    if parts > 1 && team.is_none() {
         use rayon::prelude::*;
         blocks.into_par_iter().for_each(update);
-    } else {
-        blocks.into_iter().for_each(update);
+        return;
     }
+    // Part p updates blocks p, p + parts, …: the block columns shorten to the right,
+    // so the parts interleave to stay balanced. Each block is independent.
+    let blocks: Vec<_> = blocks
+        .into_iter()
+        .map(|b| std::sync::Mutex::new(Some(b)))
+        .collect();
+    run_parts(team, parts, &|p| {
+        for slot in blocks.iter().skip(p).step_by(parts) {
+            let taken = slot.lock().unwrap_or_else(|e| e.into_inner()).take();
+            if let Some(block) = taken {
+                update(block);
+            }
+        }
+    });
 }
 
 /// `dlatrd` (lower) on the trailing matrix `a` (m×m): reduces its first `w.ncols()`
@@ -213,6 +409,7 @@ fn panel(
     e: &mut [f64],
     tau: &mut [f64],
     par: Par,
+    team: Option<&Team>,
     ybufs: &mut [Vec<f64>],
 ) {
     let m = a.nrows();
@@ -277,6 +474,7 @@ fn panel(
             v.try_as_col_major().unwrap().as_slice(),
             wi.rb_mut().try_as_col_major_mut().unwrap().as_slice_mut(),
             par,
+            team,
             ybufs,
         );
         if i > 0 {
@@ -315,12 +513,19 @@ fn panel(
 /// the lower triangle: column j adds `a[j.., j] v_j` to `y[j..]` and `a[j+1.., j]ᵀ
 /// v[j+1..]` to `y_j`. With `par`, the columns are split into ranges of equal
 /// triangle area, each thread summing into its own buffer of `ybufs`.
-fn symv_lower(a: MatRef<'_, f64>, v: &[f64], y: &mut [f64], par: Par, ybufs: &mut [Vec<f64>]) {
+fn symv_lower(
+    a: MatRef<'_, f64>,
+    v: &[f64],
+    y: &mut [f64],
+    par: Par,
+    team: Option<&Team>,
+    ybufs: &mut [Vec<f64>],
+) {
     let r = a.nrows();
     let threads = if r < PAR_MIN {
         1
     } else {
-        par.degree().clamp(1, ybufs.len())
+        par.degree().clamp(1, ybufs.len().min(MAX_PARTS))
     };
     if threads == 1 {
         y.fill(0.0);
@@ -339,20 +544,31 @@ fn symv_lower(a: MatRef<'_, f64>, v: &[f64], y: &mut [f64], par: Par, ybufs: &mu
             ((1.0 - (1.0 - t as f64 / threads as f64).sqrt()) * r as f64) as usize
         }
     };
-    use rayon::prelude::*;
-    ybufs[..threads]
-        .par_iter_mut()
-        .enumerate()
-        .for_each(|(t, buf)| {
-            let y = &mut buf[..r];
-            y.fill(0.0);
-            crate::cpu::dispatch(Symv {
-                a,
-                v,
-                y,
-                cols: bound(t)..bound(t + 1),
-            });
+    let part = |t: usize, buf: &mut [f64]| {
+        let y = &mut buf[..r];
+        y.fill(0.0);
+        crate::cpu::dispatch(Symv {
+            a,
+            v,
+            y,
+            cols: bound(t)..bound(t + 1),
         });
+    };
+    if team.is_some() {
+        let bufs: Vec<std::sync::Mutex<&mut Vec<f64>>> = ybufs[..threads]
+            .iter_mut()
+            .map(std::sync::Mutex::new)
+            .collect();
+        run_parts(team, threads, &|t| {
+            part(t, &mut bufs[t].lock().unwrap_or_else(|e| e.into_inner()));
+        });
+    } else {
+        use rayon::prelude::*;
+        ybufs[..threads]
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(t, buf)| part(t, buf));
+    }
     y.copy_from_slice(&ybufs[0][..r]);
     for buf in &ybufs[1..threads] {
         y.iter_mut().zip(&buf[..r]).for_each(|(a, b)| *a += b);
@@ -596,6 +812,42 @@ mod tests {
         a
     }
 
+    /// The reduction's partner thread ([`Team`]) changes who computes a part, never
+    /// what: the same bits on pools of 1, 2 and 3 threads, with the pool idle or its
+    /// other workers busy with a second decomposition at the same time.
+    #[test]
+    fn same_bits_on_any_pool_with_or_without_a_partner() {
+        let a = random_symmetric(600, 41);
+        let b = random_symmetric(520, 42);
+        let pool = |t: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(t)
+                .build()
+                .unwrap()
+        };
+        let reference = pool(1).install(|| symmetric_evd(a.as_ref(), Par::rayon(2)).unwrap());
+        let reference_b = pool(1).install(|| symmetric_evd(b.as_ref(), Par::rayon(2)).unwrap());
+        for threads in [2, 3] {
+            let got = pool(threads).install(|| symmetric_evd(a.as_ref(), Par::rayon(2)).unwrap());
+            assert_eq!(got.0, reference.0);
+            assert!(got.1 == reference.1, "{threads} threads");
+            // Two at once: each may or may not find a free worker for its partner.
+            let (x, y) = pool(threads).install(|| {
+                rayon::join(
+                    || symmetric_evd(a.as_ref(), Par::rayon(2)).unwrap(),
+                    || symmetric_evd(b.as_ref(), Par::rayon(2)).unwrap(),
+                )
+            });
+            assert!(
+                x.1 == reference.1 && y.1 == reference_b.1,
+                "{threads} threads, two at once"
+            );
+        }
+        // Called from outside any pool (the global one).
+        let got = symmetric_evd(a.as_ref(), Par::rayon(2)).unwrap();
+        assert!(got.1 == reference.1);
+    }
+
     fn check(a: &Mat<f64>, par: Par) {
         let n = a.nrows();
         let (lam, e) = symmetric_evd(a.as_ref(), par).unwrap();
@@ -707,7 +959,7 @@ mod tests {
         }
         let mut ybufs = vec![vec![0.0; r]; 2];
         let mut y = vec![0.0; r];
-        symv_lower(lower.as_ref(), &v, &mut y, Par::rayon(2), &mut ybufs);
+        symv_lower(lower.as_ref(), &v, &mut y, Par::rayon(2), None, &mut ybufs);
         for i in 0..r {
             assert!((y[i] - exact[i]).abs() < 1e-12);
         }
