@@ -776,14 +776,7 @@ fn secular_root(i: usize, d: &[f64], z: &[f64], delta: &mut [f64], rho: f64) -> 
             if w * eta > 0.0 {
                 eta = -w / (dpsi + dphi);
             }
-            let temp = tau + eta;
-            if temp > dltub || temp < dltlb {
-                eta = if w < 0.0 {
-                    (dltub - tau) / 2.0
-                } else {
-                    (dltlb - tau) / 2.0
-                };
-            }
+            eta = inside_bracket(tau, eta, w, dltlb, dltub);
             tau += eta;
             (w, dpsi, dphi, erretm) = eval(tau, delta);
         }
@@ -947,14 +940,7 @@ fn secular_root(i: usize, d: &[f64], z: &[f64], delta: &mut [f64], rho: f64) -> 
         if w * eta >= 0.0 {
             eta = -w / dw;
         }
-        let temp = tau + eta;
-        if temp > dltub || temp < dltlb {
-            eta = if w < 0.0 {
-                (dltub - tau) / 2.0
-            } else {
-                (dltlb - tau) / 2.0
-            };
-        }
+        eta = inside_bracket(tau, eta, w, dltlb, dltub);
         tau += eta;
         let prew = w;
         (psi, dpsi, phi, dphi, erretm) = eval(tau, delta);
@@ -1231,6 +1217,22 @@ fn three_poles(
         }
     }
     Err(())
+}
+
+/// `dlaed4`'s safeguard: the step `eta` from `tau` if it stays inside the bracket
+/// `[lo, hi]` of the root's offset, else half the way to the end the secular
+/// function's sign `w` points to.
+fn inside_bracket(tau: f64, eta: f64, w: f64, lo: f64, hi: f64) -> f64 {
+    let next = tau + eta;
+    if next > hi || next < lo {
+        if w < 0.0 {
+            (hi - tau) / 2.0
+        } else {
+            (lo - tau) / 2.0
+        }
+    } else {
+        eta
+    }
 }
 
 #[cfg(test)]
