@@ -1,6 +1,6 @@
 //! All eigenpairs of a real symmetric tridiagonal matrix, `T = Z Λ Zᵀ` (n×n, Λ
 //! ascending, Z orthonormal), by divide and conquer in the manner of LAPACK's
-//! `dstedc`: step 2 of [`crate::spectral::blocked_evd`] (the dense eigensolver of the
+//! `dstedc`: step 3 of [`crate::spectral::blocked_evd`] (the dense eigensolver of the
 //! paper's Fig. 3 and of every dense ED transform).
 //!
 //! **Method** (Cuppen 1981; Gu & Eisenstat 1995; LAPACK `dstedc`, `dlaed0`–`dlaed6`;
