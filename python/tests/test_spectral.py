@@ -25,7 +25,7 @@ def compare_to_scipy(evals, ref):
         assert abs(a - b) <= 1e-9 * max(abs(b), 1e-3 * scale), (a, b)
 
 
-def test_eigsh_matches_scipy_shift_invert_on_the_sql(big_sphere):
+def test_eigsh_matches_lapack_on_the_sql(big_sphere):
     V, F = big_sphere
     S = meshlap.operator(V, F, "sql")
     k = 30

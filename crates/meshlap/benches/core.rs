@@ -5,9 +5,11 @@
 //! patch eigenbases (Kirchhoff operator of every METIS patch of the cow, patches of
 //! about 100 and 150 vertices) through faer and through the reproducible solver.
 //! `tridiagonal_*`: all eigenpairs of the tridiagonal form of the Kirchhoff matrix of
-//! an n-vertex patch (breadth-first from a vertex of icosphere:5), on one thread, by
+//! a patch of about n vertices (breadth-first from a vertex of icosphere:5), on one thread, by
 //! meshlap's divide and conquer and by faer's.
 
+use meshlap::experiment::eigen_cost::bfs_patch;
+use meshlap::input::{open, OpenOptions};
 use meshlap::mesh::{builtin, clean, topology::Topology};
 use meshlap::operator::{Operator, OperatorKind, OperatorOptions};
 use meshlap::partition::{partition, PartitionOptions};
@@ -80,44 +82,21 @@ fn patch_bases_reproducible(bencher: divan::Bencher, p: usize) {
 }
 
 /// The tridiagonal form (diagonal n, off-diagonal n − 1) of the Kirchhoff matrix
-/// `F = D − W` (PSD) of the first n vertices of icosphere:5 in breadth-first order
-/// from vertex 0, reduced by faer's `tridiag_in_place`.
-fn kirchhoff_patch_tridiagonal(n: usize) -> (Vec<f64>, Vec<f64>) {
+/// `F = D − W` (PSD) of a breadth-first patch of about `size` vertices of icosphere:5
+/// ([`bfs_patch`] from vertex 0), reduced by faer's `tridiag_in_place`.
+fn kirchhoff_patch_tridiagonal(size: usize) -> (Vec<f64>, Vec<f64>) {
     use faer::dyn_stack::{MemBuffer, MemStack};
-    let m = builtin::icosphere(5).unwrap();
-    let nv = m.positions.len();
-    let mut adj = vec![Vec::new(); nv];
-    for f in &m.faces {
-        for k in 0..3 {
-            let (a, b) = (f[k] as usize, f[(k + 1) % 3] as usize);
-            adj[a].push(b);
-            adj[b].push(a);
-        }
-    }
-    let mut index = vec![usize::MAX; nv];
-    let mut order = vec![0usize];
-    index[0] = 0;
-    let mut head = 0;
-    while order.len() < n {
-        let v = order[head];
-        head += 1;
-        for &u in &adj[v] {
-            if index[u] == usize::MAX && order.len() < n {
-                index[u] = order.len();
-                order.push(u);
-            }
-        }
-    }
-    let mut a = faer::Mat::<f64>::zeros(n, n);
-    for (i, &v) in order.iter().enumerate() {
-        for &u in &adj[v] {
-            let j = index[u];
-            if j != usize::MAX && a[(i, j)] == 0.0 {
-                a[(i, j)] = -1.0;
-                a[(i, i)] += 1.0;
-            }
-        }
-    }
+    let input = open("builtin:icosphere:5", &OpenOptions::default()).unwrap();
+    let patch = bfs_patch(&input, 0, size).unwrap();
+    let op = Operator::assemble(
+        OperatorKind::Kirchhoff,
+        &patch.mesh,
+        &patch.topology,
+        &OperatorOptions::default(),
+    )
+    .unwrap();
+    let mut a = op.matrix.to_dense();
+    let n = a.nrows();
     let mut h = faer::Mat::<f64>::zeros(1, n - 1);
     let mut mem = MemBuffer::new(faer::linalg::evd::tridiag::tridiag_in_place_scratch::<f64>(
         n,
@@ -137,8 +116,8 @@ fn kirchhoff_patch_tridiagonal(n: usize) -> (Vec<f64>, Vec<f64>) {
 }
 
 #[divan::bench(args = [500, 1000, 2000], sample_count = 10)]
-fn tridiagonal_dc(bencher: divan::Bencher, n: usize) {
-    let (d, e) = kirchhoff_patch_tridiagonal(n);
+fn tridiagonal_dc(bencher: divan::Bencher, size: usize) {
+    let (d, e) = kirchhoff_patch_tridiagonal(size);
     bencher.bench(|| {
         meshlap::spectral::tridiagonal_dc::tridiagonal_evd(divan::black_box(&d), &e, faer::Par::Seq)
             .unwrap()
@@ -146,10 +125,11 @@ fn tridiagonal_dc(bencher: divan::Bencher, n: usize) {
 }
 
 #[divan::bench(args = [500, 1000, 2000], sample_count = 10)]
-fn tridiagonal_faer(bencher: divan::Bencher, n: usize) {
+fn tridiagonal_faer(bencher: divan::Bencher, size: usize) {
     use faer::dyn_stack::{MemBuffer, MemStack};
     use faer::linalg::evd::{self, ComputeEigenvectors};
-    let (d, mut e) = kirchhoff_patch_tridiagonal(n);
+    let (d, mut e) = kirchhoff_patch_tridiagonal(size);
+    let n = d.len();
     e.push(0.0);
     bencher.bench(|| {
         let mut z = faer::Mat::<f64>::zeros(n, n);

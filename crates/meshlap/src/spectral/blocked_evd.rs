@@ -63,7 +63,7 @@ const PAR_MIN: usize = 384;
 /// the symmetric matrix whose **lower triangle** is `a` (n×n; the upper triangle is
 /// not read; columns contiguous). `par` is the parallelism of the products. `None` if
 /// `a` is not square or not column-major, has a non-finite entry in its lower
-/// triangle, or faer's divide and conquer does not converge.
+/// triangle, or the divide and conquer does not converge.
 pub fn symmetric_evd(a: MatRef<'_, f64>, par: Par) -> Option<(Vec<f64>, Mat<f64>)> {
     // On a pool worker: the reduction makes a parallel pass per column.
     crate::par::on_worker(|| evd_on_worker(a, par))
@@ -314,7 +314,8 @@ impl Team {
     }
 }
 
-/// Runs parts `0..parts` of a pass: through `team` if there is one, else in order.
+/// Runs parts `0..parts` of a pass: through `team` if there is one, else in order
+/// on this thread (no team: a pool of one thread, or a matrix too small to share).
 fn run_parts(team: Option<&Team>, parts: usize, work: &(dyn Fn(usize) + Sync)) {
     match team {
         Some(team) if parts > 1 => team.run(parts, work),
@@ -328,8 +329,9 @@ const SYR2K_BLOCK: usize = 48;
 /// `A ← A − V Wᵀ − W Vᵀ` on the lower triangle of `a` (r×r; `v`, `w` r×b): one
 /// product `[V W] [W V]ᵀ` of inner dimension 2b per block of [`SYR2K_BLOCK`]
 /// columns, restricted to the rows at and below the block (the strict upper
-/// triangle inside a diagonal block is written too: it is never read). The blocks
-/// run in parallel, each product on one thread. faer's triangular product was
+/// triangle inside a diagonal block is written too: it is never read). With `par`,
+/// the blocks are dealt to `par.degree()` parts that `team` shares out, each product
+/// on one thread. faer's triangular product was
 /// measured slower here (BENCHMARKS.md, "Spectra"), hence the blocks.
 fn syr2k_lower(
     mut a: MatMut<'_, f64>,
@@ -378,11 +380,6 @@ fn syr2k_lower(
     } else {
         1
     };
-    if parts > 1 && team.is_none() {
-        use rayon::prelude::*;
-        blocks.into_par_iter().for_each(update);
-        return;
-    }
     // Part p updates blocks p, p + parts, …: the block columns shorten to the right,
     // so the parts interleave to stay balanced. Each block is independent.
     let blocks: Vec<_> = blocks
@@ -511,8 +508,9 @@ fn panel(
 
 /// `y = A v` for the symmetric `A` whose lower triangle is `a` (r×r), one pass over
 /// the lower triangle: column j adds `a[j.., j] v_j` to `y[j..]` and `a[j+1.., j]ᵀ
-/// v[j+1..]` to `y_j`. With `par`, the columns are split into ranges of equal
-/// triangle area, each thread summing into its own buffer of `ybufs`.
+/// v[j+1..]` to `y_j`. With `par`, the columns are split into `par.degree()` ranges
+/// of equal triangle area, each part summing into its own buffer of `ybufs` (the
+/// parts shared out by `team`, then added in order).
 fn symv_lower(
     a: MatRef<'_, f64>,
     v: &[f64],
@@ -554,21 +552,13 @@ fn symv_lower(
             cols: bound(t)..bound(t + 1),
         });
     };
-    if team.is_some() {
-        let bufs: Vec<std::sync::Mutex<&mut Vec<f64>>> = ybufs[..threads]
-            .iter_mut()
-            .map(std::sync::Mutex::new)
-            .collect();
-        run_parts(team, threads, &|t| {
-            part(t, &mut bufs[t].lock().unwrap_or_else(|e| e.into_inner()));
-        });
-    } else {
-        use rayon::prelude::*;
-        ybufs[..threads]
-            .par_iter_mut()
-            .enumerate()
-            .for_each(|(t, buf)| part(t, buf));
-    }
+    let bufs: Vec<std::sync::Mutex<&mut Vec<f64>>> = ybufs[..threads]
+        .iter_mut()
+        .map(std::sync::Mutex::new)
+        .collect();
+    run_parts(team, threads, &|t| {
+        part(t, &mut bufs[t].lock().unwrap_or_else(|e| e.into_inner()));
+    });
     y.copy_from_slice(&ybufs[0][..r]);
     for buf in &ybufs[1..threads] {
         y.iter_mut().zip(&buf[..r]).for_each(|(a, b)| *a += b);
