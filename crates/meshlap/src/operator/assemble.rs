@@ -13,7 +13,10 @@
 //!
 //! Both fill the final arrays in place, in parallel over blocks of columns (rayon),
 //! with no triplet list, no global sort, no duplicate merge and no per-entry
-//! allocation. While filling, every column is checked to have strictly increasing
+//! allocation. The geometric operators (cotan, mean-value) compute their per-face
+//! values in parallel into one slot per half-edge and gather each edge's weight from
+//! its half-edges in face order ([`fold_half_edges_per_edge`]): the same sums as a
+//! sequential scatter over the faces, without one. While filling, every column is checked to have strictly increasing
 //! rows below n; only then is the matrix handed to faer without its sequential
 //! re-check (`new_unchecked`). A failed check (a broken [`Topology`] invariant, never
 //! expected) falls back to faer's checked constructor.
@@ -41,6 +44,47 @@ pub(crate) fn vertex_weight_sums(topo: &Topology, w: &[f64]) -> Vec<f64> {
                 .sum()
         })
         .collect()
+}
+
+/// Per undirected edge (in [`Topology::edges`] order), `zero` folded with
+/// `add(acc, h)` over the edge's half-edges `h` in ascending order. Half-edge `h`
+/// belongs to face `h / 3`, so this is face order: the result has the same bits as a
+/// sequential pass over the faces adding each half-edge's value into a zeroed
+/// per-edge array — computed in parallel over edges (a gather, no scatter), the same
+/// on any number of threads. Edges of one or two faces read their half-edges from the
+/// connectivity; the half-edges of non-manifold edges (three faces or more, rare) are
+/// added by one sequential pass over all half-edges.
+pub(crate) fn fold_half_edges_per_edge<T: Copy + Send + Sync>(
+    topo: &Topology,
+    zero: T,
+    add: impl Fn(T, u32) -> T + Sync,
+) -> Vec<T> {
+    use crate::mesh::EdgeId;
+    let mut out: Vec<T> = (0..topo.n_edges())
+        .into_par_iter()
+        .with_min_len(4 * BLOCK)
+        .map(|e| {
+            let e = EdgeId(e as u32);
+            let h = topo.edge_half_edge(e);
+            match topo.edge_face_count(e) {
+                1 => add(zero, h),
+                2 => {
+                    let t = topo.twin(h);
+                    add(add(zero, h.min(t)), h.max(t))
+                }
+                _ => zero,
+            }
+        })
+        .collect();
+    if topo.non_manifold_edges().next().is_some() {
+        for h in 0..3 * topo.n_faces() as u32 {
+            let e = topo.half_edge_edge(h);
+            if topo.edge_face_count(e) > 2 {
+                out[e.idx()] = add(out[e.idx()], h);
+            }
+        }
+    }
+    out
 }
 
 /// Splits the value and row arrays of a CSC matrix at block boundaries of `BLOCK`
@@ -114,8 +158,8 @@ pub(crate) fn one_ring_columns(
     let n = topo.n_vertices();
     let col_ptr = one_ring_col_ptr(topo);
     let nnz = col_ptr[n];
-    let mut row_idx = vec![0usize; nnz];
-    let mut val = vec![0.0f64; nnz];
+    let mut row_idx = crate::mem::zeroed_vec(0usize, nnz);
+    let mut val = crate::mem::zeroed_vec(0.0f64, nnz);
     let sorted = column_blocks(&col_ptr, &mut row_idx, &mut val)
         .into_par_iter()
         .map(|(s, e, rows, vals)| {
@@ -253,8 +297,8 @@ pub(crate) fn two_ring_matrix(
         col_ptr.push(acc);
     }
     let nnz = col_ptr[n];
-    let mut row_idx = vec![0usize; nnz];
-    let mut val = vec![0.0f64; nnz];
+    let mut row_idx = crate::mem::zeroed_vec(0usize, nnz);
+    let mut val = crate::mem::zeroed_vec(0.0f64, nnz);
     // Pass 2: rows (sorted) and values.
     let sorted = column_blocks(&col_ptr, &mut row_idx, &mut val)
         .into_par_iter()
@@ -673,8 +717,72 @@ mod tests {
                 crate::operator::cotan::is_proper_triangle(area2, [a, b, c])
             });
             if geometric {
-                let (l, _) = cotan(&m, &t, MassKind::Voronoi).unwrap();
-                assert_identical(&name, "cotan", &l, &cotan_reference(&m, &t));
+                for threads in [1, 3] {
+                    let pool = rayon::ThreadPoolBuilder::new()
+                        .num_threads(threads)
+                        .build()
+                        .unwrap();
+                    let (l, _) = pool.install(|| cotan(&m, &t, MassKind::Voronoi).unwrap());
+                    assert_identical(&name, "cotan", &l, &cotan_reference(&m, &t));
+                    let f = pool.install(|| crate::operator::mean_value::mean_value(&m, &t));
+                    let want = mean_value_reference(&m, &t);
+                    assert_identical(&name, "mean-value", &f.unwrap(), &want);
+                }
+            }
+        }
+    }
+
+    /// The previous mean-value assembly: a sequential face loop adding each corner's
+    /// `tan(θ/2)/‖e‖` into per-edge directed weights.
+    fn mean_value_reference(mesh: &TriMesh, topo: &Topology) -> SparseMatrix {
+        use crate::operator::geometry::{add, norm, scale, sub};
+        let mut w = vec![[0.0f64; 2]; topo.n_edges()];
+        let p = |v: u32| mesh.positions[v as usize];
+        for (f, t) in topo.faces().iter().enumerate() {
+            for k in 0..3 {
+                let (i, j, l) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
+                let (u, v) = (sub(p(j), p(i)), sub(p(l), p(i)));
+                let (lu, lv) = (norm(u), norm(v));
+                let (du, dv) = (scale(u, lv), scale(v, lu));
+                let half_tan = norm(sub(du, dv)) / norm(add(du, dv));
+                for (h, len) in [(3 * f + k, lu), (3 * f + (k + 2) % 3, lv)] {
+                    let e = topo.half_edge_edge(h as u32).idx();
+                    let dir = usize::from(topo.edge(crate::mesh::EdgeId(e as u32))[0] != i);
+                    w[e][dir] += half_tan / len;
+                }
+            }
+        }
+        let dir = |e: usize, from: usize| usize::from(topo.edges()[e][0] != from as u32);
+        let sums: Vec<f64> = (0..topo.n_vertices())
+            .map(|v| {
+                topo.neighbor_edges(VertexId(v as u32))
+                    .iter()
+                    .map(|&e| w[e as usize][dir(e as usize, v)])
+                    .sum()
+            })
+            .collect();
+        reference::one_ring_matrix(topo, |_| 1.0, |i, _, e| -w[e][dir(e, i)] / sums[i])
+    }
+
+    #[test]
+    fn fold_over_half_edges_is_face_order_on_every_edge() {
+        for (name, _, t) in cases() {
+            // Each half-edge's id, as a list per edge: the fold must visit them
+            // ascending, non-manifold edges included.
+            let got = fold_half_edges_per_edge(&t, (0u64, 0u32), |(acc, count), h| {
+                (acc.wrapping_mul(1_000_003) + u64::from(h) + 1, count + 1)
+            });
+            let mut want = vec![(0u64, 0u32); t.n_edges()];
+            for h in 0..3 * t.n_faces() as u32 {
+                let e = t.half_edge_edge(h).idx();
+                want[e] = (
+                    want[e].0.wrapping_mul(1_000_003) + u64::from(h) + 1,
+                    want[e].1 + 1,
+                );
+            }
+            assert_eq!(got, want, "{name}");
+            for (e, &(_, c)) in got.iter().enumerate() {
+                assert_eq!(c as usize, t.edge_face_count(crate::mesh::EdgeId(e as u32)));
             }
         }
     }

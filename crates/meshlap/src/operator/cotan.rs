@@ -49,53 +49,82 @@ crate::names::option_names!(MassKind, OperatorError, |s| OperatorError::UnknownO
     Barycentric => "barycentric",
 });
 
-/// Assembles the cotangent stiffness matrix and the lumped mass diagonal.
+/// Assembles the cotangent stiffness matrix (n×n, `F = D − W`, positive semi-definite
+/// when no weight is negative) and the lumped mass diagonal (n).
 ///
-/// The per-face geometry (cotangents, areas, mass shares) is computed in parallel over
-/// chunks of faces; the per-face values are then added into the edge weights and the
-/// masses in face order, and the matrix is filled column by column
-/// (`assemble::one_ring_matrix`), so every entry is the same sum in the same
-/// order on any number of threads.
+/// Three passes, each parallel and each summing in a fixed order, so every entry is
+/// the same sum in the same order on any number of threads: the per-face geometry
+/// (½ cot of the corner opposite each half-edge, each corner's mass share) over
+/// chunks of faces; each edge's weight gathered from its half-edges in face order
+/// (`assemble::fold_half_edges_per_edge`); the columns filled with the diagonal summed
+/// in neighbour order (`assemble::one_ring_columns`). The masses are added face by
+/// face on one thread while the others fill the matrix.
 pub fn cotan(
     mesh: &TriMesh,
     topo: &Topology,
     mass_kind: MassKind,
 ) -> Result<(SparseMatrix, Vec<f64>), OperatorError> {
     let faces = topo.faces();
-    // Faces in chunks whose per-face values (56 B each) stay in cache: the geometry of
-    // a chunk in parallel, then its values added in face order.
-    const CHUNK: usize = 8192;
-    let mut shares: Vec<Option<([f64; 3], [f64; 3])>> = vec![None; CHUNK.min(faces.len())];
-    let mut w = vec![0.0f64; topo.n_edges()];
-    let mut mass = vec![0.0f64; topo.n_vertices()];
-    for (c, chunk) in faces.chunks(CHUNK).enumerate() {
-        shares[..chunk.len()]
-            .par_iter_mut()
-            .with_min_len(1024)
-            .zip(chunk.par_iter())
-            .for_each(|(out, t)| *out = face_shares(mesh, *t, mass_kind));
-        for (q, (t, share)) in chunk.iter().zip(&shares).enumerate() {
-            let f = c * CHUNK + q;
-            let Some((half_cot, m)) = share else {
-                return Err(OperatorError::DegenerateFace {
-                    face: f as u32,
-                    a: t[0],
-                    b: t[1],
-                    c: t[2],
-                    kind: "cotan",
-                });
-            };
-            for k in 0..3 {
-                let h = (3 * f + (k + 1) % 3) as u32;
-                w[topo.half_edge_edge(h).idx()] += half_cot[k];
+    // Per half-edge h = 3f + m (from corner m to corner m + 1 of face f): ½ cot of the
+    // corner opposite it, m + 2; per corner 3f + k: its mass share.
+    let mut half_cot = crate::mem::zeroed_vec(0.0f64, 3 * faces.len());
+    let mut share = crate::mem::zeroed_vec(0.0f64, 3 * faces.len());
+    const CHUNK: usize = 1024;
+    let first_bad = half_cot
+        .par_chunks_mut(3 * CHUNK)
+        .zip(share.par_chunks_mut(3 * CHUNK))
+        .enumerate()
+        .filter_map(|(c, (hc, sh))| {
+            for (q, (hf, sf)) in hc
+                .chunks_exact_mut(3)
+                .zip(sh.chunks_exact_mut(3))
+                .enumerate()
+            {
+                let f = c * CHUNK + q;
+                let Some((half, m)) = face_shares(mesh, faces[f], mass_kind) else {
+                    return Some(f);
+                };
+                for k in 0..3 {
+                    hf[(k + 1) % 3] = half[k];
+                }
+                sf.copy_from_slice(&m);
             }
-            for k in 0..3 {
-                mass[t[k] as usize] += m[k];
-            }
-        }
+            None
+        })
+        .min();
+    if let Some(f) = first_bad {
+        let t = faces[f];
+        return Err(OperatorError::DegenerateFace {
+            face: f as u32,
+            a: t[0],
+            b: t[1],
+            c: t[2],
+            kind: "cotan",
+        });
     }
-    let diag = super::assemble::vertex_weight_sums(topo, &w);
-    let l = super::assemble::one_ring_matrix(topo, |i| diag[i], |_, _, e| -w[e]);
+    let (mass, l) = rayon::join(
+        || {
+            let mut mass = vec![0.0f64; topo.n_vertices()];
+            for (t, s) in faces.iter().zip(share.chunks_exact(3)) {
+                for k in 0..3 {
+                    mass[t[k] as usize] += s[k];
+                }
+            }
+            mass
+        },
+        || {
+            let w = super::assemble::fold_half_edges_per_edge(topo, 0.0f64, |acc, h| {
+                acc + half_cot[h as usize]
+            });
+            super::assemble::one_ring_columns(topo, |j, off| {
+                let edges = topo.neighbor_edges(crate::VertexId(j as u32));
+                for (o, &e) in off.iter_mut().zip(edges) {
+                    *o = -w[e as usize];
+                }
+                edges.iter().map(|&e| w[e as usize]).sum()
+            })
+        },
+    );
     super::check_finite(&l, Some(&mass), "cotan")?;
     Ok((l, mass))
 }
@@ -158,7 +187,7 @@ pub(crate) fn is_proper_triangle(area2: f64, p: [[f64; 3]; 3]) -> bool {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::mesh::{builtin, VertexId};
     use crate::operator::test_util::*;
@@ -237,6 +266,40 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// 3,000 separate triangles, those at `bad` collinear: more faces than one
+    /// parallel chunk, so the faults fall in different chunks.
+    pub(crate) fn triangles_with_degenerate(bad: &[usize]) -> TriMesh {
+        let (mut v, mut f) = (Vec::new(), Vec::new());
+        for i in 0..3000u32 {
+            let x = f64::from(i);
+            let h = if bad.contains(&(i as usize)) {
+                0.0
+            } else {
+                1.0
+            };
+            v.extend([[x, 0.0, 0.0], [x + 1.0, 0.0, 0.0], [x + 0.5, h, 0.0]]);
+            f.push([3 * i, 3 * i + 1, 3 * i + 2]);
+        }
+        TriMesh::new(v, f)
+    }
+
+    #[test]
+    fn the_first_degenerate_face_is_named_on_any_pool() {
+        let m = triangles_with_degenerate(&[2900, 1500, 2048]);
+        let t = topo(&m);
+        for threads in [1, 2, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            match pool.install(|| cotan(&m, &t, MassKind::Voronoi)) {
+                Err(OperatorError::DegenerateFace { face, .. }) => assert_eq!(face, 1500),
+                other => panic!("{threads} threads: {other:?}"),
+            }
+        }
+        assert!(cotan(&triangles_with_degenerate(&[]), &t, MassKind::Voronoi).is_ok());
     }
 
     #[test]

@@ -18,76 +18,115 @@ use super::geometry::{add, cross, norm, scale, sub};
 use super::OperatorError;
 use crate::mesh::{topology::Topology, TriMesh};
 use crate::SparseMatrix;
+use rayon::prelude::*;
 
-/// Assembles the row-normalised mean-value Laplacian of `mesh`.
+/// Assembles the row-normalised mean-value Laplacian of `mesh`: n×n, non-symmetric,
+/// zero row sums, `F = D − W` with `D = I`.
+///
+/// Three parallel passes with fixed summation orders (the same bits on any number of
+/// threads): each face's six directed contributions `tan(θ/2)/‖e‖` over chunks of
+/// faces; each edge's two directed weights gathered from its half-edges in face order
+/// (`assemble::fold_half_edges_per_edge`); each row's normalising sum in neighbour
+/// order, then the columns. Of several faulty faces the first is named.
 pub fn mean_value(mesh: &TriMesh, topo: &Topology) -> Result<SparseMatrix, OperatorError> {
-    // Directed weights per edge: [from edges[e][0], from edges[e][1]].
-    let mut w = vec![[0.0f64; 2]; topo.n_edges()];
-    let p = |v: u32| mesh.positions[v as usize];
-    for (f, t) in topo.faces().iter().enumerate() {
-        let degenerate = || OperatorError::DegenerateFace {
-            face: f as u32,
-            a: t[0],
-            b: t[1],
-            c: t[2],
-            kind: "mean-value",
-        };
-        let corners = t.map(p);
-        let area2 = norm(cross(
-            sub(corners[1], corners[0]),
-            sub(corners[2], corners[0]),
-        ));
-        let proper = super::cotan::is_proper_triangle(area2, corners);
-        for k in 0..3 {
-            let (i, j, l) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
-            let (u, v) = (sub(p(j), p(i)), sub(p(l), p(i)));
-            let (lu, lv) = (norm(u), norm(v));
-            if lu.is_nan() || lv.is_nan() || lu <= 0.0 || lv <= 0.0 {
-                let (a, b) = if lu > 0.0 { (i, l) } else { (i, j) };
-                return Err(OperatorError::ZeroLengthEdge {
-                    a,
-                    b,
-                    kind: "mean-value",
-                });
+    let faces = topo.faces();
+    // Per half-edge h = 3f + m (from corner m to corner m + 1): the contribution of the
+    // angle at its start and of the angle at its end.
+    let mut half = crate::mem::zeroed_vec([0.0f64; 2], 3 * faces.len());
+    const CHUNK: usize = 1024;
+    let first_bad = half
+        .par_chunks_mut(3 * CHUNK)
+        .enumerate()
+        .filter_map(|(c, out)| {
+            for (q, o) in out.chunks_exact_mut(3).enumerate() {
+                let f = c * CHUNK + q;
+                match face_contributions(mesh, f, faces[f]) {
+                    Ok(v) => o.copy_from_slice(&v),
+                    Err(_) => return Some(f),
+                }
             }
-            // tan(θ/2) = ‖ |v|u − |u|v ‖ / ‖ |v|u + |u|v ‖ (Kahan's form: accurate for
-            // angles near 0 and π, where sin θ / (1 + cos θ) cancels).
-            let (du, dv) = (scale(u, lv), scale(v, lu));
-            let denom = norm(add(du, dv));
-            if !proper || denom.is_nan() || denom <= 0.0 {
-                return Err(degenerate());
-            }
-            let half_tan = norm(sub(du, dv)) / denom;
-            // The angle at i touches edges (i, j) (half-edge k) and (i, l) (half-edge k+2).
-            for (h, other, len) in [(3 * f + k, j, lu), (3 * f + (k + 2) % 3, l, lv)] {
-                let e = topo.half_edge_edge(h as u32).idx();
-                let dir = usize::from(topo.edge(crate::mesh::EdgeId(e as u32))[0] != i);
-                debug_assert!(topo.edge(crate::mesh::EdgeId(e as u32)).contains(&other));
-                w[e][dir] += half_tan / len;
-            }
-        }
+            None
+        })
+        .min();
+    if let Some(f) = first_bad {
+        face_contributions(mesh, f, faces[f])?;
     }
+    // Directed weights per edge: [from edges[e][0], from edges[e][1]], each summed over
+    // the edge's faces in face order.
+    let w = super::assemble::fold_half_edges_per_edge(topo, [0.0f64; 2], |acc, h| {
+        let e = topo.half_edge_edge(h);
+        let v = half[h as usize];
+        if topo.from(h) == topo.edge(e)[0] {
+            [acc[0] + v[0], acc[1] + v[1]]
+        } else {
+            [acc[0] + v[1], acc[1] + v[0]]
+        }
+    });
+    let dir = |e: usize, from: usize| usize::from(topo.edges()[e][0] != from as u32);
     let sums: Vec<f64> = (0..topo.n_vertices())
+        .into_par_iter()
+        .with_min_len(4096)
         .map(|v| {
             topo.neighbor_edges(crate::VertexId(v as u32))
                 .iter()
-                .map(|&e| {
-                    let dir = usize::from(topo.edges()[e as usize][0] != v as u32);
-                    w[e as usize][dir]
-                })
+                .map(|&e| w[e as usize][dir(e as usize, v)])
                 .sum()
         })
         .collect();
-    let f = super::assemble::one_ring_matrix(
-        topo,
-        |_| 1.0,
-        |i, _, e| {
-            let dir = usize::from(topo.edges()[e][0] != i as u32);
-            -w[e][dir] / sums[i]
-        },
-    );
+    let f = super::assemble::one_ring_matrix(topo, |_| 1.0, |i, _, e| -w[e][dir(e, i)] / sums[i]);
     super::check_finite(&f, None, "mean-value")?;
     Ok(f)
+}
+
+/// The directed contributions of face `f` with corners `t`: per half-edge m (from
+/// corner m to corner m + 1), `[tan(θ_m/2), tan(θ_{m+1}/2)] / ‖x_{m+1} − x_m‖` with
+/// θ_c the angle at corner c; or the face's error (a zero-length edge, or a triangle
+/// that is zero-area to rounding).
+fn face_contributions(
+    mesh: &TriMesh,
+    f: usize,
+    t: [u32; 3],
+) -> Result<[[f64; 2]; 3], OperatorError> {
+    let p = |v: u32| mesh.positions[v as usize];
+    let degenerate = || OperatorError::DegenerateFace {
+        face: f as u32,
+        a: t[0],
+        b: t[1],
+        c: t[2],
+        kind: "mean-value",
+    };
+    let corners = t.map(p);
+    let area2 = norm(cross(
+        sub(corners[1], corners[0]),
+        sub(corners[2], corners[0]),
+    ));
+    let proper = super::cotan::is_proper_triangle(area2, corners);
+    let mut out = [[0.0f64; 2]; 3];
+    for k in 0..3 {
+        let (i, j, l) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
+        let (u, v) = (sub(p(j), p(i)), sub(p(l), p(i)));
+        let (lu, lv) = (norm(u), norm(v));
+        if lu.is_nan() || lv.is_nan() || lu <= 0.0 || lv <= 0.0 {
+            let (a, b) = if lu > 0.0 { (i, l) } else { (i, j) };
+            return Err(OperatorError::ZeroLengthEdge {
+                a,
+                b,
+                kind: "mean-value",
+            });
+        }
+        // tan(θ/2) = ‖ |v|u − |u|v ‖ / ‖ |v|u + |u|v ‖ (Kahan's form: accurate for
+        // angles near 0 and π, where sin θ / (1 + cos θ) cancels).
+        let (du, dv) = (scale(u, lv), scale(v, lu));
+        let denom = norm(add(du, dv));
+        if !proper || denom.is_nan() || denom <= 0.0 {
+            return Err(degenerate());
+        }
+        let half_tan = norm(sub(du, dv)) / denom;
+        // The angle at i starts half-edge k (i → j) and ends half-edge k + 2 (l → i).
+        out[k][0] = half_tan / lu;
+        out[(k + 2) % 3][1] = half_tan / lv;
+    }
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -116,6 +155,22 @@ mod tests {
                 if !t.is_boundary_vertex(VertexId(v as u32)) {
                     assert!(y[v].abs() < 1e-13, "vertex {v}: {}", y[v]);
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn the_first_faulty_face_is_named_on_any_pool() {
+        let m = crate::operator::cotan::tests::triangles_with_degenerate(&[2900, 1500, 2048]);
+        let t = topo(&m);
+        for threads in [1, 2, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            match pool.install(|| mean_value(&m, &t)) {
+                Err(OperatorError::DegenerateFace { face, .. }) => assert_eq!(face, 1500),
+                other => panic!("{threads} threads: {other:?}"),
             }
         }
     }

@@ -273,20 +273,37 @@ pub(crate) fn check_finite(
     mass: Option<&[f64]>,
     kind: &'static str,
 ) -> Result<(), OperatorError> {
-    for j in 0..matrix.ncols() {
-        let vals = matrix.val_of_col(j);
-        if let Some(k) = vals.iter().position(|v| !v.is_finite()) {
-            let vertex = matrix.row_idx_of_col_raw(j)[k] as u32;
-            return Err(OperatorError::NonFinite { vertex, kind });
-        }
+    // In parallel over chunks of the value array; the first bad entry in column order
+    // is named, as a sequential scan would.
+    if let Some(p) = first_non_finite(matrix.val()) {
+        let col_ptr = matrix.col_ptr();
+        let j = col_ptr.partition_point(|&q| q <= p) - 1;
+        let vertex = matrix.row_idx_of_col_raw(j)[p - col_ptr[j]] as u32;
+        return Err(OperatorError::NonFinite { vertex, kind });
     }
-    if let Some(v) = mass.and_then(|m| m.iter().position(|x| !x.is_finite())) {
+    if let Some(v) = mass.and_then(first_non_finite) {
         return Err(OperatorError::NonFinite {
             vertex: v as u32,
             kind,
         });
     }
     Ok(())
+}
+
+/// Index of the first entry of `x` that is NaN or infinite. In parallel over chunks,
+/// each tested without early exit (a branch-free `&` of `is_finite`, which the compiler
+/// vectorises); only the first failing chunk is searched entry by entry.
+pub(crate) fn first_non_finite(x: &[f64]) -> Option<usize> {
+    use rayon::prelude::*;
+    const CHUNK: usize = 1 << 14;
+    let c = x
+        .par_chunks(CHUNK)
+        .position_first(|c| !c.iter().fold(true, |ok, v| ok & v.is_finite()))?;
+    let start = c * CHUNK;
+    x[start..]
+        .iter()
+        .position(|v| !v.is_finite())
+        .map(|k| start + k)
 }
 
 /// Vertex degrees as `f64`, or an error naming an isolated vertex.
@@ -340,5 +357,49 @@ pub(crate) mod test_util {
             }
         }
         worst
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::builtin;
+    use faer::sparse::SparseColMat;
+
+    #[test]
+    fn first_non_finite_finds_the_first_across_chunks() {
+        let mut x = vec![1.0f64; 100_000];
+        assert_eq!(first_non_finite(&x), None);
+        x[70_001] = f64::INFINITY;
+        x[40_000] = f64::NAN;
+        x[99_999] = f64::NEG_INFINITY;
+        assert_eq!(first_non_finite(&x), Some(40_000));
+        assert_eq!(first_non_finite(&x[40_001..]), Some(30_000));
+        assert_eq!(first_non_finite(&[]), None);
+    }
+
+    #[test]
+    fn check_finite_names_the_row_of_the_first_bad_entry() {
+        let m = builtin::icosphere(3).unwrap();
+        let t = test_util::topo(&m);
+        let k = kirchhoff::kirchhoff(&t);
+        assert!(check_finite(&k, None, "test").is_ok());
+        let (symbolic, mut val) = k.into_parts();
+        // Column 300's third entry, then a later one.
+        let p = symbolic.col_ptr()[300] + 2;
+        let row = symbolic.row_idx()[p];
+        val[p] = f64::NAN;
+        val[symbolic.col_ptr()[500]] = f64::INFINITY;
+        let bad = SparseColMat::new(symbolic, val);
+        match check_finite(&bad, None, "test") {
+            Err(OperatorError::NonFinite { vertex, .. }) => assert_eq!(vertex as usize, row),
+            other => panic!("{other:?}"),
+        }
+        let mass = vec![1.0, 2.0, f64::NAN];
+        let ok = kirchhoff::kirchhoff(&t);
+        match check_finite(&ok, Some(&mass), "test") {
+            Err(OperatorError::NonFinite { vertex, .. }) => assert_eq!(vertex, 2),
+            other => panic!("{other:?}"),
+        }
     }
 }

@@ -17,20 +17,28 @@ use super::geometry::{norm, sub};
 use super::OperatorError;
 use crate::mesh::{topology::Topology, TriMesh};
 use crate::SparseMatrix;
+use rayon::prelude::*;
 
-/// Inverse edge lengths, in [`Topology::edges`] order.
+/// Inverse edge lengths, in [`Topology::edges`] order, computed in parallel; a
+/// zero-length (or overflowing) edge is an error naming the first such edge.
 fn inverse_lengths(mesh: &TriMesh, topo: &Topology) -> Result<Vec<f64>, OperatorError> {
-    topo.edges()
-        .iter()
-        .map(|&[a, b]| {
-            let l = norm(sub(mesh.positions[a as usize], mesh.positions[b as usize]));
-            if l > 0.0 && l.is_finite() && (1.0 / l).is_finite() {
-                Ok(1.0 / l)
-            } else {
-                Err(OperatorError::ZeroLengthEdge { a, b, kind: "sdl" })
-            }
-        })
-        .collect()
+    let inv = |[a, b]: [u32; 2]| {
+        let l = norm(sub(mesh.positions[a as usize], mesh.positions[b as usize]));
+        (l > 0.0 && l.is_finite() && (1.0 / l).is_finite()).then(|| 1.0 / l)
+    };
+    let w: Vec<f64> = topo
+        .edges()
+        .par_iter()
+        .with_min_len(8192)
+        .map(|&e| inv(e).unwrap_or(f64::NAN))
+        .collect();
+    match super::first_non_finite(&w) {
+        Some(e) => {
+            let [a, b] = topo.edges()[e];
+            Err(OperatorError::ZeroLengthEdge { a, b, kind: "sdl" })
+        }
+        None => Ok(w),
+    }
 }
 
 /// Assembles the scale-dependent Laplacian of `mesh`.
