@@ -51,29 +51,44 @@ pub fn mean_value(mesh: &TriMesh, topo: &Topology) -> Result<SparseMatrix, Opera
     if let Some(f) = first_bad {
         face_contributions(mesh, f, faces[f])?;
     }
-    // Directed weights per edge: [from edges[e][0], from edges[e][1]], each summed over
-    // the edge's faces in face order.
+    // Directed weights per edge `[a, b]` (`a < b`): [from a, from b], each summed over
+    // the edge's faces in face order. A half-edge from x to y contributes its start's
+    // angle to the weight from x: slot `x > y`.
     let w = super::assemble::fold_half_edges_per_edge(topo, [0.0f64; 2], |acc, h| {
-        let e = topo.half_edge_edge(h);
+        let t = faces[h as usize / 3];
+        let m = h as usize % 3;
         let v = half[h as usize];
-        if topo.from(h) == topo.edge(e)[0] {
+        if t[m] < t[(m + 1) % 3] {
             [acc[0] + v[0], acc[1] + v[1]]
         } else {
             [acc[0] + v[1], acc[1] + v[0]]
         }
     });
-    let dir = |e: usize, from: usize| usize::from(topo.edges()[e][0] != from as u32);
+    // The weight from `from` to `to` along edge e.
+    let directed = |e: u32, from: u32, to: u32| w[e as usize][usize::from(from > to)];
     let sums: Vec<f64> = (0..topo.n_vertices())
         .into_par_iter()
         .with_min_len(4096)
         .map(|v| {
-            topo.neighbor_edges(crate::VertexId(v as u32))
+            let v = crate::VertexId(v as u32);
+            topo.neighbors(v)
                 .iter()
-                .map(|&e| w[e as usize][dir(e as usize, v)])
+                .zip(topo.neighbor_edges(v))
+                .map(|(&u, &e)| directed(e, v.0, u))
                 .sum()
         })
         .collect();
-    let f = super::assemble::one_ring_matrix(topo, |_| 1.0, |i, _, e| -w[e][dir(e, i)] / sums[i]);
+    let f = super::assemble::one_ring_columns(topo, |j, off| {
+        let v = crate::VertexId(j as u32);
+        for ((o, &i), &e) in off
+            .iter_mut()
+            .zip(topo.neighbors(v))
+            .zip(topo.neighbor_edges(v))
+        {
+            *o = -directed(e, i, j as u32) / sums[i as usize];
+        }
+        1.0
+    });
     super::check_finite(&f, None, "mean-value")?;
     Ok(f)
 }
