@@ -23,47 +23,12 @@ use rayon::prelude::*;
 /// Assembles the row-normalised mean-value Laplacian of `mesh`: n×n, non-symmetric,
 /// zero row sums, `F = D − W` with `D = I`.
 ///
-/// Three parallel passes with fixed summation orders (the same bits on any number of
-/// threads): each face's six directed contributions `tan(θ/2)/‖e‖` over chunks of
-/// faces; each edge's two directed weights gathered from its half-edges in face order
-/// (`assemble::fold_half_edges_per_edge`); each row's normalising sum in neighbour
-/// order, then the columns. Of several faulty faces the first is named.
+/// Fixed summation orders, so the same bits on any number of threads: each edge's two
+/// directed weights summed over its faces in face order (`directed_weights`), each
+/// row's normalising sum in neighbour order, then the columns in parallel. Of several
+/// faulty faces the first is named.
 pub fn mean_value(mesh: &TriMesh, topo: &Topology) -> Result<SparseMatrix, OperatorError> {
-    let faces = topo.faces();
-    // Per half-edge h = 3f + m (from corner m to corner m + 1): the contribution of the
-    // angle at its start and of the angle at its end.
-    let mut half = crate::mem::zeroed_vec([0.0f64; 2], 3 * faces.len());
-    const CHUNK: usize = 1024;
-    let first_bad = half
-        .par_chunks_mut(3 * CHUNK)
-        .enumerate()
-        .filter_map(|(c, out)| {
-            for (q, o) in out.chunks_exact_mut(3).enumerate() {
-                let f = c * CHUNK + q;
-                match face_contributions(mesh, f, faces[f]) {
-                    Ok(v) => o.copy_from_slice(&v),
-                    Err(_) => return Some(f),
-                }
-            }
-            None
-        })
-        .min();
-    if let Some(f) = first_bad {
-        face_contributions(mesh, f, faces[f])?;
-    }
-    // Directed weights per edge `[a, b]` (`a < b`): [from a, from b], each summed over
-    // the edge's faces in face order. A half-edge from x to y contributes its start's
-    // angle to the weight from x: slot `x > y`.
-    let w = super::assemble::fold_half_edges_per_edge(topo, [0.0f64; 2], |acc, h| {
-        let t = faces[h as usize / 3];
-        let m = h as usize % 3;
-        let v = half[h as usize];
-        if t[m] < t[(m + 1) % 3] {
-            [acc[0] + v[0], acc[1] + v[1]]
-        } else {
-            [acc[0] + v[1], acc[1] + v[0]]
-        }
-    });
+    let w = directed_weights(mesh, topo)?;
     // The weight from `from` to `to` along edge e.
     let directed = |e: u32, from: u32, to: u32| w[e as usize][usize::from(from > to)];
     let sums: Vec<f64> = (0..topo.n_vertices())
@@ -91,6 +56,67 @@ pub fn mean_value(mesh: &TriMesh, topo: &Topology) -> Result<SparseMatrix, Opera
     });
     super::check_finite(&f, None, "mean-value")?;
     Ok(f)
+}
+
+/// Directed weights per edge `[a, b]` (`a < b`, [`Topology::edges`] order):
+/// `[w_ab, w_ba]`, each the sum over the edge's faces, in face order, of
+/// `tan(θ/2)/‖x_b − x_a‖` for the angle θ at the weight's start. A half-edge from x to
+/// y adds its start's angle to the weight from x (slot `x > y`), its end's to the
+/// other.
+///
+/// On one thread the faces' contributions are added into the edges as they are
+/// computed; on more, they are computed in parallel into one slot per half-edge and
+/// each edge gathers its own (`assemble::fold_half_edges_per_edge`). Both add the same
+/// values in the same order: the same bits.
+fn directed_weights(mesh: &TriMesh, topo: &Topology) -> Result<Vec<[f64; 2]>, OperatorError> {
+    let faces = topo.faces();
+    let add = |acc: [f64; 2], t: [u32; 3], m: usize, v: [f64; 2]| {
+        if t[m] < t[(m + 1) % 3] {
+            [acc[0] + v[0], acc[1] + v[1]]
+        } else {
+            [acc[0] + v[1], acc[1] + v[0]]
+        }
+    };
+    if rayon::current_num_threads() == 1 {
+        let mut w = vec![[0.0f64; 2]; topo.n_edges()];
+        for (f, &t) in faces.iter().enumerate() {
+            let c = face_contributions(mesh, f, t)?;
+            for (m, &v) in c.iter().enumerate() {
+                let e = topo.half_edge_edge((3 * f + m) as u32).idx();
+                w[e] = add(w[e], t, m, v);
+            }
+        }
+        return Ok(w);
+    }
+    // Per half-edge h = 3f + m (from corner m to corner m + 1): the contribution of the
+    // angle at its start and of the angle at its end.
+    let mut half = crate::mem::zeroed_vec([0.0f64; 2], 3 * faces.len());
+    const CHUNK: usize = 1024;
+    let first_bad = half
+        .par_chunks_mut(3 * CHUNK)
+        .enumerate()
+        .filter_map(|(c, out)| {
+            for (q, o) in out.chunks_exact_mut(3).enumerate() {
+                let f = c * CHUNK + q;
+                match face_contributions(mesh, f, faces[f]) {
+                    Ok(v) => o.copy_from_slice(&v),
+                    Err(_) => return Some(f),
+                }
+            }
+            None
+        })
+        .min();
+    if let Some(f) = first_bad {
+        face_contributions(mesh, f, faces[f])?;
+    }
+    Ok(super::assemble::fold_half_edges_per_edge(
+        topo,
+        [0.0f64; 2],
+        |acc, h| {
+            let (f, m) = (h as usize / 3, h as usize % 3);
+            add(acc, faces[f], m, half[h as usize])
+        },
+    ))
 }
 
 /// The directed contributions of face `f` with corners `t`: per half-edge m (from
