@@ -187,7 +187,7 @@ pub(crate) fn is_proper_triangle(area2: f64, p: [[f64; 3]; 3]) -> bool {
 }
 
 #[cfg(test)]
-pub(crate) mod tests {
+mod tests {
     use super::*;
     use crate::mesh::{builtin, VertexId};
     use crate::operator::test_util::*;
@@ -268,38 +268,9 @@ pub(crate) mod tests {
         }
     }
 
-    /// 3,000 separate triangles, those at `bad` collinear: more faces than one
-    /// parallel chunk, so the faults fall in different chunks.
-    pub(crate) fn triangles_with_degenerate(bad: &[usize]) -> TriMesh {
-        let (mut v, mut f) = (Vec::new(), Vec::new());
-        for i in 0..3000u32 {
-            let x = f64::from(i);
-            let h = if bad.contains(&(i as usize)) {
-                0.0
-            } else {
-                1.0
-            };
-            v.extend([[x, 0.0, 0.0], [x + 1.0, 0.0, 0.0], [x + 0.5, h, 0.0]]);
-            f.push([3 * i, 3 * i + 1, 3 * i + 2]);
-        }
-        TriMesh::new(v, f)
-    }
-
     #[test]
     fn the_first_degenerate_face_is_named_on_any_pool() {
-        let m = triangles_with_degenerate(&[2900, 1500, 2048]);
-        let t = topo(&m);
-        for threads in [1, 2, 3] {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            match pool.install(|| cotan(&m, &t, MassKind::Voronoi)) {
-                Err(OperatorError::DegenerateFace { face, .. }) => assert_eq!(face, 1500),
-                other => panic!("{threads} threads: {other:?}"),
-            }
-        }
-        assert!(cotan(&triangles_with_degenerate(&[]), &t, MassKind::Voronoi).is_ok());
+        first_degenerate_face_is_named(|m, t| cotan(m, t, MassKind::Voronoi));
     }
 
     #[test]

@@ -202,18 +202,7 @@ mod tests {
 
     #[test]
     fn the_first_faulty_face_is_named_on_any_pool() {
-        let m = crate::operator::cotan::tests::triangles_with_degenerate(&[2900, 1500, 2048]);
-        let t = topo(&m);
-        for threads in [1, 2, 3] {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            match pool.install(|| mean_value(&m, &t)) {
-                Err(OperatorError::DegenerateFace { face, .. }) => assert_eq!(face, 1500),
-                other => panic!("{threads} threads: {other:?}"),
-            }
-        }
+        first_degenerate_face_is_named(mean_value);
     }
 
     #[test]

@@ -333,6 +333,45 @@ pub(crate) mod test_util {
         ]
     }
 
+    /// 3,000 separate triangles, those at `bad` collinear: more faces than one
+    /// parallel chunk of the geometric operators, so the faults fall in different
+    /// chunks.
+    pub fn triangles_with_degenerate(bad: &[usize]) -> TriMesh {
+        let (mut v, mut f) = (Vec::new(), Vec::new());
+        for i in 0..3000u32 {
+            let x = f64::from(i);
+            let h = if bad.contains(&(i as usize)) {
+                0.0
+            } else {
+                1.0
+            };
+            v.extend([[x, 0.0, 0.0], [x + 1.0, 0.0, 0.0], [x + 0.5, h, 0.0]]);
+            f.push([3 * i, 3 * i + 1, 3 * i + 2]);
+        }
+        TriMesh::new(v, f)
+    }
+
+    /// `assemble` names the first of several degenerate faces (1,500 of 1,500, 2,048 and
+    /// 2,900) on pools of 1–3 threads, and succeeds without them.
+    pub fn first_degenerate_face_is_named<T: std::fmt::Debug + Send>(
+        assemble: impl Fn(&TriMesh, &Topology) -> Result<T, super::OperatorError> + Sync,
+    ) {
+        let m = triangles_with_degenerate(&[2900, 1500, 2048]);
+        let t = topo(&m);
+        for threads in [1, 2, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            match pool.install(|| assemble(&m, &t)) {
+                Err(super::OperatorError::DegenerateFace { face, .. }) => assert_eq!(face, 1500),
+                other => panic!("{threads} threads: {other:?}"),
+            }
+        }
+        let good = triangles_with_degenerate(&[]);
+        assert!(assemble(&good, &topo(&good)).is_ok());
+    }
+
     pub fn topo(m: &TriMesh) -> Topology {
         Topology::new(m).unwrap()
     }
