@@ -66,19 +66,55 @@ const PAR_MIN: usize = 384;
 /// triangle, or the divide and conquer does not converge.
 pub fn symmetric_evd(a: MatRef<'_, f64>, par: Par) -> Option<(Vec<f64>, Mat<f64>)> {
     // On a pool worker: the reduction makes a parallel pass per column.
-    crate::par::on_worker(|| evd_on_worker(a, par))
+    crate::par::on_worker(|| {
+        let n = a.nrows();
+        if a.ncols() != n {
+            return None;
+        }
+        let Some((scale, unscale)) = lower_scaling(a)? else {
+            return Some((vec![0.0; n], Mat::identity(n, n)));
+        };
+        let mut w = Mat::<f64>::zeros(n, n);
+        for j in 0..n {
+            let src = &a.col(j).try_as_col_major()?.as_slice()[j..];
+            let dst = &mut w.col_mut(j).try_as_col_major_mut()?.as_slice_mut()[j..];
+            for (d, s) in dst.iter_mut().zip(src) {
+                *d = s * scale;
+            }
+        }
+        evd_scaled(w, unscale, par)
+    })
 }
 
-fn evd_on_worker(a: MatRef<'_, f64>, par: Par) -> Option<(Vec<f64>, Mat<f64>)> {
-    let n = a.nrows();
-    if a.ncols() != n {
-        return None;
-    }
-    if n == 0 {
-        return Some((Vec::new(), Mat::zeros(0, 0)));
-    }
+/// [`symmetric_evd`] of a matrix the caller gives away: the lower triangle of `a` is
+/// scaled and reduced in place (no n×n copy) and `a` is dropped. The same bits as
+/// [`symmetric_evd`] on the same lower triangle; the upper triangle is not read.
+pub fn symmetric_evd_owned(mut a: Mat<f64>, par: Par) -> Option<(Vec<f64>, Mat<f64>)> {
+    crate::par::on_worker(|| {
+        let n = a.nrows();
+        if a.ncols() != n {
+            return None;
+        }
+        let Some((scale, unscale)) = lower_scaling(a.as_ref())? else {
+            return Some((vec![0.0; n], Mat::identity(n, n)));
+        };
+        if scale != 1.0 {
+            for j in 0..n {
+                let col = &mut a.col_mut(j).try_as_col_major_mut()?.as_slice_mut()[j..];
+                col.iter_mut().for_each(|x| *x *= scale);
+            }
+        }
+        evd_scaled(a, unscale, par)
+    })
+}
+
+/// The exact power-of-two scaling `(scale, 1/scale)` that brings `max |a_ij|` over
+/// the lower triangle of the square `a` into `[1, 2)`: `Some(None)` for a zero (or
+/// empty) matrix, `None` if a column is not contiguous or an entry of the lower
+/// triangle is not finite.
+fn lower_scaling(a: MatRef<'_, f64>) -> Option<Option<(f64, f64)>> {
     let mut amax = 0.0f64;
-    for j in 0..n {
+    for j in 0..a.ncols() {
         for &x in &a.col(j).try_as_col_major()?.as_slice()[j..] {
             if !x.is_finite() {
                 return None;
@@ -87,20 +123,19 @@ fn evd_on_worker(a: MatRef<'_, f64>, par: Par) -> Option<(Vec<f64>, Mat<f64>)> {
         }
     }
     if amax == 0.0 {
-        return Some((vec![0.0; n], Mat::identity(n, n)));
+        return Some(None);
     }
-    let (scale, unscale) = super::dense_evd::power_of_two_scaling(amax);
-    let mut w = Mat::<f64>::zeros(n, n);
-    for j in 0..n {
-        let src = &a.col(j).try_as_col_major()?.as_slice()[j..];
-        let dst = &mut w.col_mut(j).try_as_col_major_mut()?.as_slice_mut()[j..];
-        for (d, s) in dst.iter_mut().zip(src) {
-            *d = s * scale;
-        }
-    }
+    Some(Some(super::dense_evd::power_of_two_scaling(amax)))
+}
+
+/// Steps 2–4 of the method on `w` (n×n, n ≥ 1, its lower triangle nonzero and
+/// already scaled by [`lower_scaling`]); the eigenvalues are multiplied by `unscale`.
+fn evd_scaled(mut w: Mat<f64>, unscale: f64, par: Par) -> Option<(Vec<f64>, Mat<f64>)> {
+    let n = w.nrows();
     let (diag, sub, tau) = tridiagonalize(w.as_mut(), par);
     let (s, mut z) = super::tridiagonal_dc::tridiagonal_evd(&diag, &sub[..n - 1], par).ok()?;
     back_transform(w.as_ref(), &tau, z.as_mut(), par);
+    drop(w);
     let lam: Vec<f64> = (0..n).map(|i| s[i] * unscale).collect();
     if lam.iter().any(|x| !x.is_finite()) {
         return None;
@@ -1012,6 +1047,39 @@ mod tests {
         let mixed = [1e-300, 3.0, 4.0, 1e-300];
         assert_eq!(norm2(&mixed), 5.0);
         assert_eq!(norm2(&[0.0; 12]), 0.0);
+    }
+
+    /// The in-place entry point gives the same bits as the copying one and never reads
+    /// the upper triangle (NaN there), on pools of one and two threads.
+    #[test]
+    fn owned_matches_borrowed_bit_for_bit() {
+        for (n, seed) in [(1usize, 1u64), (2, 2), (33, 3), (130, 4), (450, 5)] {
+            let a = random_symmetric(n, seed) * faer::Scale(3.7);
+            let mut owned = a.clone();
+            for j in 0..n {
+                for i in 0..j {
+                    owned[(i, j)] = f64::NAN;
+                }
+            }
+            for threads in [1, 2] {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let want = pool.install(|| symmetric_evd(a.as_ref(), Par::rayon(2)).unwrap());
+                let got =
+                    pool.install(|| symmetric_evd_owned(owned.clone(), Par::rayon(2)).unwrap());
+                assert_eq!(got.0, want.0, "n={n}");
+                assert!(got.1 == want.1, "n={n}");
+            }
+        }
+        let (lam, e) = symmetric_evd_owned(Mat::zeros(5, 5), Par::Seq).unwrap();
+        assert_eq!(lam, vec![0.0; 5]);
+        assert_eq!(e, Mat::<f64>::identity(5, 5));
+        let mut bad = random_symmetric(20, 9);
+        bad[(12, 3)] = f64::INFINITY;
+        assert!(symmetric_evd_owned(bad, Par::Seq).is_none());
+        assert!(symmetric_evd_owned(Mat::zeros(3, 4), Par::Seq).is_none());
     }
 
     #[test]
