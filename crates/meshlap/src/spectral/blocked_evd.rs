@@ -113,15 +113,28 @@ pub fn symmetric_evd_owned(mut a: Mat<f64>, par: Par) -> Option<(Vec<f64>, Mat<f
 /// empty) matrix, `None` if a column is not contiguous or an entry of the lower
 /// triangle is not finite.
 fn lower_scaling(a: MatRef<'_, f64>) -> Option<Option<(f64, f64)>> {
-    let mut amax = 0.0f64;
+    // Eight lanes without branches, so that the loop vectorises: `x · 0` is NaN
+    // exactly when x is not finite, and the lanes' maxima combine exactly.
+    let (mut big, mut bad) = ([0.0f64; 8], [0.0f64; 8]);
     for j in 0..a.ncols() {
-        for &x in &a.col(j).try_as_col_major()?.as_slice()[j..] {
-            if !x.is_finite() {
-                return None;
+        let col = &a.col(j).try_as_col_major()?.as_slice()[j..];
+        let mut chunks = col.chunks_exact(8);
+        for c in &mut chunks {
+            for ((m, b), &x) in big.iter_mut().zip(&mut bad).zip(c) {
+                let ax = x.abs();
+                *m = if ax > *m { ax } else { *m };
+                *b += x * 0.0;
             }
-            amax = amax.max(x.abs());
+        }
+        for &x in chunks.remainder() {
+            big[0] = big[0].max(x.abs());
+            bad[0] += x * 0.0;
         }
     }
+    if bad.iter().any(|b| b.is_nan()) {
+        return None;
+    }
+    let amax = big.iter().fold(0.0f64, |m, &x| m.max(x));
     if amax == 0.0 {
         return Some(None);
     }
@@ -836,22 +849,49 @@ fn back_transform(a: MatRef<'_, f64>, tau: &[f64], z: MatMut<'_, f64>, par: Par)
             t[(c, c)] = 1.0 / tau[j0 + c];
         }
     }
-    let mut mem = MemBuffer::new(
-        householder::apply_block_householder_sequence_on_the_left_in_place_scratch::<f64>(
-            nr,
-            bs,
-            z.ncols(),
-        ),
-    );
-    householder::apply_block_householder_sequence_on_the_left_in_place_with_conj(
-        essentials,
-        factor.as_ref(),
-        faer::Conj::No,
-        z.subrows_mut(1, nr),
-        par,
-        MemStack::new(&mut mem),
-    );
+    // Each part of z's columns goes through the whole sequence on one thread: one
+    // fork–join for the product instead of one per block of reflectors. The parts are
+    // fixed by `par`, so the bits do not depend on the pool.
+    let apply = |mut zc: MatMut<'_, f64>| {
+        let mut mem = MemBuffer::new(
+            householder::apply_block_householder_sequence_on_the_left_in_place_scratch::<f64>(
+                nr,
+                bs,
+                zc.ncols(),
+            ),
+        );
+        householder::apply_block_householder_sequence_on_the_left_in_place_with_conj(
+            essentials,
+            factor.as_ref(),
+            faer::Conj::No,
+            zc.rb_mut().subrows_mut(1, nr),
+            Par::Seq,
+            MemStack::new(&mut mem),
+        );
+    };
+    let cols = z.ncols();
+    let parts = par
+        .degree()
+        .clamp(1, MAX_PARTS)
+        .min(cols.div_ceil(BACK_MIN_COLS));
+    if parts <= 1 {
+        apply(z);
+        return;
+    }
+    let mut blocks = Vec::with_capacity(parts);
+    let mut rest = z;
+    for p in 0..parts {
+        let take = cols * (p + 1) / parts - cols * p / parts;
+        let (block, tail) = rest.split_at_col_mut(take);
+        blocks.push(block);
+        rest = tail;
+    }
+    use rayon::prelude::*;
+    blocks.into_par_iter().with_max_len(1).for_each(apply);
 }
+
+/// Fewest columns of `z` per part of [`back_transform`].
+const BACK_MIN_COLS: usize = 64;
 
 #[cfg(test)]
 mod tests {
@@ -1087,6 +1127,13 @@ mod tests {
         let mut a = random_symmetric(40, 3);
         a[(30, 2)] = f64::NAN;
         assert!(symmetric_evd(a.as_ref(), Par::Seq).is_none());
+        // In a column's last, partial group of eight (rows 32..40 of column 1 are
+        // entries 31..39 of its lower part), and infinite rather than NaN.
+        for (i, x) in [(39, f64::NAN), (38, f64::NEG_INFINITY), (5, f64::INFINITY)] {
+            let mut a = random_symmetric(40, 3);
+            a[(i, 1)] = x;
+            assert!(symmetric_evd(a.as_ref(), Par::Seq).is_none(), "{x} at {i}");
+        }
         let b = Mat::<f64>::zeros(3, 4);
         assert!(symmetric_evd(b.as_ref(), Par::Seq).is_none());
     }
