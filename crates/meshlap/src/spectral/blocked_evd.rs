@@ -57,7 +57,7 @@ use faer::{Accum, Mat, MatMut, MatRef, Par};
 pub const PANEL: usize = 32;
 
 /// Below this trailing size the fused product runs on one thread.
-const PAR_MIN: usize = 384;
+const PAR_MIN: usize = 224;
 
 /// Eigenvalues (ascending) and orthonormal eigenvectors (n×n, column j for λ_j) of
 /// the symmetric matrix whose **lower triangle** is `a` (n×n; the upper triangle is
@@ -1033,7 +1033,11 @@ mod tests {
                 lower[(i, j)] = f64::NAN; // the upper triangle is never read
             }
         }
-        for cuts in [vec![0, r], vec![0, 1, 6, 99, 100, 301, r], vec![0, 4, 8, r]] {
+        for cuts in [
+            vec![0, r],
+            vec![0, 1, 6, 99, 100, r - 102, r],
+            vec![0, 4, 8, r],
+        ] {
             let (mut yp, mut yd) = (vec![0.0; r], vec![0.0; r]);
             for c in cuts.windows(2) {
                 let k = Symv {
