@@ -20,11 +20,13 @@
 //!
 //! **Method** (Golub & Van Loan §8.3.1, LAPACK `dsytrd`, `dlatrd`, `dlarfg`,
 //! `dlarft`, `dormtr`):
-//! 1. Scale by a power of two (exact) so that `max |a_ij|` is in `[1, 2)`.
+//! 1. Scale by a power of two (exact) so that `max |a_ij|` is in `[1, 2)` (in place
+//!    with [`symmetric_evd_owned`], on a copy with [`symmetric_evd`]).
 //! 2. For each panel of columns `i..i+b` of the trailing matrix `A₂₂`: for each
 //!    column, bring it up to date with the panel's earlier reflectors
 //!    (`a ← a − V wᵢᵀ − W vᵢᵀ`), make the Householder reflector `Hᵢ = I − τ v vᵀ`
-//!    that zeroes it below the subdiagonal, and form
+//!    that zeroes it below the subdiagonal (its norms as plain sums of squares, with
+//!    faer's scaled `norm_l2` only when those leave the safe range), and form
 //!    `w = τ (A₂₂ v − V Wᵀ v − W Vᵀ v)`, `w ← w − ½ τ (wᵀv) v` (one fused pass over
 //!    the lower triangle of `A₂₂`, meshlap's own kernel: the axpy of the lower part
 //!    and the dot of the upper part of each column together). Then
@@ -37,10 +39,12 @@
 //! 3. The eigenvalues and eigenvectors `Z` of the tridiagonal matrix by LAPACK-style
 //!    divide and conquer ([`crate::spectral::tridiagonal_dc`]).
 //! 4. `E = Q Z` with `Q = H₀ H₁ ⋯ H_{n−2}` by faer's blocked Householder sequence
-//!    (`I − V T⁻¹ Vᵀ` per block, the factor `T` formed here from the reflectors).
+//!    (`I − V T⁻¹ Vᵀ` per block, the factor `T` formed here from the reflectors),
+//!    applied to `par.degree()` fixed parts of Z's columns in parallel, each part
+//!    through the whole sequence on one thread.
 //!
-//! The result is deterministic for a fixed parallelism (the product's column split
-//! depends on `par`). For bit-identical results on any CPU use
+//! The result is deterministic for a fixed parallelism (the products' splits depend
+//! on `par`, never on the pool). For bit-identical results on any CPU use
 //! [`crate::spectral::dense_evd`].
 //!
 //! **Sign convention.** The solver takes any symmetric matrix; meshlap gives it the
