@@ -20,11 +20,13 @@
 //!
 //! **Method** (Golub & Van Loan §8.3.1, LAPACK `dsytrd`, `dlatrd`, `dlarfg`,
 //! `dlarft`, `dormtr`):
-//! 1. Scale by a power of two (exact) so that `max |a_ij|` is in `[1, 2)`.
+//! 1. Scale by a power of two (exact) so that `max |a_ij|` is in `[1, 2)` (in place
+//!    with [`symmetric_evd_owned`], on a copy with [`symmetric_evd`]).
 //! 2. For each panel of columns `i..i+b` of the trailing matrix `A₂₂`: for each
 //!    column, bring it up to date with the panel's earlier reflectors
 //!    (`a ← a − V wᵢᵀ − W vᵢᵀ`), make the Householder reflector `Hᵢ = I − τ v vᵀ`
-//!    that zeroes it below the subdiagonal, and form
+//!    that zeroes it below the subdiagonal (its norms as plain sums of squares, with
+//!    faer's scaled `norm_l2` only when those leave the safe range), and form
 //!    `w = τ (A₂₂ v − V Wᵀ v − W Vᵀ v)`, `w ← w − ½ τ (wᵀv) v` (one fused pass over
 //!    the lower triangle of `A₂₂`, meshlap's own kernel: the axpy of the lower part
 //!    and the dot of the upper part of each column together). Then
@@ -37,10 +39,12 @@
 //! 3. The eigenvalues and eigenvectors `Z` of the tridiagonal matrix by LAPACK-style
 //!    divide and conquer ([`crate::spectral::tridiagonal_dc`]).
 //! 4. `E = Q Z` with `Q = H₀ H₁ ⋯ H_{n−2}` by faer's blocked Householder sequence
-//!    (`I − V T⁻¹ Vᵀ` per block, the factor `T` formed here from the reflectors).
+//!    (`I − V T⁻¹ Vᵀ` per block, the factor `T` formed here from the reflectors),
+//!    applied to `par.degree()` fixed parts of Z's columns in parallel, each part
+//!    through the whole sequence on one thread.
 //!
-//! The result is deterministic for a fixed parallelism (the product's column split
-//! depends on `par`). For bit-identical results on any CPU use
+//! The result is deterministic for a fixed parallelism (the products' splits depend
+//! on `par`, never on the pool). For bit-identical results on any CPU use
 //! [`crate::spectral::dense_evd`].
 //!
 //! **Sign convention.** The solver takes any symmetric matrix; meshlap gives it the
@@ -57,7 +61,7 @@ use faer::{Accum, Mat, MatMut, MatRef, Par};
 pub const PANEL: usize = 32;
 
 /// Below this trailing size the fused product runs on one thread.
-const PAR_MIN: usize = 384;
+const PAR_MIN: usize = 224;
 
 /// Eigenvalues (ascending) and orthonormal eigenvectors (n×n, column j for λ_j) of
 /// the symmetric matrix whose **lower triangle** is `a` (n×n; the upper triangle is
@@ -66,41 +70,89 @@ const PAR_MIN: usize = 384;
 /// triangle, or the divide and conquer does not converge.
 pub fn symmetric_evd(a: MatRef<'_, f64>, par: Par) -> Option<(Vec<f64>, Mat<f64>)> {
     // On a pool worker: the reduction makes a parallel pass per column.
-    crate::par::on_worker(|| evd_on_worker(a, par))
+    crate::par::on_worker(|| {
+        let n = a.nrows();
+        if a.ncols() != n {
+            return None;
+        }
+        let Some((scale, unscale)) = lower_scaling(a)? else {
+            return Some((vec![0.0; n], Mat::identity(n, n)));
+        };
+        let mut w = Mat::<f64>::zeros(n, n);
+        for j in 0..n {
+            let src = &a.col(j).try_as_col_major()?.as_slice()[j..];
+            let dst = &mut w.col_mut(j).try_as_col_major_mut()?.as_slice_mut()[j..];
+            for (d, s) in dst.iter_mut().zip(src) {
+                *d = s * scale;
+            }
+        }
+        evd_scaled(w, unscale, par)
+    })
 }
 
-fn evd_on_worker(a: MatRef<'_, f64>, par: Par) -> Option<(Vec<f64>, Mat<f64>)> {
-    let n = a.nrows();
-    if a.ncols() != n {
+/// [`symmetric_evd`] of a matrix the caller gives away: the lower triangle of `a` is
+/// scaled and reduced in place (no n×n copy) and `a` is dropped. The same bits as
+/// [`symmetric_evd`] on the same lower triangle; the upper triangle is not read.
+pub fn symmetric_evd_owned(mut a: Mat<f64>, par: Par) -> Option<(Vec<f64>, Mat<f64>)> {
+    crate::par::on_worker(|| {
+        let n = a.nrows();
+        if a.ncols() != n {
+            return None;
+        }
+        let Some((scale, unscale)) = lower_scaling(a.as_ref())? else {
+            return Some((vec![0.0; n], Mat::identity(n, n)));
+        };
+        if scale != 1.0 {
+            for j in 0..n {
+                let col = &mut a.col_mut(j).try_as_col_major_mut()?.as_slice_mut()[j..];
+                col.iter_mut().for_each(|x| *x *= scale);
+            }
+        }
+        evd_scaled(a, unscale, par)
+    })
+}
+
+/// The exact power-of-two scaling `(scale, 1/scale)` that brings `max |a_ij|` over
+/// the lower triangle of the square `a` into `[1, 2)`: `Some(None)` for a zero (or
+/// empty) matrix, `None` if a column is not contiguous or an entry of the lower
+/// triangle is not finite.
+fn lower_scaling(a: MatRef<'_, f64>) -> Option<Option<(f64, f64)>> {
+    // Eight lanes without branches, so that the loop vectorises: `x · 0` is NaN
+    // exactly when x is not finite, and the lanes' maxima combine exactly.
+    let (mut big, mut bad) = ([0.0f64; 8], [0.0f64; 8]);
+    for j in 0..a.ncols() {
+        let col = &a.col(j).try_as_col_major()?.as_slice()[j..];
+        let mut chunks = col.chunks_exact(8);
+        for c in &mut chunks {
+            for ((m, b), &x) in big.iter_mut().zip(&mut bad).zip(c) {
+                let ax = x.abs();
+                *m = if ax > *m { ax } else { *m };
+                *b += x * 0.0;
+            }
+        }
+        for &x in chunks.remainder() {
+            big[0] = big[0].max(x.abs());
+            bad[0] += x * 0.0;
+        }
+    }
+    if bad.iter().any(|b| b.is_nan()) {
         return None;
     }
-    if n == 0 {
-        return Some((Vec::new(), Mat::zeros(0, 0)));
-    }
-    let mut amax = 0.0f64;
-    for j in 0..n {
-        for &x in &a.col(j).try_as_col_major()?.as_slice()[j..] {
-            if !x.is_finite() {
-                return None;
-            }
-            amax = amax.max(x.abs());
-        }
-    }
+    let amax = big.iter().fold(0.0f64, |m, &x| m.max(x));
     if amax == 0.0 {
-        return Some((vec![0.0; n], Mat::identity(n, n)));
+        return Some(None);
     }
-    let (scale, unscale) = super::dense_evd::power_of_two_scaling(amax);
-    let mut w = Mat::<f64>::zeros(n, n);
-    for j in 0..n {
-        let src = &a.col(j).try_as_col_major()?.as_slice()[j..];
-        let dst = &mut w.col_mut(j).try_as_col_major_mut()?.as_slice_mut()[j..];
-        for (d, s) in dst.iter_mut().zip(src) {
-            *d = s * scale;
-        }
-    }
+    Some(Some(super::dense_evd::power_of_two_scaling(amax)))
+}
+
+/// Steps 2–4 of the method on `w` (n×n, n ≥ 1, its lower triangle nonzero and
+/// already scaled by [`lower_scaling`]); the eigenvalues are multiplied by `unscale`.
+fn evd_scaled(mut w: Mat<f64>, unscale: f64, par: Par) -> Option<(Vec<f64>, Mat<f64>)> {
+    let n = w.nrows();
     let (diag, sub, tau) = tridiagonalize(w.as_mut(), par);
     let (s, mut z) = super::tridiagonal_dc::tridiagonal_evd(&diag, &sub[..n - 1], par).ok()?;
     back_transform(w.as_ref(), &tau, z.as_mut(), par);
+    drop(w);
     let lam: Vec<f64> = (0..n).map(|i| s[i] * unscale).collect();
     if lam.iter().any(|x| !x.is_finite()) {
         return None;
@@ -444,7 +496,7 @@ fn panel(
                 .as_slice_mut();
             let (head, tail) = col[i + 1..].split_at_mut(1);
             let alpha = head[0];
-            let xnorm = faer::ColRef::from_slice(tail).norm_l2();
+            let xnorm = norm2(tail);
             if xnorm == 0.0 {
                 t_i = 0.0;
                 e[i] = alpha;
@@ -452,8 +504,9 @@ fn panel(
                 let beta = -alpha.hypot(xnorm).copysign(alpha);
                 let s = 1.0 / (alpha - beta);
                 tail.iter_mut().for_each(|x| *x *= s);
-                let tn = faer::ColRef::from_slice(tail).norm_l2();
-                t_i = 2.0 / tn.mul_add(tn, 1.0);
+                // |tail entries| ≤ 1 after the division: no overflow, and an
+                // underflowing square is negligible next to the 1.
+                t_i = 2.0 / (1.0 + sum_of_squares(tail));
                 e[i] = beta;
             }
             head[0] = 1.0;
@@ -503,6 +556,39 @@ fn panel(
         let dot: f64 = wi.iter().zip(v).map(|(x, y)| x * y).sum();
         let alpha = -0.5 * t_i * dot;
         wi.iter_mut().zip(v).for_each(|(x, y)| *x += alpha * y);
+    }
+}
+
+/// `Σ x_i²` in a fixed order (eight running sums, lane k over the entries `i ≡ k mod
+/// 8`, added pairwise at the end, then the tail), so the same bits whatever the
+/// thread count; the compiler vectorises the eight lanes.
+fn sum_of_squares(x: &[f64]) -> f64 {
+    let mut lanes = [0.0f64; 8];
+    let mut chunks = x.chunks_exact(8);
+    for c in &mut chunks {
+        for (l, v) in lanes.iter_mut().zip(c) {
+            *l += v * v;
+        }
+    }
+    let mut s = ((lanes[0] + lanes[4]) + (lanes[1] + lanes[5]))
+        + ((lanes[2] + lanes[6]) + (lanes[3] + lanes[7]));
+    for v in chunks.remainder() {
+        s += v * v;
+    }
+    s
+}
+
+/// `‖x‖₂`: the plain [`sum_of_squares`] when it is safely inside the normal range,
+/// else faer's scaled `norm_l2` (tiny or huge entries, whose squares would underflow
+/// or overflow). faer's scaled sums are avoided on the common path because their
+/// scaled squares of ordinary entries are subnormal, which costs a microcode assist
+/// per operation on x86.
+fn norm2(x: &[f64]) -> f64 {
+    let s = sum_of_squares(x);
+    if (1e-200..1e200).contains(&s) {
+        s.sqrt()
+    } else {
+        faer::ColRef::from_slice(x).norm_l2()
     }
 }
 
@@ -767,22 +853,49 @@ fn back_transform(a: MatRef<'_, f64>, tau: &[f64], z: MatMut<'_, f64>, par: Par)
             t[(c, c)] = 1.0 / tau[j0 + c];
         }
     }
-    let mut mem = MemBuffer::new(
-        householder::apply_block_householder_sequence_on_the_left_in_place_scratch::<f64>(
-            nr,
-            bs,
-            z.ncols(),
-        ),
-    );
-    householder::apply_block_householder_sequence_on_the_left_in_place_with_conj(
-        essentials,
-        factor.as_ref(),
-        faer::Conj::No,
-        z.subrows_mut(1, nr),
-        par,
-        MemStack::new(&mut mem),
-    );
+    // Each part of z's columns goes through the whole sequence on one thread: one
+    // fork–join for the product instead of one per block of reflectors. The parts are
+    // fixed by `par`, so the bits do not depend on the pool.
+    let apply = |mut zc: MatMut<'_, f64>| {
+        let mut mem = MemBuffer::new(
+            householder::apply_block_householder_sequence_on_the_left_in_place_scratch::<f64>(
+                nr,
+                bs,
+                zc.ncols(),
+            ),
+        );
+        householder::apply_block_householder_sequence_on_the_left_in_place_with_conj(
+            essentials,
+            factor.as_ref(),
+            faer::Conj::No,
+            zc.rb_mut().subrows_mut(1, nr),
+            Par::Seq,
+            MemStack::new(&mut mem),
+        );
+    };
+    let cols = z.ncols();
+    let parts = par
+        .degree()
+        .clamp(1, MAX_PARTS)
+        .min(cols.div_ceil(BACK_MIN_COLS));
+    if parts <= 1 {
+        apply(z);
+        return;
+    }
+    let mut blocks = Vec::with_capacity(parts);
+    let mut rest = z;
+    for p in 0..parts {
+        let take = cols * (p + 1) / parts - cols * p / parts;
+        let (block, tail) = rest.split_at_col_mut(take);
+        blocks.push(block);
+        rest = tail;
+    }
+    use rayon::prelude::*;
+    blocks.into_par_iter().with_max_len(1).for_each(apply);
 }
+
+/// Fewest columns of `z` per part of [`back_transform`].
+const BACK_MIN_COLS: usize = 64;
 
 #[cfg(test)]
 mod tests {
@@ -924,7 +1037,11 @@ mod tests {
                 lower[(i, j)] = f64::NAN; // the upper triangle is never read
             }
         }
-        for cuts in [vec![0, r], vec![0, 1, 6, 99, 100, 301, r], vec![0, 4, 8, r]] {
+        for cuts in [
+            vec![0, r],
+            vec![0, 1, 6, 99, 100, r - 102, r],
+            vec![0, 4, 8, r],
+        ] {
             let (mut yp, mut yd) = (vec![0.0; r], vec![0.0; r]);
             for c in cuts.windows(2) {
                 let k = Symv {
@@ -956,10 +1073,75 @@ mod tests {
     }
 
     #[test]
+    fn norm_matches_faer_in_and_out_of_the_plain_range() {
+        let mut rng = SplitMix64::new(7);
+        for len in [0usize, 1, 7, 8, 9, 33, 500] {
+            let x: Vec<f64> = (0..len).map(|_| rng.next_f64() - 0.5).collect();
+            // Ordinary entries (plain sum), entries whose squares underflow or
+            // overflow (faer's scaled sums), and a mix spanning both.
+            for scale in [1.0, 1e-170, 1e-300, 1e170, 1e300] {
+                let y: Vec<f64> = x.iter().map(|v| v * scale).collect();
+                let want = faer::ColRef::from_slice(&y).norm_l2();
+                let got = norm2(&y);
+                assert!(
+                    (got - want).abs() <= 4.0 * f64::EPSILON * want,
+                    "len {len}, scale {scale:e}: {got:e} vs {want:e}"
+                );
+                let ss = sum_of_squares(&x);
+                let exact: f64 = x.iter().map(|v| v * v).sum();
+                assert!((ss - exact).abs() <= 1e-15 * exact.max(1.0));
+            }
+        }
+        let mixed = [1e-300, 3.0, 4.0, 1e-300];
+        assert_eq!(norm2(&mixed), 5.0);
+        assert_eq!(norm2(&[0.0; 12]), 0.0);
+    }
+
+    /// The in-place entry point gives the same bits as the copying one and never reads
+    /// the upper triangle (NaN there), on pools of one and two threads.
+    #[test]
+    fn owned_matches_borrowed_bit_for_bit() {
+        for (n, seed) in [(1usize, 1u64), (2, 2), (33, 3), (130, 4), (450, 5)] {
+            let a = random_symmetric(n, seed) * faer::Scale(3.7);
+            let mut owned = a.clone();
+            for j in 0..n {
+                for i in 0..j {
+                    owned[(i, j)] = f64::NAN;
+                }
+            }
+            for threads in [1, 2] {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let want = pool.install(|| symmetric_evd(a.as_ref(), Par::rayon(2)).unwrap());
+                let got =
+                    pool.install(|| symmetric_evd_owned(owned.clone(), Par::rayon(2)).unwrap());
+                assert_eq!(got.0, want.0, "n={n}");
+                assert!(got.1 == want.1, "n={n}");
+            }
+        }
+        let (lam, e) = symmetric_evd_owned(Mat::zeros(5, 5), Par::Seq).unwrap();
+        assert_eq!(lam, vec![0.0; 5]);
+        assert_eq!(e, Mat::<f64>::identity(5, 5));
+        let mut bad = random_symmetric(20, 9);
+        bad[(12, 3)] = f64::INFINITY;
+        assert!(symmetric_evd_owned(bad, Par::Seq).is_none());
+        assert!(symmetric_evd_owned(Mat::zeros(3, 4), Par::Seq).is_none());
+    }
+
+    #[test]
     fn rejects_non_finite_and_non_square() {
         let mut a = random_symmetric(40, 3);
         a[(30, 2)] = f64::NAN;
         assert!(symmetric_evd(a.as_ref(), Par::Seq).is_none());
+        // In a column's last, partial group of eight (rows 32..40 of column 1 are
+        // entries 31..39 of its lower part), and infinite rather than NaN.
+        for (i, x) in [(39, f64::NAN), (38, f64::NEG_INFINITY), (5, f64::INFINITY)] {
+            let mut a = random_symmetric(40, 3);
+            a[(i, 1)] = x;
+            assert!(symmetric_evd(a.as_ref(), Par::Seq).is_none(), "{x} at {i}");
+        }
         let b = Mat::<f64>::zeros(3, 4);
         assert!(symmetric_evd(b.as_ref(), Par::Seq).is_none());
     }

@@ -540,9 +540,9 @@ fn parallelism() -> Par {
 /// Eigenvalues (all, ascending) and eigenvectors of the dense symmetric `a`: with the
 /// reproducible solver those of the `count` smallest eigenvalues, `count` extended to
 /// the end of its cluster (relative gap `cluster_tolerance`); with the blocked solver
-/// or faer's, all.
+/// or faer's, all. `a` is consumed (the blocked solver reduces it in place).
 fn dense_symmetric(
-    a: &Mat<f64>,
+    a: Mat<f64>,
     par: Par,
     solver: DenseSolver,
     count: usize,
@@ -567,7 +567,7 @@ fn dense_symmetric(
         );
     }
     if solver == DenseSolver::Blocked {
-        return super::blocked_evd::symmetric_evd(a.as_ref(), par).ok_or(
+        return super::blocked_evd::symmetric_evd_owned(a, par).ok_or(
             SpectralError::NoConvergence {
                 path: "symmetric (blocked solver)",
             },
@@ -616,13 +616,12 @@ fn symmetrized(
         (Some(s), false) => symmetrized_dense(f, Scaling::Similarity(s)),
     };
     let (mut lam, mut u) = dense_symmetric(
-        &a,
+        a,
         parallelism(),
         opts.dense_solver,
         count,
         opts.cluster_tolerance,
     )?;
-    drop(a);
     let mut cl = clusters(&lam, opts.cluster_tolerance);
     // A partial basis (k < n vectors, k at a cluster's end): its eigenvalues and
     // clusters.

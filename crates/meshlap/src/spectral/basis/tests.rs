@@ -201,7 +201,7 @@ fn canonical_basis_survives_a_different_computation_order() {
         let perm: Vec<usize> = (0..n).map(|i| (i * p + 3) % n).collect();
         let pa = Mat::from_fn(n, n, |i, j| a[(perm[i], perm[j])]);
         let (lam, pu) = dense_symmetric(
-            &pa,
+            pa,
             Par::Seq,
             solver,
             usize::MAX,
@@ -431,7 +431,7 @@ fn large_bases_match_faer_and_are_orthonormal() {
             // rounding, with the same eigenspace per cluster.
             for solver in [DenseSolver::Blocked, DenseSolver::Faer] {
                 let (lam, u) = dense_symmetric(
-                    &a,
+                    a.clone(),
                     parallelism(),
                     solver,
                     a.nrows(),
