@@ -1,7 +1,7 @@
 """Dense symmetric eigendecomposition: meshlap vs numpy (LAPACK dsyevd via OpenBLAS).
 
 Run: bench/.venv/bin/python bench/dense_evd.py [--sizes 500,1000,2000,2903]
-     [--threads 1,2] [--rounds 3] [--repeat 1] [--kinds kirchhoff,sql,tutte]
+     [--threads 1,2] [--rounds 3] [--repeat 3] [--warmup 1] [--kinds kirchhoff,sql,tutte]
 Honours CARGO_TARGET_DIR. Creates nothing outside a temporary directory.
 
 Matrices: breadth-first patches of the Stanford bunny (n = 500, 1000, 2000, as
@@ -13,7 +13,7 @@ What each side includes:
   dormtr back-transformation) on the dense symmetric matrix, values and vectors;
 - meshlap "basis": `EigenBasis::compute` from the assembled sparse operator: dense
   copy, symmetry/finite checks, the default dense solver (`blocked`: meshlap's
-  blocked tridiagonalisation, faer's divide and conquer and back-transformation),
+  blocked tridiagonalisation, divide and conquer and back-transformation),
   clusters and the canonical signs/rotations; "blocked only": the dense copy and
   that solver alone; "faer only": the dense copy and faer's self_adjoint_evd alone;
 - TL: numpy.linalg.eig on the dense TL + numpy.linalg.solve(E, V) for the
@@ -22,7 +22,10 @@ What each side includes:
 Threads: ours RAYON_NUM_THREADS (faer's fixed 2-way split runs on that pool, so 1
 thread runs both halves in turn), numpy via threadpoolctl.
 Timing: ROUNDS rounds alternating the sides (ours, numpy, ours, numpy, ...), REPEAT
-runs per side per round; medians of the per-round medians.
+timed runs per side per round after WARMUP untimed ones on each side (ours runs in a
+fresh process every round, numpy in this one: without the warm-up our first call paid
+the process's thread start-up and first page faults while numpy's was warm); medians
+of the per-round medians.
 """
 import argparse
 import os
@@ -39,12 +42,24 @@ from operators import kirchhoff, sql, tutte
 from spectral import bfs_patch, write_off
 
 
-def ours(exe, path, kind, repeat, threads):
+def ours(exe, path, kind, repeat, threads, warmup):
+    """meshlap-bench's timings, each case's first `warmup` runs dropped."""
     import json
     env = dict(os.environ, RAYON_NUM_THREADS=str(threads))
-    out = subprocess.run([str(exe), "spectrum", str(path), "--kind", kind, "--repeat", str(repeat)],
+    out = subprocess.run([str(exe), "spectrum", str(path), "--kind", kind,
+                          "--repeat", str(repeat + warmup)],
                          check=True, capture_output=True, text=True, env=env).stdout
-    return json.loads(out)
+    r = json.loads(out)
+    for v in r.values():
+        if isinstance(v, dict) and "times" in v:
+            v["median"] = statistics.median(v["times"][warmup:])
+    return r
+
+
+def peer_time(fn, repeat, warmup):
+    for _ in range(warmup):
+        fn()
+    return timeit(fn, repeat=repeat)
 
 
 def main():
@@ -52,7 +67,8 @@ def main():
     ap.add_argument("--sizes", default="500,1000,2000,2903")
     ap.add_argument("--threads", default="1,2")
     ap.add_argument("--rounds", type=int, default=3)
-    ap.add_argument("--repeat", type=int, default=1)
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--warmup", type=int, default=1)
     ap.add_argument("--kinds", default="kirchhoff,sql,tutte")
     args = ap.parse_args()
     sizes = [int(s) for s in args.sizes.split(",")]
@@ -81,7 +97,7 @@ def main():
                     t_basis, t_faer, t_blocked, t_np = [], [], [], []
                     for _ in range(args.rounds):
                         if kind == "tutte":
-                            r = ours(exe, path, "tutte-coefficients", args.repeat, nt)
+                            r = ours(exe, path, "tutte-coefficients", args.repeat, nt, args.warmup)
                             assert r["vertices"] == n, (r["vertices"], n)
                             t_basis.append(r["tutte-coefficients"]["median"])
                             t_faer.append(r["tutte-faer-only"]["median"])
@@ -90,15 +106,15 @@ def main():
                                 def peer():
                                     w, E = np.linalg.eig(A)
                                     return np.linalg.solve(E, Vm)
-                                t_np.append(timeit(peer, repeat=args.repeat))
+                                t_np.append(peer_time(peer, args.repeat, args.warmup))
                         else:
-                            r = ours(exe, path, kind, args.repeat, nt)
+                            r = ours(exe, path, kind, args.repeat, nt, args.warmup)
                             assert r["vertices"] == n, (r["vertices"], n)
                             t_basis.append(r[kind]["median"])
                             t_faer.append(r[f"{kind}-faer-only"]["median"])
                             t_blocked.append(r[f"{kind}-blocked-only"]["median"])
                             with threadpool_limits(nt):
-                                t_np.append(timeit(lambda: np.linalg.eigh(A), repeat=args.repeat))
+                                t_np.append(peer_time(lambda: np.linalg.eigh(A), args.repeat, args.warmup))
                     tb, tf, tbl, tn = (statistics.median(x)
                                        for x in (t_basis, t_faer, t_blocked, t_np))
                     peer = "numpy eig + solve" if kind == "tutte" else "numpy eigh"
@@ -107,7 +123,7 @@ def main():
                                  f"{tbl:.3f}", f"{tf:.3f}", f"{tn / tb:.2f}x"])
                     print(rows[-1], flush=True)
     load = os.getloadavg()
-    print(f"rounds = {args.rounds}, repeat = {args.repeat} (medians of per-round medians, seconds); "
+    print(f"rounds = {args.rounds}, repeat = {args.repeat}, warm-up = {args.warmup} (medians of per-round medians, seconds); "
           f"load average at the end {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}")
     table(rows, ["mesh", "n", "operator", "threads", "peer", "peer s", "meshlap", "meshlap s",
                  "blocked only s", "faer only s", "speed-up"])
