@@ -496,7 +496,7 @@ fn panel(
                 .as_slice_mut();
             let (head, tail) = col[i + 1..].split_at_mut(1);
             let alpha = head[0];
-            let xnorm = norm2(tail);
+            let xnorm = super::thin_products::norm2(tail);
             if xnorm == 0.0 {
                 t_i = 0.0;
                 e[i] = alpha;
@@ -506,7 +506,7 @@ fn panel(
                 tail.iter_mut().for_each(|x| *x *= s);
                 // |tail entries| ≤ 1 after the division: no overflow, and an
                 // underflowing square is negligible next to the 1.
-                t_i = 2.0 / (1.0 + sum_of_squares(tail));
+                t_i = 2.0 / (1.0 + super::thin_products::sum_of_squares(tail));
                 e[i] = beta;
             }
             head[0] = 1.0;
@@ -556,39 +556,6 @@ fn panel(
         let dot: f64 = wi.iter().zip(v).map(|(x, y)| x * y).sum();
         let alpha = -0.5 * t_i * dot;
         wi.iter_mut().zip(v).for_each(|(x, y)| *x += alpha * y);
-    }
-}
-
-/// `Σ x_i²` in a fixed order (eight running sums, lane k over the entries `i ≡ k mod
-/// 8`, added pairwise at the end, then the tail), so the same bits whatever the
-/// thread count; the compiler vectorises the eight lanes.
-fn sum_of_squares(x: &[f64]) -> f64 {
-    let mut lanes = [0.0f64; 8];
-    let mut chunks = x.chunks_exact(8);
-    for c in &mut chunks {
-        for (l, v) in lanes.iter_mut().zip(c) {
-            *l += v * v;
-        }
-    }
-    let mut s = ((lanes[0] + lanes[4]) + (lanes[1] + lanes[5]))
-        + ((lanes[2] + lanes[6]) + (lanes[3] + lanes[7]));
-    for v in chunks.remainder() {
-        s += v * v;
-    }
-    s
-}
-
-/// `‖x‖₂`: the plain [`sum_of_squares`] when it is safely inside the normal range,
-/// else faer's scaled `norm_l2` (tiny or huge entries, whose squares would underflow
-/// or overflow). faer's scaled sums are avoided on the common path because their
-/// scaled squares of ordinary entries are subnormal, which costs a microcode assist
-/// per operation on x86.
-fn norm2(x: &[f64]) -> f64 {
-    let s = sum_of_squares(x);
-    if (1e-200..1e200).contains(&s) {
-        s.sqrt()
-    } else {
-        faer::ColRef::from_slice(x).norm_l2()
     }
 }
 
@@ -1070,31 +1037,6 @@ mod tests {
         for i in 0..r {
             assert!((y[i] - exact[i]).abs() < 1e-12);
         }
-    }
-
-    #[test]
-    fn norm_matches_faer_in_and_out_of_the_plain_range() {
-        let mut rng = SplitMix64::new(7);
-        for len in [0usize, 1, 7, 8, 9, 33, 500] {
-            let x: Vec<f64> = (0..len).map(|_| rng.next_f64() - 0.5).collect();
-            // Ordinary entries (plain sum), entries whose squares underflow or
-            // overflow (faer's scaled sums), and a mix spanning both.
-            for scale in [1.0, 1e-170, 1e-300, 1e170, 1e300] {
-                let y: Vec<f64> = x.iter().map(|v| v * scale).collect();
-                let want = faer::ColRef::from_slice(&y).norm_l2();
-                let got = norm2(&y);
-                assert!(
-                    (got - want).abs() <= 4.0 * f64::EPSILON * want,
-                    "len {len}, scale {scale:e}: {got:e} vs {want:e}"
-                );
-                let ss = sum_of_squares(&x);
-                let exact: f64 = x.iter().map(|v| v * v).sum();
-                assert!((ss - exact).abs() <= 1e-15 * exact.max(1.0));
-            }
-        }
-        let mixed = [1e-300, 3.0, 4.0, 1e-300];
-        assert_eq!(norm2(&mixed), 5.0);
-        assert_eq!(norm2(&[0.0; 12]), 0.0);
     }
 
     /// The in-place entry point gives the same bits as the copying one and never reads

@@ -276,8 +276,13 @@ fn projected_evd(t: &Mat<f64>) -> Result<(Vec<f64>, Mat<f64>), KrylovSchurError>
     Ok(((0..n).map(|i| s[i]).collect(), u))
 }
 
+/// `‖w_j‖₂` by [`thin_products::norm2`] (faer's `norm_l2` when the column is not
+/// contiguous).
 fn col_norm(w: MatRef<'_, f64>, j: usize) -> f64 {
-    w.col(j).norm_l2()
+    match w.col(j).try_as_col_major() {
+        Some(c) => thin_products::norm2(c.as_slice()),
+        None => w.col(j).norm_l2(),
+    }
 }
 
 /// Orthonormalises the block `w` (n×p) against `deflate`, the basis `v` (n×s) and

@@ -4,7 +4,10 @@
 //! - [`tn`]: `C = Vᵀ W` for `V` n×s and `W` n×p (p small: the block size),
 //! - [`sub_nn`]: `W ← W − V C` for `C` s×p,
 //! - [`nn_in_place`]: `V ← V C` for a wide `C` (the restarts' and the refinement's
-//!   coefficients), by faer's GEMM on blocks of rows.
+//!   coefficients), by faer's GEMM on blocks of rows;
+//! - [`norm2`]: a vector's 2-norm without faer's scaled sums (their scaled squares of
+//!   ordinary entries are subnormal: a microcode assist each on x86), for the block
+//!   Gram–Schmidt's column norms and the dense reduction's reflectors.
 //!
 //! The first two stream `V` once and are memory-bound: `V` is hundreds of basis
 //! vectors (the bunny's 200-pair bands hold up to 500 vectors of 34,817 entries,
@@ -456,9 +459,43 @@ mod x86 {
     }
 }
 
+/// `Σ x_i²` in a fixed order (eight running sums, lane k over the entries `i ≡ k mod
+/// 8`, added pairwise at the end, then the tail), so the same bits whatever the
+/// thread count; the compiler vectorises the eight lanes.
+pub(crate) fn sum_of_squares(x: &[f64]) -> f64 {
+    let mut lanes = [0.0f64; 8];
+    let mut chunks = x.chunks_exact(8);
+    for c in &mut chunks {
+        for (l, v) in lanes.iter_mut().zip(c) {
+            *l += v * v;
+        }
+    }
+    let mut s = ((lanes[0] + lanes[4]) + (lanes[1] + lanes[5]))
+        + ((lanes[2] + lanes[6]) + (lanes[3] + lanes[7]));
+    for v in chunks.remainder() {
+        s += v * v;
+    }
+    s
+}
+
+/// `‖x‖₂`: the plain [`sum_of_squares`] when it is safely inside the normal range,
+/// else faer's scaled `norm_l2` (tiny or huge entries, whose squares would underflow
+/// or overflow). faer's scaled sums are avoided on the common path because their
+/// scaled squares of ordinary entries are subnormal, which costs a microcode assist
+/// per operation on x86.
+pub(crate) fn norm2(x: &[f64]) -> f64 {
+    let s = sum_of_squares(x);
+    if (1e-200..1e200).contains(&s) {
+        s.sqrt()
+    } else {
+        faer::ColRef::from_slice(x).norm_l2()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::rng::SplitMix64;
 
     fn filled(n: usize, m: usize, seed: u64) -> Mat<f64> {
         let mut x = Mat::<f64>::zeros(n, m);
@@ -563,5 +600,30 @@ mod tests {
         let c = tn(v.as_ref(), w.transpose());
         let want = v.transpose() * w.transpose();
         assert!((&c - &want).norm_max() <= 1e-12);
+    }
+
+    #[test]
+    fn norm_matches_faer_in_and_out_of_the_plain_range() {
+        let mut rng = SplitMix64::new(7);
+        for len in [0usize, 1, 7, 8, 9, 33, 500] {
+            let x: Vec<f64> = (0..len).map(|_| rng.next_f64() - 0.5).collect();
+            // Ordinary entries (plain sum), entries whose squares underflow or
+            // overflow (faer's scaled sums), and a mix spanning both.
+            for scale in [1.0, 1e-170, 1e-300, 1e170, 1e300] {
+                let y: Vec<f64> = x.iter().map(|v| v * scale).collect();
+                let want = faer::ColRef::from_slice(&y).norm_l2();
+                let got = norm2(&y);
+                assert!(
+                    (got - want).abs() <= 4.0 * f64::EPSILON * want,
+                    "len {len}, scale {scale:e}: {got:e} vs {want:e}"
+                );
+                let ss = sum_of_squares(&x);
+                let exact: f64 = x.iter().map(|v| v * v).sum();
+                assert!((ss - exact).abs() <= 1e-15 * exact.max(1.0));
+            }
+        }
+        let mixed = [1e-300, 3.0, 4.0, 1e-300];
+        assert_eq!(norm2(&mixed), 5.0);
+        assert_eq!(norm2(&[0.0; 12]), 0.0);
     }
 }
