@@ -1077,8 +1077,9 @@ mod tests {
         let mut a = random_symmetric(40, 3);
         a[(30, 2)] = f64::NAN;
         assert!(symmetric_evd(a.as_ref(), Par::Seq).is_none());
-        // In a column's last, partial group of eight (rows 32..40 of column 1 are
-        // entries 31..39 of its lower part), and infinite rather than NaN.
+        // In a column's last, partial group of eight (column 1's lower part is rows
+        // 1..40, 39 entries: rows 33..40 are the remainder after four groups), in a
+        // full group (row 5), and infinite rather than NaN.
         for (i, x) in [(39, f64::NAN), (38, f64::NEG_INFINITY), (5, f64::INFINITY)] {
             let mut a = random_symmetric(40, 3);
             a[(i, 1)] = x;
