@@ -351,8 +351,8 @@ pub(crate) mod test_util {
         TriMesh::new(v, f)
     }
 
-    /// `assemble` names the first of several degenerate faces (1,500 of 1,500, 2,048 and
-    /// 2,900) on pools of 1–3 threads, and succeeds without them.
+    /// `assemble` names the first of several degenerate faces (face 1,500 of 1,500, 2,048
+    /// and 2,900) on pools of 1–3 threads, and succeeds without them.
     pub fn first_degenerate_face_is_named<T: std::fmt::Debug + Send>(
         assemble: impl Fn(&TriMesh, &Topology) -> Result<T, super::OperatorError> + Sync,
     ) {
