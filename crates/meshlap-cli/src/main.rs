@@ -74,6 +74,8 @@ enum Command {
 }
 
 fn main() {
+    // Freed work matrices are reused instead of page-faulted in again (see the doc).
+    meshlap::keep_freed_memory();
     let cli = Cli::parse();
     if let Some(t) = cli.threads {
         // A pool can only be built once; ignore a second attempt.

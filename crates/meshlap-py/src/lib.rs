@@ -354,10 +354,18 @@ fn get_threads() -> usize {
     }
 }
 
+/// `meshlap::keep_freed_memory`: keep freed memory in the allocator's heaps
+/// (process-wide); whether the allocator took the setting.
+#[pyfunction]
+fn keep_freed_memory() -> bool {
+    meshlap::keep_freed_memory()
+}
+
 #[pymodule]
 fn _meshlap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(set_threads, m)?)?;
     m.add_function(wrap_pyfunction!(get_threads, m)?)?;
+    m.add_function(wrap_pyfunction!(keep_freed_memory, m)?)?;
     // The library's defaults that the Python signatures repeat (asserted equal in
     // python/tests/test_mesh.py).
     m.add(
