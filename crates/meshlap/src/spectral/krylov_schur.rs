@@ -276,13 +276,9 @@ fn projected_evd(t: &Mat<f64>) -> Result<(Vec<f64>, Mat<f64>), KrylovSchurError>
     Ok(((0..n).map(|i| s[i]).collect(), u))
 }
 
-/// `‖w_j‖₂` by [`thin_products::norm2`] (faer's `norm_l2` when the column is not
-/// contiguous).
+/// `‖w_j‖₂` by [`thin_products::col_norm2`].
 fn col_norm(w: MatRef<'_, f64>, j: usize) -> f64 {
-    match w.col(j).try_as_col_major() {
-        Some(c) => thin_products::norm2(c.as_slice()),
-        None => w.col(j).norm_l2(),
-    }
+    thin_products::col_norm2(w.col(j))
 }
 
 /// Orthonormalises the block `w` (n×p) against `deflate`, the basis `v` (n×s) and

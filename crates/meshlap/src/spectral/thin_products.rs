@@ -492,6 +492,14 @@ pub(crate) fn norm2(x: &[f64]) -> f64 {
     }
 }
 
+/// `‖c‖₂` by [`norm2`] when the column is contiguous, else faer's `norm_l2`.
+pub(crate) fn col_norm2(c: faer::ColRef<'_, f64>) -> f64 {
+    match c.try_as_col_major() {
+        Some(x) => norm2(x.as_slice()),
+        None => c.norm_l2(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

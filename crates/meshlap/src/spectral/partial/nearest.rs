@@ -65,7 +65,7 @@ pub fn eigenvalue_nearest<'a>(
     let mut y = Mat::<f64>::zeros(n, 1);
     let mut mu_old = f64::NAN;
     for _ in 0..MAX_STEPS {
-        let norm = w.col(0).norm_l2();
+        let norm = crate::spectral::thin_products::col_norm2(w.col(0));
         if !(norm.is_finite() && norm > 0.0) {
             return Err(SpectralError::NoConvergence {
                 path: "inverse iteration",

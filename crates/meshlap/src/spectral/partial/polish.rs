@@ -54,7 +54,7 @@ pub(super) fn polish(
     // Scale each column back to unit length (the columns of A_σ W are the μ-scaled
     // w's), so that the QR sees a well-conditioned block.
     for j in 0..b {
-        let nj = y.col(j).norm_l2();
+        let nj = crate::spectral::thin_products::col_norm2(y.col(j));
         if !(nj.is_finite() && nj > 0.0) {
             return None;
         }
@@ -113,7 +113,7 @@ pub(super) fn polish(
     for j in 0..b {
         let theta = s[j];
         let mut col = y.col(j).to_owned();
-        let norm = col.norm_l2();
+        let norm = crate::spectral::thin_products::col_norm2(col.as_ref());
         if !(theta.is_finite() && norm.is_finite() && norm > 0.0) {
             return None;
         }

@@ -30,7 +30,7 @@ pub(super) fn finish(
         .par_col_chunks_mut(1)
         .zip(pairs.par_iter())
         .for_each(|(col, (_, w))| {
-            let nw = w.norm_l2();
+            let nw = crate::spectral::thin_products::col_norm2(w.as_ref());
             let col = col.col_mut(0).iter_mut().enumerate();
             match metric.diagonal_sqrt() {
                 Some(msqrt) => col.for_each(|(i, e)| *e = w[i] / nw / msqrt[i]),
@@ -191,7 +191,7 @@ fn finish_sparse_mass(
     metric.solve_c(r.rb_mut());
     let eigenvalues = per_pair.iter().map(|p| p.0).collect();
     let residuals = (0..m)
-        .map(|j| r.col(j).norm_l2() / per_pair[j].2.sqrt())
+        .map(|j| crate::spectral::thin_products::col_norm2(r.col(j)) / per_pair[j].2.sqrt())
         .collect();
     PartialSpectrum {
         eigenvalues,
