@@ -1,5 +1,7 @@
 //! Large zero-initialised buffers: the readers' outputs, the sparse matrices the
-//! iterative solvers stream and their work blocks.
+//! iterative solvers stream and their work blocks; and the allocator settings that
+//! decide whether freed buffers go back to the kernel ([`keep_freed_memory`],
+//! [`release_free_memory`]).
 //!
 //! A reader writes its vertex and face arrays once, front to back, right after
 //! allocating them: on Linux each 4 KiB page is then faulted in, zeroed and charged
@@ -63,7 +65,7 @@ pub(crate) fn release_free_memory() {
 }
 
 /// The free memory, in bytes, that [`keep_freed_memory`] asks glibc to keep at the top
-/// of each of its heaps: four dense 2,000 × 2,000 matrices' worth.
+/// of each of its heaps: two dense 2,000 × 2,000 matrices' worth.
 pub const KEEP_FREED_BYTES: usize = 64 << 20;
 
 /// Asks the process' allocator to keep up to [`KEEP_FREED_BYTES`] of freed memory at
@@ -79,9 +81,10 @@ pub const KEEP_FREED_BYTES: usize = 64 << 20;
 /// that is about a fifth of a dense eigendecomposition. With the pad, freed memory
 /// is reused from the heap instead.
 ///
-/// **Cost.** Up to [`KEEP_FREED_BYTES`] of resident memory per heap (one per thread
-/// that allocated) after a peak; the peak itself does not grow. Blocks above glibc's
-/// mmap threshold (at most 32 MiB) are not affected. The setting is process-wide, so
+/// **Cost.** Up to [`KEEP_FREED_BYTES`] of freed memory stays resident per heap (one
+/// per thread that allocated), so a later peak that the heap cannot serve from it
+/// can be that much higher per heap. Blocks above glibc's mmap threshold (adaptive,
+/// at most 32 MiB) are mapped on their own and not affected. The setting is process-wide, so
 /// the library never makes it on its own: the `meshlap` binaries call this at start,
 /// and the Python package offers it as `meshlap.keep_freed_memory()`.
 pub fn keep_freed_memory() -> bool {
