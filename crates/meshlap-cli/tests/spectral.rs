@@ -341,6 +341,13 @@ fn spectrum_refinement_and_tolerance_flags() {
     let refined = run(&[]);
     let plain = run(&["--no-refine"]);
     assert_eq!(refined["path"], "shift-invert");
+    assert_eq!(refined["stagnated_bands"], 0);
+    // A tolerance below the rounding of the solves: the band stops at its accuracy
+    // floor, says so, and its true residuals stay at rounding level.
+    let floor = run(&["--tol", "1e-16"]);
+    assert_eq!(floor["bands"], 1);
+    assert_eq!(floor["stagnated_bands"], 1);
+    assert!(floor["max_residual"].as_f64().unwrap() < 1e-14);
     let (r, p) = (
         refined["max_residual"].as_f64().unwrap(),
         plain["max_residual"].as_f64().unwrap(),

@@ -120,6 +120,9 @@ struct SpectrumJson<'a> {
     orthonormality_error: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     bands: Option<usize>,
+    /// Bands whose Krylov–Schur run stopped at its accuracy floor.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    stagnated_bands: Option<usize>,
     seconds: f64,
 }
 
@@ -176,6 +179,7 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
     }
     let info = &sp.info;
     let partial = info.path == SmallestPath::ShiftInvert;
+    let stagnated = info.bands.iter().filter(|b| b.stagnated).count();
     if args.json {
         return print_json(&SpectrumJson {
             source: &input.source,
@@ -189,13 +193,17 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
             max_residual: info.max_residual,
             orthonormality_error: info.orthonormality_error,
             bands: partial.then_some(info.bands.len()),
+            stagnated_bands: partial.then_some(stagnated),
             seconds,
         });
     }
-    let bands = if partial {
-        format!(" ({} bands)", info.bands.len())
-    } else {
-        String::new()
+    let bands = match (partial, stagnated) {
+        (false, _) => String::new(),
+        (true, 0) => format!(" ({} bands)", info.bands.len()),
+        (true, s) => format!(
+            " ({} bands, {s} stopped at their accuracy floor, up to 10x above --tol)",
+            info.bands.len()
+        ),
     };
     println!(
         "{} operator of {} ({n} vertices), {} path{bands}, {seconds:.3} s",

@@ -44,6 +44,7 @@ fn shift_invert_pairs(
     })?;
     work.restarts += got.info.restarts;
     work.solves += got.info.applications;
+    work.stagnated |= got.info.stagnated;
     Ok(got
         .values
         .iter()
@@ -58,6 +59,7 @@ struct BandWork {
     restarts: usize,
     solves: usize,
     factorizations: usize,
+    stagnated: bool,
 }
 
 /// Size of a band after the first when `need` eigenpairs are still missing: the full
@@ -295,6 +297,7 @@ pub(super) fn banded(
             restarts: work.restarts,
             solves: work.solves,
             factorizations: work.factorizations,
+            stagnated: work.stagnated,
         });
         work = BandWork::default();
         progress(kept.len().min(count), count);

@@ -183,6 +183,10 @@ pub struct BandInfo {
     /// Numeric LDLᵀ factorizations of `K − xM` (at the shift, unless it was the first
     /// band's trial factorization, and for the inertia count at the upper edge).
     pub factorizations: usize,
+    /// A Krylov–Schur run of the band stopped at its accuracy floor, up to 10x above
+    /// the tolerance (`krylov_schur::KrylovSchurInfo::stagnated`); the residuals
+    /// reported for its pairs are their true ones.
+    pub stagnated: bool,
 }
 
 /// The k smallest eigenpairs; see the module documentation.
