@@ -16,9 +16,9 @@
 //! allocation. The geometric operators (cotan, mean-value) compute their per-face
 //! values in parallel into one slot per half-edge and gather each edge's weight from
 //! its half-edges in face order ([`fold_half_edges_per_edge`]): the same sums as a
-//! sequential scatter over the faces, without one. While filling, every column is checked to have strictly increasing
-//! rows below n; only then is the matrix handed to faer without its sequential
-//! re-check (`new_unchecked`). A failed check (a broken [`Topology`] invariant, never
+//! sequential scatter over the faces, without one. While filling, every column is
+//! checked to have strictly increasing rows below n; only then is the matrix handed
+//! to faer without its sequential re-check (`new_unchecked`). A failed check (a broken [`Topology`] invariant, never
 //! expected) falls back to faer's checked constructor.
 
 use crate::mesh::topology::Topology;

@@ -5,9 +5,11 @@
 //! - [`sub_nn`]: `W ← W − V C` for `C` s×p,
 //! - [`nn_in_place`]: `V ← V C` for a wide `C` (the restarts' and the refinement's
 //!   coefficients), by faer's GEMM on blocks of rows;
-//! - [`norm2`]: a vector's 2-norm without faer's scaled sums (their scaled squares of
-//!   ordinary entries are subnormal: a microcode assist each on x86), for the block
-//!   Gram–Schmidt's column norms and the dense reduction's reflectors.
+//! - [`norm2`] (and [`col_norm2`] for a faer column): a vector's 2-norm without faer's
+//!   scaled sums (their scaled squares of ordinary entries are subnormal: a microcode
+//!   assist each on x86), for the block Gram–Schmidt's column norms, the dense
+//!   reduction's reflectors and the partial solver's residuals, polish and inverse
+//!   iteration.
 //!
 //! The first two stream `V` once and are memory-bound: `V` is hundreds of basis
 //! vectors (the bunny's 200-pair bands hold up to 500 vectors of 34,817 entries,
