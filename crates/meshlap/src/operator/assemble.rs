@@ -9,11 +9,13 @@
 //!   [`Topology`] with j merged in, so `col_ptr[j] = adj_offsets[j] + j` is known
 //!   before any value is computed ([`one_ring_columns`]);
 //! - second-order operators (`TᵀT`, `T²`): column j holds the two-ring of j; a first
-//!   parallel pass counts it, a second fills it ([`two_ring_matrix`]).
+//!   parallel pass finds and sorts each column's rows, a second writes them and the
+//!   values ([`two_ring_matrix`]).
 //!
 //! Both fill the final arrays in place, in parallel over blocks of columns (rayon),
 //! with no triplet list, no global sort, no duplicate merge and no per-entry
-//! allocation. The geometric operators (cotan, mean-value) compute their per-face
+//! allocation; the final arrays are not zeroed first (`mem::uninit_vec`: each entry
+//! is written once). The geometric operators (cotan, mean-value) compute their per-face
 //! values in parallel into one slot per half-edge and gather each edge's weight from
 //! its half-edges in face order ([`fold_half_edges_per_edge`]): the same sums as a
 //! sequential scatter over the faces, without one. While filling, every column is
@@ -25,6 +27,7 @@ use crate::mesh::topology::Topology;
 use crate::SparseMatrix;
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use rayon::prelude::*;
+use std::mem::MaybeUninit;
 
 /// Columns per parallel work item. Large enough to amortise scheduling, small enough
 /// to balance two to a few dozen threads on 10⁵-vertex meshes.
@@ -87,13 +90,21 @@ pub(crate) fn fold_half_edges_per_edge<T: Copy + Send + Sync>(
     out
 }
 
-/// Splits the value and row arrays of a CSC matrix at block boundaries of `BLOCK`
-/// columns: item b is `(first column, end column, rows, values)` of block b.
+/// Rows and values of one block of columns, not yet written.
+type BlockOut<'a> = (
+    usize,
+    usize,
+    &'a mut [MaybeUninit<usize>],
+    &'a mut [MaybeUninit<f64>],
+);
+
+/// Splits the (unwritten) value and row arrays of a CSC matrix at block boundaries of
+/// `BLOCK` columns: item b is `(first column, end column, rows, values)` of block b.
 fn column_blocks<'a>(
     col_ptr: &[usize],
-    row_idx: &'a mut [usize],
-    val: &'a mut [f64],
-) -> Vec<(usize, usize, &'a mut [usize], &'a mut [f64])> {
+    row_idx: &'a mut [MaybeUninit<usize>],
+    val: &'a mut [MaybeUninit<f64>],
+) -> Vec<BlockOut<'a>> {
     let n = col_ptr.len() - 1;
     let mut out = Vec::with_capacity(n.div_ceil(BLOCK));
     let (mut r, mut v) = (row_idx, val);
@@ -114,13 +125,23 @@ fn column_blocks<'a>(
 /// Wraps filled CSC arrays as a faer matrix. `sorted` says every column was verified
 /// (while it was written) to list strictly increasing rows below `n`, and `col_ptr`
 /// was built as a running sum ending at `row_idx.len()`.
-fn finish(
+///
+/// # Safety
+/// Every element of `row_idx` and `val` has been written.
+unsafe fn finish(
     n: usize,
     col_ptr: Vec<usize>,
-    row_idx: Vec<usize>,
-    val: Vec<f64>,
+    row_idx: Vec<MaybeUninit<usize>>,
+    val: Vec<MaybeUninit<f64>>,
     sorted: bool,
 ) -> SparseMatrix {
+    // SAFETY: the caller guarantees every element was written.
+    let (row_idx, val) = unsafe {
+        (
+            crate::mem::assume_init_vec(row_idx),
+            crate::mem::assume_init_vec(val),
+        )
+    };
     debug_assert!(col_ptr.len() == n + 1 && col_ptr[n] == row_idx.len());
     debug_assert!(col_ptr.windows(2).all(|w| w[0] <= w[1]));
     let symbolic = if sorted && !cfg!(debug_assertions) {
@@ -134,6 +155,13 @@ fn finish(
         SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx)
     };
     SparseColMat::new(symbolic, val)
+}
+
+/// How many of the (sorted) neighbours `nb` are below `j`: where `j` goes among them.
+/// Counted branch-free (a binary search over the handful of neighbours mispredicts).
+#[inline]
+fn count_below(nb: &[u32], j: usize) -> usize {
+    nb.iter().map(|&i| usize::from((i as usize) < j)).sum()
 }
 
 /// Column pointers of the one-ring pattern: `adj_offsets[j] + j` (j's neighbours and
@@ -158,8 +186,8 @@ pub(crate) fn one_ring_columns(
     let n = topo.n_vertices();
     let col_ptr = one_ring_col_ptr(topo);
     let nnz = col_ptr[n];
-    let mut row_idx = crate::mem::zeroed_vec(0usize, nnz);
-    let mut val = crate::mem::zeroed_vec(0.0f64, nnz);
+    let mut row_idx = crate::mem::uninit_vec::<usize>(nnz);
+    let mut val = crate::mem::uninit_vec::<f64>(nnz);
     let sorted = column_blocks(&col_ptr, &mut row_idx, &mut val)
         .into_par_iter()
         .map(|(s, e, rows, vals)| {
@@ -172,34 +200,39 @@ pub(crate) fn one_ring_columns(
                 off.resize(nb.len(), 0.0);
                 let diag = column(j, &mut off);
                 // Rows: neighbours below j, j, neighbours above j.
-                let split = nb.partition_point(|&i| (i as usize) < j);
+                let split = count_below(nb, j);
                 let mut prev: Option<usize> = None;
                 for (k, &i) in nb.iter().enumerate() {
                     if k == split {
-                        rows[p] = j;
-                        vals[p] = diag;
+                        rows[p].write(j);
+                        vals[p].write(diag);
                         ok &= prev.is_none_or(|q| q < j);
                         prev = Some(j);
                         p += 1;
                     }
                     let i = i as usize;
-                    rows[p] = i;
-                    vals[p] = off[k];
+                    rows[p].write(i);
+                    vals[p].write(off[k]);
                     ok &= prev.is_none_or(|q| q < i) && i < n;
                     prev = Some(i);
                     p += 1;
                 }
                 if split == nb.len() {
-                    rows[p] = j;
-                    vals[p] = diag;
+                    rows[p].write(j);
+                    vals[p].write(diag);
                     ok &= prev.is_none_or(|q| q < j);
                     p += 1;
                 }
             }
+            // Column j has exactly its neighbours and the diagonal: `col_ptr` counts
+            // the same (`adjacency_offsets`), so the block's slices are full.
+            assert_eq!(p, rows.len(), "one-ring block not filled");
             ok
         })
         .reduce(|| true, |a, b| a && b);
-    finish(n, col_ptr, row_idx, val, sorted)
+    // SAFETY: every block wrote each of its `col_ptr[e] - col_ptr[s]` positions (the
+    // assertion above), and the blocks cover [0, nnz).
+    unsafe { finish(n, col_ptr, row_idx, val, sorted) }
 }
 
 /// [`one_ring_columns`] with per-entry closures: entry (i, j) for each edge (i, j) is
@@ -239,7 +272,7 @@ fn ring_ks(topo: &Topology, j: usize, order: RingOrder, out: &mut Vec<usize>) {
     let nb = topo.neighbors(crate::VertexId(j as u32));
     match order {
         RingOrder::Ascending => {
-            let split = nb.partition_point(|&k| (k as usize) < j);
+            let split = count_below(nb, j);
             out.extend(nb[..split].iter().map(|&k| k as usize));
             out.push(j);
             out.extend(nb[split..].iter().map(|&k| k as usize));
@@ -257,11 +290,13 @@ fn ring_ks(topo: &Topology, j: usize, order: RingOrder, out: &mut Vec<usize>) {
 /// `0 + Σ_k coeff(j, k)·entry(k, i)` summed in `order` — the same bits as a dense
 /// accumulator (Gustavson) visiting the same k in the same order.
 ///
-/// Two parallel passes over blocks of columns: the first counts the distinct rows of
-/// each column (a per-worker stamp array of n entries, no clearing between columns),
-/// the running sum of the counts gives the column pointers, the second writes the
-/// sorted rows and accumulates the values straight into the final arrays through a
-/// per-worker row → slot map.
+/// Two parallel passes over blocks of columns. The first finds each column's distinct
+/// rows (a per-worker stamp array of n entries, no clearing between columns), sorts
+/// them ([`sort_distinct`]) and appends them to its block's list of 4-byte rows; the
+/// running sum of the column lengths gives the column pointers. The second copies each
+/// block's rows into the final array and accumulates the values straight into the
+/// final arrays through a per-worker row → slot map. (Counting in the first pass and
+/// finding the rows again in the second did the deduplication and the sort twice.)
 pub(crate) fn two_ring_matrix(
     topo: &Topology,
     order: RingOrder,
@@ -270,49 +305,21 @@ pub(crate) fn two_ring_matrix(
 ) -> SparseMatrix {
     let n = topo.n_vertices();
     let nbr = |k: usize| topo.neighbors(crate::VertexId(k as u32));
-    // Pass 1: column counts.
+    // Pass 1: each block's sorted distinct rows, and the column lengths.
     let mut counts = vec![0usize; n];
-    counts.par_chunks_mut(BLOCK).enumerate().for_each_init(
-        || (vec![u32::MAX; n], Vec::new()),
-        |(stamp, ks), (b, cnt)| {
-            for (c, j) in cnt.iter_mut().zip(b * BLOCK..) {
-                ring_ks(topo, j, order, ks);
-                // Branch-free: whether a row is new is unpredictable.
-                let mut m = 0;
-                for &k in ks.iter() {
-                    for i in std::iter::once(k).chain(nbr(k).iter().map(|&i| i as usize)) {
-                        m += usize::from(stamp[i] != j as u32);
-                        stamp[i] = j as u32;
-                    }
-                }
-                *c = m;
-            }
-        },
-    );
-    let mut col_ptr = Vec::with_capacity(n + 1);
-    col_ptr.push(0usize);
-    let mut acc = 0usize;
-    for c in counts {
-        acc += c;
-        col_ptr.push(acc);
-    }
-    let nnz = col_ptr[n];
-    let mut row_idx = crate::mem::zeroed_vec(0usize, nnz);
-    let mut val = crate::mem::zeroed_vec(0.0f64, nnz);
-    // Pass 2: rows (sorted) and values.
-    let sorted = column_blocks(&col_ptr, &mut row_idx, &mut val)
-        .into_par_iter()
+    let block_rows: Vec<Vec<u32>> = counts
+        .par_chunks_mut(BLOCK)
+        .enumerate()
         .map_init(
-            || (vec![u32::MAX; n], vec![0u32; n], Vec::new(), Vec::new()),
-            |(stamp, slot, ks, found), (s, e, rows, vals)| {
-                let mut ok = true;
-                let mut p0 = 0;
-                for j in s..e {
+            || (vec![u32::MAX; n], Vec::new(), Vec::new()),
+            |(stamp, ks, found), (b, cnt)| {
+                let mut rows: Vec<u32> = Vec::new();
+                let columns = cnt.len();
+                for (c, j) in cnt.iter_mut().zip(b * BLOCK..) {
                     ring_ks(topo, j, order, ks);
-                    let len = col_ptr[j + 1] - col_ptr[j];
-                    let (r, v) = (&mut rows[p0..p0 + len], &mut vals[p0..p0 + len]);
-                    // Distinct rows, branch-free: every candidate is written at `m`,
-                    // which advances only for a new one (so `found` needs room for all).
+                    // Branch-free: whether a row is new is unpredictable. Every
+                    // candidate is written at `m`, which advances only for a new one
+                    // (so `found` needs room for all).
                     let bound: usize = ks.iter().map(|&k| nbr(k).len() + 1).sum();
                     if found.len() < bound {
                         found.resize(bound, 0u32);
@@ -326,16 +333,53 @@ pub(crate) fn two_ring_matrix(
                         }
                     }
                     let found = &mut found[..m];
-                    found.sort_unstable();
-                    // Pass 1 counted the same set: m == len unless an invariant broke.
-                    ok &= m == len;
-                    for (q, (&i, ri)) in found.iter().zip(r.iter_mut()).enumerate() {
-                        let i = i as usize;
-                        *ri = i;
-                        slot[i] = q as u32;
-                        ok &= i < n && (q == 0 || found[q - 1] < i as u32);
+                    sort_distinct(found);
+                    if rows.is_empty() {
+                        // Room for every column's candidates, if they were as many
+                        // as the first's: no regrowth (pages never written cost
+                        // nothing).
+                        rows.reserve(bound.max(m) * columns);
                     }
-                    v.fill(0.0);
+                    rows.extend_from_slice(found);
+                    *c = m;
+                }
+                rows
+            },
+        )
+        .collect();
+    let mut col_ptr = Vec::with_capacity(n + 1);
+    col_ptr.push(0usize);
+    let mut acc = 0usize;
+    for c in counts {
+        acc += c;
+        col_ptr.push(acc);
+    }
+    let nnz = col_ptr[n];
+    let mut row_idx = crate::mem::uninit_vec::<usize>(nnz);
+    let mut val = crate::mem::uninit_vec::<f64>(nnz);
+    // Pass 2: rows and values.
+    let sorted = column_blocks(&col_ptr, &mut row_idx, &mut val)
+        .into_par_iter()
+        .zip(block_rows.into_par_iter())
+        .map_init(
+            || (vec![0u32; n], Vec::new()),
+            |(slot, ks), ((s, e, rows, vals), found)| {
+                // The block's rows were counted into `col_ptr` from the same lists.
+                assert_eq!(found.len(), rows.len(), "two-ring block length");
+                let mut ok = true;
+                let mut p0 = 0;
+                for j in s..e {
+                    ring_ks(topo, j, order, ks);
+                    let len = col_ptr[j + 1] - col_ptr[j];
+                    let (r, v) = (&mut rows[p0..p0 + len], &mut vals[p0..p0 + len]);
+                    let f = &found[p0..p0 + len];
+                    for (q, (&i, ri)) in f.iter().zip(r.iter_mut()).enumerate() {
+                        let i = i as usize;
+                        ri.write(i);
+                        slot[i] = q as u32;
+                        ok &= i < n && (q == 0 || f[q - 1] < i as u32);
+                    }
+                    let v = crate::mem::fill_uninit(v, 0.0);
                     for &k in ks.iter() {
                         let c = coeff(j, k);
                         v[slot[k] as usize] += c * entry(k, k);
@@ -350,7 +394,42 @@ pub(crate) fn two_ring_matrix(
             },
         )
         .reduce(|| true, |a, b| a && b);
-    finish(n, col_ptr, row_idx, val, sorted)
+    // SAFETY: each block's slices have the length of its row list (asserted), and
+    // every column wrote all `len` of its rows and values (`fill_uninit`); the
+    // columns cover [0, nnz).
+    unsafe { finish(n, col_ptr, row_idx, val, sorted) }
+}
+
+/// Rows of a two-ring column at most this many are sorted by rank (see
+/// [`sort_distinct`]); the typical column of a triangle mesh has about 19.
+const RANK_SORT_MAX: usize = 32;
+
+/// Sorts `a`, whose elements are distinct, ascending. Up to [`RANK_SORT_MAX`] elements
+/// each goes to its rank — the number of elements below it, counted branch-free over a
+/// padded copy (the compares vectorise) — instead of the comparison sort's
+/// unpredictable branches; longer slices use `sort_unstable`.
+fn sort_distinct(a: &mut [u32]) {
+    let m = a.len();
+    if m > RANK_SORT_MAX {
+        a.sort_unstable();
+        return;
+    }
+    // Compared as i32 after flipping the top bit (the same order as u32: SSE2 has
+    // only signed 32-bit compares). Pads of u32::MAX (i32::MAX flipped) are never below
+    // an element (the rows are below n ≤ u32::MAX).
+    const FLIP: u32 = 1 << 31;
+    let mut pad = [i32::MAX; RANK_SORT_MAX];
+    for (p, &x) in pad.iter_mut().zip(a.iter()) {
+        *p = (x ^ FLIP) as i32;
+    }
+    let width = m.next_multiple_of(8);
+    let mut out = [0u32; RANK_SORT_MAX];
+    for &x in &pad[..m] {
+        let rank: u32 = pad[..width].iter().map(|&y| u32::from(y < x)).sum();
+        out[rank as usize] = (x as u32) ^ FLIP;
+    }
+    // Distinct elements have distinct ranks 0..m, so `out[..m]` is `a` sorted.
+    a.copy_from_slice(&out[..m]);
 }
 
 #[cfg(test)]
@@ -624,6 +703,36 @@ mod tests {
     }
 
     #[test]
+    fn sort_distinct_sorts_by_rank_and_by_comparison() {
+        use rand::{seq::SliceRandom, Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(17);
+        for m in 0..=2 * RANK_SORT_MAX {
+            for high in [false, true] {
+                // Distinct values, some with the top bit set (the flip's edge case),
+                // one of them u32::MAX − 1, the largest row a mesh can have.
+                let mut a: Vec<u32> = Vec::new();
+                while a.len() < m {
+                    let x = if high && a.is_empty() {
+                        u32::MAX - 1
+                    } else if high {
+                        rng.gen_range(0..u32::MAX - 1)
+                    } else {
+                        rng.gen_range(0..200)
+                    };
+                    if !a.contains(&x) {
+                        a.push(x);
+                    }
+                }
+                a.shuffle(&mut rng);
+                let mut want = a.clone();
+                want.sort_unstable();
+                sort_distinct(&mut a);
+                assert_eq!(a, want, "m = {m}, high = {high}");
+            }
+        }
+    }
+
+    #[test]
     fn two_ring_fill_equals_gustavson_product() {
         for (name, _, t) in cases() {
             let n = t.n_vertices();
@@ -732,10 +841,12 @@ mod tests {
         }
     }
 
-    /// The previous mean-value assembly: a sequential face loop adding each corner's
-    /// `tan(θ/2)/‖e‖` into per-edge directed weights.
+    /// The mean-value assembly as a sequential face loop adding each corner's
+    /// `tan(θ/2)/‖e‖` into per-edge directed weights (`tan(θ/2)` as the root of the
+    /// ratio of the squared norms of Kahan's form, each row scaled by the reciprocal of
+    /// its sum, as the parallel assembly computes them).
     fn mean_value_reference(mesh: &TriMesh, topo: &Topology) -> SparseMatrix {
-        use crate::operator::geometry::{add, norm, scale, sub};
+        use crate::operator::geometry::{add, dot, norm, scale, sub};
         let mut w = vec![[0.0f64; 2]; topo.n_edges()];
         let p = |v: u32| mesh.positions[v as usize];
         for (f, t) in topo.faces().iter().enumerate() {
@@ -744,7 +855,8 @@ mod tests {
                 let (u, v) = (sub(p(j), p(i)), sub(p(l), p(i)));
                 let (lu, lv) = (norm(u), norm(v));
                 let (du, dv) = (scale(u, lv), scale(v, lu));
-                let half_tan = norm(sub(du, dv)) / norm(add(du, dv));
+                let (plus, minus) = (add(du, dv), sub(du, dv));
+                let half_tan = (dot(minus, minus) / dot(plus, plus)).sqrt();
                 for (h, len) in [(3 * f + k, lu), (3 * f + (k + 2) % 3, lv)] {
                     let e = topo.half_edge_edge(h as u32).idx();
                     let dir = usize::from(topo.edge(crate::mesh::EdgeId(e as u32))[0] != i);
@@ -761,7 +873,7 @@ mod tests {
                     .sum()
             })
             .collect();
-        reference::one_ring_matrix(topo, |_| 1.0, |i, _, e| -w[e][dir(e, i)] / sums[i])
+        reference::one_ring_matrix(topo, |_| 1.0, |i, _, e| -w[e][dir(e, i)] * (1.0 / sums[i]))
     }
 
     #[test]

@@ -67,8 +67,8 @@ pub fn cotan(
     let faces = topo.faces();
     // Per half-edge h = 3f + m (from corner m to corner m + 1 of face f): ½ cot of the
     // corner opposite it, m + 2; per corner 3f + k: its mass share.
-    let mut half_cot = crate::mem::zeroed_vec(0.0f64, 3 * faces.len());
-    let mut share = crate::mem::zeroed_vec(0.0f64, 3 * faces.len());
+    let mut half_cot = crate::mem::uninit_vec::<f64>(3 * faces.len());
+    let mut share = crate::mem::uninit_vec::<f64>(3 * faces.len());
     const CHUNK: usize = 1024;
     let first_bad = half_cot
         .par_chunks_mut(3 * CHUNK)
@@ -85,9 +85,9 @@ pub fn cotan(
                     return Some(f);
                 };
                 for k in 0..3 {
-                    hf[(k + 1) % 3] = half[k];
+                    hf[(k + 1) % 3].write(half[k]);
+                    sf[k].write(m[k]);
                 }
-                sf.copy_from_slice(&m);
             }
             None
         })
@@ -102,6 +102,14 @@ pub fn cotan(
             kind: "cotan",
         });
     }
+    // SAFETY: no face failed, so every chunk wrote all three entries of each of its
+    // faces into both arrays, and the chunks cover them.
+    let (half_cot, share) = unsafe {
+        (
+            crate::mem::assume_init_vec(half_cot),
+            crate::mem::assume_init_vec(share),
+        )
+    };
     let (mass, l) = rayon::join(
         || {
             let mut mass = vec![0.0f64; topo.n_vertices()];

@@ -14,7 +14,7 @@
 //! extremely scaled coordinates is [`OperatorError::NonFinite`]. An isolated vertex
 //! gets the identity row. The result is never NaN or infinite.
 
-use super::geometry::{add, cross, norm, scale, sub};
+use super::geometry::{add, cross, dot, norm, scale, sub};
 use super::OperatorError;
 use crate::mesh::{topology::Topology, TriMesh};
 use crate::SparseMatrix;
@@ -31,16 +31,20 @@ pub fn mean_value(mesh: &TriMesh, topo: &Topology) -> Result<SparseMatrix, Opera
     let w = directed_weights(mesh, topo)?;
     // The weight from `from` to `to` along edge e.
     let directed = |e: u32, from: u32, to: u32| w[e as usize][usize::from(from > to)];
-    let sums: Vec<f64> = (0..topo.n_vertices())
+    // Per row, the reciprocal of its normalising sum (one division per vertex, not one
+    // per entry).
+    let inv_sums: Vec<f64> = (0..topo.n_vertices())
         .into_par_iter()
         .with_min_len(4096)
         .map(|v| {
             let v = crate::VertexId(v as u32);
-            topo.neighbors(v)
+            let sum: f64 = topo
+                .neighbors(v)
                 .iter()
                 .zip(topo.neighbor_edges(v))
                 .map(|(&u, &e)| directed(e, v.0, u))
-                .sum()
+                .sum();
+            1.0 / sum
         })
         .collect();
     let f = super::assemble::one_ring_columns(topo, |j, off| {
@@ -50,7 +54,7 @@ pub fn mean_value(mesh: &TriMesh, topo: &Topology) -> Result<SparseMatrix, Opera
             .zip(topo.neighbors(v))
             .zip(topo.neighbor_edges(v))
         {
-            *o = -directed(e, i, j as u32) / sums[i as usize];
+            *o = -directed(e, i, j as u32) * inv_sums[i as usize];
         }
         1.0
     });
@@ -70,27 +74,21 @@ pub fn mean_value(mesh: &TriMesh, topo: &Topology) -> Result<SparseMatrix, Opera
 /// values in the same order: the same bits.
 fn directed_weights(mesh: &TriMesh, topo: &Topology) -> Result<Vec<[f64; 2]>, OperatorError> {
     let faces = topo.faces();
-    let add = |acc: [f64; 2], t: [u32; 3], m: usize, v: [f64; 2]| {
-        if t[m] < t[(m + 1) % 3] {
-            [acc[0] + v[0], acc[1] + v[1]]
-        } else {
-            [acc[0] + v[1], acc[1] + v[0]]
-        }
-    };
+    let add = |acc: [f64; 2], v: [f64; 2]| [acc[0] + v[0], acc[1] + v[1]];
     if rayon::current_num_threads() == 1 {
         let mut w = vec![[0.0f64; 2]; topo.n_edges()];
         for (f, &t) in faces.iter().enumerate() {
             let c = face_contributions(mesh, f, t)?;
             for (m, &v) in c.iter().enumerate() {
                 let e = topo.half_edge_edge((3 * f + m) as u32).idx();
-                w[e] = add(w[e], t, m, v);
+                w[e] = add(w[e], v);
             }
         }
         return Ok(w);
     }
-    // Per half-edge h = 3f + m (from corner m to corner m + 1): the contribution of the
-    // angle at its start and of the angle at its end.
-    let mut half = crate::mem::zeroed_vec([0.0f64; 2], 3 * faces.len());
+    // Per half-edge h = 3f + m (from corner m to corner m + 1): its edge's two directed
+    // contributions, `[from the lower vertex, from the higher]`.
+    let mut half = crate::mem::uninit_vec::<[f64; 2]>(3 * faces.len());
     const CHUNK: usize = 1024;
     let first_bad = half
         .par_chunks_mut(3 * CHUNK)
@@ -99,54 +97,53 @@ fn directed_weights(mesh: &TriMesh, topo: &Topology) -> Result<Vec<[f64; 2]>, Op
             for (q, o) in out.chunks_exact_mut(3).enumerate() {
                 let f = c * CHUNK + q;
                 match face_contributions(mesh, f, faces[f]) {
-                    Ok(v) => o.copy_from_slice(&v),
-                    Err(_) => return Some(f),
+                    Ok(v) => {
+                        for (o, v) in o.iter_mut().zip(v) {
+                            o.write(v);
+                        }
+                    }
+                    Err(err) => return Some((f, err)),
                 }
             }
             None
         })
-        .min();
-    if let Some(f) = first_bad {
-        face_contributions(mesh, f, faces[f])?;
+        .min_by_key(|&(f, _)| f);
+    if let Some((_, err)) = first_bad {
+        return Err(err);
     }
+    // SAFETY: no face failed, so every chunk wrote the three entries of each of its
+    // faces, and the chunks cover them.
+    let half = unsafe { crate::mem::assume_init_vec(half) };
     Ok(super::assemble::fold_half_edges_per_edge(
         topo,
         [0.0f64; 2],
-        |acc, h| {
-            let (f, m) = (h as usize / 3, h as usize % 3);
-            add(acc, faces[f], m, half[h as usize])
-        },
+        |acc, h| add(acc, half[h as usize]),
     ))
 }
 
-/// The directed contributions of face `f` with corners `t`: per half-edge m (from
-/// corner m to corner m + 1), `[tan(θ_m/2), tan(θ_{m+1}/2)] / ‖x_{m+1} − x_m‖` with
-/// θ_c the angle at corner c; or the face's error (a zero-length edge, or a triangle
-/// that is zero-area to rounding).
+/// The directed contributions of face `f` with corners `t` to its three edges: per
+/// half-edge m (from corner m to corner m + 1), `tan(θ_m/2) / ‖x_{m+1} − x_m‖` from
+/// corner m and `tan(θ_{m+1}/2) / ‖x_{m+1} − x_m‖` from corner m + 1 (θ_c the angle at
+/// corner c), ordered as the edge's slots: the one from the lower vertex first. Or the
+/// face's error (a zero-length edge, or a triangle that is zero-area to rounding).
 fn face_contributions(
     mesh: &TriMesh,
     f: usize,
     t: [u32; 3],
 ) -> Result<[[f64; 2]; 3], OperatorError> {
-    let p = |v: u32| mesh.positions[v as usize];
-    let degenerate = || OperatorError::DegenerateFace {
-        face: f as u32,
-        a: t[0],
-        b: t[1],
-        c: t[2],
-        kind: "mean-value",
-    };
-    let corners = t.map(p);
-    let area2 = norm(cross(
-        sub(corners[1], corners[0]),
-        sub(corners[2], corners[0]),
-    ));
+    let corners = t.map(|v| mesh.positions[v as usize]);
+    // Edge m from corner m to corner m + 1, and its length (one square root per edge,
+    // shared by the two corners it bounds).
+    let edge: [[f64; 3]; 3] = std::array::from_fn(|m| sub(corners[(m + 1) % 3], corners[m]));
+    let len = edge.map(norm);
+    let area2 = norm(cross(edge[0], sub(corners[2], corners[0])));
     let proper = super::cotan::is_proper_triangle(area2, corners);
     let mut out = [[0.0f64; 2]; 3];
     for k in 0..3 {
         let (i, j, l) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
-        let (u, v) = (sub(p(j), p(i)), sub(p(l), p(i)));
-        let (lu, lv) = (norm(u), norm(v));
+        // From corner k: u along edge k, v against edge k + 2.
+        let (u, v) = (edge[k], sub(corners[(k + 2) % 3], corners[k]));
+        let (lu, lv) = (len[k], len[(k + 2) % 3]);
         if lu.is_nan() || lv.is_nan() || lu <= 0.0 || lv <= 0.0 {
             let (a, b) = if lu > 0.0 { (i, l) } else { (i, j) };
             return Err(OperatorError::ZeroLengthEdge {
@@ -156,16 +153,24 @@ fn face_contributions(
             });
         }
         // tan(θ/2) = ‖ |v|u − |u|v ‖ / ‖ |v|u + |u|v ‖ (Kahan's form: accurate for
-        // angles near 0 and π, where sin θ / (1 + cos θ) cancels).
+        // angles near 0 and π, where sin θ / (1 + cos θ) cancels), as the root of the
+        // ratio of the squared norms.
         let (du, dv) = (scale(u, lv), scale(v, lu));
-        let denom = norm(add(du, dv));
-        if !proper || denom.is_nan() || denom <= 0.0 {
-            return Err(degenerate());
+        let (plus, minus) = (add(du, dv), sub(du, dv));
+        let denom2 = dot(plus, plus);
+        if !proper || denom2.is_nan() || denom2 <= 0.0 {
+            return Err(OperatorError::DegenerateFace {
+                face: f as u32,
+                a: t[0],
+                b: t[1],
+                c: t[2],
+                kind: "mean-value",
+            });
         }
-        let half_tan = norm(sub(du, dv)) / denom;
+        let half_tan = (dot(minus, minus) / denom2).sqrt();
         // The angle at i starts half-edge k (i → j) and ends half-edge k + 2 (l → i).
-        out[k][0] = half_tan / lu;
-        out[(k + 2) % 3][1] = half_tan / lv;
+        out[k][usize::from(i > j)] = half_tan / lu;
+        out[(k + 2) % 3][usize::from(i > l)] = half_tan / lv;
     }
     Ok(out)
 }
