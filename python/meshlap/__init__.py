@@ -291,6 +291,8 @@ def eigs(
     sql_diagonal: str = "zero-row-sum",
     mass: str = "voronoi",
     refine: bool = True,
+    band_size: Optional[int] = None,
+    block_size: Optional[int] = None,
     return_residuals: bool = False,
 ):
     """The k smallest eigenpairs of a mesh operator, ascending: ``evals`` (k,) and
@@ -299,9 +301,24 @@ def eigs(
     positive diagonal symmetrizer S (S-orthonormal); the others are orthonormal.
     Shift-invert block Krylov–Schur with a Sylvester-inertia completeness check (dense
     below 600 vertices). Signs (and the bases of repeated eigenvalues) are canonical:
-    the crate's one rule, v · r0 >= 0 for a fixed probe vector r0, as on the dense path."""
+    the crate's one rule, v · r0 >= 0 for a fixed probe vector r0, as on the dense path.
+    ``band_size`` (eigenpairs per shift, default 200) and ``block_size`` (vectors per
+    Krylov block, default 8, at most ``band_size``) tune the shift-invert solver, as
+    ``meshlap spectrum --band-size --block-size``. Sign convention: ``F = D − W``
+    (positive semi-definite), so the smoothest eigenvectors come first."""
     v, f = _mesh(V, F)
-    evals, evecs, res = _meshlap.eigs(v, f, _count(k), kind, tol, sql_diagonal, mass, bool(refine))
+    evals, evecs, res = _meshlap.eigs(
+        v,
+        f,
+        _count(k),
+        kind,
+        tol,
+        sql_diagonal,
+        mass,
+        bool(refine),
+        _size("band_size", band_size),
+        _size("block_size", block_size),
+    )
     return (evals, evecs, res) if return_residuals else (evals, evecs)
 
 
@@ -309,6 +326,14 @@ def _count(k: Any) -> int:
     if isinstance(k, (bool, np.bool_)) or not isinstance(k, (int, np.integer)) or k < 1:
         raise SpectralError(f"k must be a positive integer, got {k!r}")
     return int(k)
+
+
+def _size(name: str, x: Any) -> Optional[int]:
+    if x is None:
+        return None
+    if isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, np.integer)) or x < 1:
+        raise SpectralError(f"{name} must be a positive integer, got {x!r}")
+    return int(x)
 
 
 def _mass(M: Any, n: int):
@@ -339,7 +364,17 @@ def _mass(M: Any, n: int):
     )
 
 
-def eigsh(A: Any, k: int, M: Any = None, tol: float = 1e-10, *, refine: bool = True, return_residuals: bool = False):
+def eigsh(
+    A: Any,
+    k: int,
+    M: Any = None,
+    tol: float = 1e-10,
+    *,
+    refine: bool = True,
+    band_size: Optional[int] = None,
+    block_size: Optional[int] = None,
+    return_residuals: bool = False,
+):
     """The k smallest eigenpairs of ANY symmetric positive semi-definite matrix ``A``
     (scipy sparse, or dense), optionally of ``A v = λ M v`` with a symmetric positive
     definite ``M``: a lumped mass (the (n,) diagonal, or a diagonal matrix) or any
@@ -354,7 +389,9 @@ def eigsh(A: Any, k: int, M: Any = None, tol: float = 1e-10, *, refine: bool = T
     shift-inverted operator; ``tol=1e-12`` brings the residuals ``‖Av − λMv‖`` to the
     level of scipy's (ARPACK's) shift-invert ``eigsh``. ``refine`` (default on) adds one step of subspace
     iteration with each band's factorization and a Rayleigh–Ritz step with ``A``
-    itself: residuals about 20x lower for a few more solves. A non-symmetric A or M, or an M that is not positive
+    itself: residuals about 20x lower for a few more solves. ``band_size`` (eigenpairs
+    per shift, default 200) and ``block_size`` (vectors per Krylov block, default 8, at
+    most ``band_size``) tune the solver. A non-symmetric A or M, or an M that is not positive
     definite, raises :class:`SpectralError` (a ``ValueError``). Sign convention: the
     paper's operators are ``F = D − W`` (positive semi-definite); pass ``-L`` for
     libigl's or pmp's negative semi-definite cotangent matrix.
@@ -391,6 +428,8 @@ def eigsh(A: Any, k: int, M: Any = None, tol: float = 1e-10, *, refine: bool = T
         mass_csc,
         float(tol),
         bool(refine),
+        _size("band_size", band_size),
+        _size("block_size", block_size),
     )
     return (evals, evecs, res) if return_residuals else (evals, evecs)
 

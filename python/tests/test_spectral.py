@@ -220,3 +220,22 @@ def test_eigsh_refinement_lowers_the_residuals(big_sphere):
         check_pairs(A, B, w1, v1)
     with pytest.raises(meshlap.SpectralError, match="tolerance must be in"):
         meshlap.eigsh(S, 5, tol=0.0)
+
+
+def test_band_and_block_sizes_change_the_path_not_the_spectrum(big_sphere):
+    # Several small bands with small blocks against the default single band: the same
+    # eigenvalues (the sphere's multiple ones included), both complete and accurate.
+    V, F = big_sphere
+    S = meshlap.operator(V, F, "sql")
+    k = 40
+    w_default, v_default = meshlap.eigsh(S, k)
+    w_bands, v_bands = meshlap.eigsh(S, k, band_size=12, block_size=4)
+    np.testing.assert_allclose(w_bands, w_default, rtol=1e-9, atol=1e-12)
+    check_pairs(S, None, w_bands, v_bands)
+    w_eigs, _ = meshlap.eigs(V, F, k, "sql", band_size=12, block_size=4)
+    np.testing.assert_allclose(w_eigs, w_default, rtol=1e-9, atol=1e-12)
+    with pytest.raises(meshlap.SpectralError, match="block size"):
+        meshlap.eigsh(S, 5, band_size=4, block_size=8)
+    for bad in [0, -3, 2.5, True]:
+        with pytest.raises(meshlap.SpectralError, match="positive integer"):
+            meshlap.eigs(V, F, 5, "sql", band_size=bad)

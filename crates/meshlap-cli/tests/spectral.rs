@@ -374,4 +374,23 @@ fn spectrum_refinement_and_tolerance_flags() {
             "tolerance",
         );
     }
+    // Smaller bands and blocks: several bands, the same eigenvalues.
+    let bands = run(&["--band-size", "12", "--block-size", "4"]);
+    assert!(bands["bands"].as_u64().unwrap() >= 3, "{}", bands["bands"]);
+    let c = bands["eigenvalues"].as_array().unwrap();
+    for (x, y) in a.iter().zip(c) {
+        assert!((x.as_f64().unwrap() - y.as_f64().unwrap()).abs() < 1e-10);
+    }
+    for bad in [["--block-size", "0"], ["--band-size", "4"]] {
+        let mut args = vec![
+            "spectrum",
+            "builtin:icosphere:5",
+            "--kind",
+            "sql",
+            "--count",
+            "5",
+        ];
+        args.extend_from_slice(&bad);
+        assert_one_line_error(&meshlap(&args), "block size");
+    }
 }

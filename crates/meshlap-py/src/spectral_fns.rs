@@ -119,11 +119,12 @@ fn partial_out<'py>(
     ))
 }
 
-/// `eigs(V, F, k, kind, tol, sql_diagonal, mass, refine)` → the k smallest eigenpairs
+/// `eigs(V, F, k, kind, tol, sql_diagonal, mass, refine, band_size, block_size)` → the
+/// k smallest eigenpairs
 /// `(evals, evecs, residuals)` of a mesh operator (the cotangent one with its lumped
 /// mass, the TL through its diagonal symmetrizer).
 #[pyfunction]
-#[pyo3(signature = (v, f, k, kind="sql", tol=None, sql_diagonal="zero-row-sum", mass="voronoi", refine=true))]
+#[pyo3(signature = (v, f, k, kind="sql", tol=None, sql_diagonal="zero-row-sum", mass="voronoi", refine=true, band_size=None, block_size=None))]
 #[allow(clippy::too_many_arguments)]
 fn eigs<'py>(
     py: Python<'py>,
@@ -135,14 +136,12 @@ fn eigs<'py>(
     sql_diagonal: &str,
     mass: &str,
     refine: bool,
+    band_size: Option<usize>,
+    block_size: Option<usize>,
 ) -> PyResult<Eigen<'py>> {
     let input = mesh_of(py, &v, &f)?;
     let op = assemble(py, &input, kind, sql_diagonal, mass)?;
-    let mut opts = PartialParams::new(k);
-    opts.refine = refine;
-    if let Some(t) = tol {
-        opts.tolerance = t;
-    }
+    let opts = partial_params(k, tol, refine, band_size, block_size);
     let ps = compute(py, || {
         operator_partial_spectrum(&op, true, &opts, &mut |_, _| {})
     })
@@ -150,13 +149,14 @@ fn eigs<'py>(
     partial_out(py, ps)
 }
 
-/// `eigsh(indptr, indices, data, n, k, mass, mass_csc, tol, refine)`: the k smallest
+/// `eigsh(indptr, indices, data, n, k, mass, mass_csc, tol, refine, band_size,
+/// block_size)`: the k smallest
 /// eigenpairs of `A v = λ M v` for a symmetric sparse A given by its compressed
 /// columns; M is the identity, a positive diagonal (`mass`, (n,)) or a sparse
 /// symmetric positive definite matrix (`mass_csc`: its indptr, indices, data). The
 /// library checks symmetry and positivity.
 #[pyfunction]
-#[pyo3(signature = (indptr, indices, data, n, k, mass=None, mass_csc=None, tol=None, refine=true))]
+#[pyo3(signature = (indptr, indices, data, n, k, mass=None, mass_csc=None, tol=None, refine=true, band_size=None, block_size=None))]
 #[allow(clippy::too_many_arguments)]
 fn eigsh<'py>(
     py: Python<'py>,
@@ -169,6 +169,8 @@ fn eigsh<'py>(
     mass_csc: Option<CscIn<'_>>,
     tol: Option<f64>,
     refine: bool,
+    band_size: Option<usize>,
+    block_size: Option<usize>,
 ) -> PyResult<Eigen<'py>> {
     let a = csc_in(py, "A", &indptr, &indices, &data, n)?;
     let contiguous = |name: &str| raise_as(py, "Error", format!("{name} must be contiguous"));
@@ -185,16 +187,31 @@ fn eigsh<'py>(
         (None, Some(d)) => Mass::Lumped(d),
         (None, None) => Mass::Identity,
     };
-    let mut opts = PartialParams::new(k);
-    opts.refine = refine;
-    if let Some(t) = tol {
-        opts.tolerance = t;
-    }
+    let opts = partial_params(k, tol, refine, band_size, block_size);
     let ps = compute(py, || {
         partial_spectrum_with_mass(&a, mass, &opts, &mut |_, _| {}).map_err(meshlap::Error::from)
     })
     .map_err(|e| crate::raise(py, e))?;
     partial_out(py, ps)
+}
+
+/// The library's defaults for `k` pairs with the arguments given (the library checks
+/// them).
+fn partial_params(
+    k: usize,
+    tol: Option<f64>,
+    refine: bool,
+    band_size: Option<usize>,
+    block_size: Option<usize>,
+) -> PartialParams {
+    let d = PartialParams::new(k);
+    PartialParams {
+        tolerance: tol.unwrap_or(d.tolerance),
+        band_size: band_size.unwrap_or(d.band_size),
+        block_size: block_size.unwrap_or(d.block_size),
+        refine,
+        ..d
+    }
 }
 
 /// A matrix in compressed sparse columns from Python: indptr, indices, data.

@@ -95,6 +95,15 @@ pub struct Args {
     /// Shift-invert path: Ritz tolerance relative to each pair's |μ| = 1/|λ − σ|.
     #[arg(long, default_value_t = PartialParams::new(1).tolerance, allow_negative_numbers = true)]
     pub tol: f64,
+    /// Shift-invert path: eigenpairs computed per shift (the band size b); the
+    /// Krylov basis holds about 2.5 b vectors of length n.
+    #[arg(long, default_value_t = PartialParams::new(1).band_size, value_name = "b")]
+    pub band_size: usize,
+    /// Shift-invert path: vectors per block of the block Krylov–Schur iteration (p,
+    /// 1 ≤ p ≤ b): solves run on p right-hand sides at once, and eigenvalues of
+    /// multiplicity up to p are found from one start.
+    #[arg(long, default_value_t = PartialParams::new(1).block_size, value_name = "p")]
+    pub block_size: usize,
     /// Shift-invert path: skip the refinement of each band (one subspace-iteration
     /// step and a Rayleigh–Ritz step with the operator; residuals about 20x lower).
     #[arg(long)]
@@ -135,6 +144,8 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
         basis: args.basis.options(),
         partial: PartialParams {
             tolerance: args.tol,
+            band_size: args.band_size,
+            block_size: args.block_size,
             refine: !args.no_refine,
             ..defaults.partial
         },

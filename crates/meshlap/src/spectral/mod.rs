@@ -141,6 +141,20 @@ pub enum SpectralError {
     /// Fix: pass a tolerance such as 1e-10 ([`partial::PartialParams::tolerance`]).
     #[error("the eigensolver tolerance must be in (0, 1), got {0}")]
     InvalidTolerance(f64),
+    /// The band or block size of the partial eigensolver is zero, or the block is
+    /// larger than the band.
+    ///
+    /// Cause: [`partial::PartialParams::band_size`] (eigenpairs per shift) and
+    /// [`partial::PartialParams::block_size`] (vectors per Krylov block) must be
+    /// positive, and a block holds at most one band. Fix: keep the defaults (bands of
+    /// 200, blocks of 8), or pass `1 ≤ block_size ≤ band_size`.
+    #[error("the eigensolver needs 1 ≤ block size ≤ band size, got a block of {block_size} and a band of {band_size}")]
+    InvalidBlocking {
+        /// The band size asked for.
+        band_size: usize,
+        /// The block size asked for.
+        block_size: usize,
+    },
     /// The number of coefficients to keep is out of range for the mesh.
     ///
     /// Fix: a count in `1..=n` or a percentage in (0, 100] ([`project::Keep`]).

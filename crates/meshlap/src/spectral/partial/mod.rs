@@ -246,7 +246,7 @@ pub fn partial_spectrum(
 /// # Errors
 /// [`SpectralError::NotSquare`], [`SpectralError::NonFinite`],
 /// [`SpectralError::NotSymmetricMatrix`] (K or M), [`SpectralError::InvalidTolerance`],
-/// [`SpectralError::InvalidMass`] /
+/// [`SpectralError::InvalidBlocking`], [`SpectralError::InvalidMass`] /
 /// [`SpectralError::MassNotPositiveDefinite`], [`SpectralError::TooMany`], and the
 /// solver's failures (see [`SpectralError`]).
 pub fn partial_spectrum_with_mass(
@@ -259,6 +259,12 @@ pub fn partial_spectrum_with_mass(
     let metric = check_problem(k, mass)?;
     if !(opts.tolerance > 0.0 && opts.tolerance < 1.0) {
         return Err(SpectralError::InvalidTolerance(opts.tolerance));
+    }
+    if opts.block_size == 0 || opts.block_size > opts.band_size {
+        return Err(SpectralError::InvalidBlocking {
+            band_size: opts.band_size,
+            block_size: opts.block_size,
+        });
     }
     let count = opts.count;
     if count > n {

@@ -291,6 +291,18 @@ fn bad_input_is_an_error() {
         partial_spectrum(&op.matrix, None, &PartialParams::new(13), &mut |_, _| {}),
         Err(SpectralError::TooMany { count: 13, n: 12 })
     ));
+    for (band_size, block_size) in [(200, 0), (0, 0), (4, 8)] {
+        let opts = PartialParams {
+            band_size,
+            block_size,
+            ..PartialParams::new(3)
+        };
+        assert!(matches!(
+            partial_spectrum(&op.matrix, None, &opts, &mut |_, _| {}),
+            Err(SpectralError::InvalidBlocking { band_size: b, block_size: p })
+                if b == band_size && p == block_size
+        ));
+    }
     // F_01 F_10 < 0: no positive diagonal symmetrizer.
     let m = crate::operator::symmetrize::tests::opposite_signs();
     let op = Operator {
