@@ -139,22 +139,28 @@ pub fn cotan(
 
 /// ½·cot of the angle at each corner of face `t` and each corner's mass share, or
 /// `None` when the face is degenerate ([`is_proper_triangle`]).
+///
+/// Each edge vector and squared length is formed once and shared by the corners and
+/// the properness test; the values have the same bits as the per-corner formulas
+/// (`x_j − x_i` is exactly `−(x_i − x_j)`).
 fn face_shares(mesh: &TriMesh, t: [u32; 3], mass_kind: MassKind) -> Option<([f64; 3], [f64; 3])> {
-    let p = |v: u32| mesh.positions[v as usize];
-    let [a, b, c] = t.map(p);
-    let area2 = norm(cross(sub(b, a), sub(c, a)));
-    if !is_proper_triangle(area2, [a, b, c]) {
+    let [a, b, c] = t.map(|v| mesh.positions[v as usize]);
+    // Edge k from corner k to corner k + 1, and its squared length.
+    let (e0, e1, e2) = (sub(b, a), sub(c, b), sub(a, c));
+    let len2 = [dot(e0, e0), dot(e1, e1), dot(e2, e2)];
+    let area2 = norm(cross(e0, sub(c, a)));
+    if !proper_triangle(area2, len2) {
         return None;
     }
-    // cot of the angle at corner k, opposite half-edge k+1 → k+2.
-    let mut cots = [0.0; 3];
-    let mut half = [0.0; 3];
-    for k in 0..3 {
-        let o = t[k];
-        let (u, v) = (sub(p(t[(k + 1) % 3]), p(o)), sub(p(t[(k + 2) % 3]), p(o)));
-        cots[k] = dot(u, v) / area2;
-        half[k] = 0.5 * cots[k];
-    }
+    // cot of the angle at corner k, opposite half-edge k+1 → k+2: the dot product of
+    // the two edges leaving corner k over the doubled area.
+    let neg = |v: [f64; 3]| [-v[0], -v[1], -v[2]];
+    let cots = [
+        dot(e0, neg(e2)) / area2,
+        dot(e1, neg(e0)) / area2,
+        dot(e2, neg(e1)) / area2,
+    ];
+    let half = cots.map(|x| 0.5 * x);
     let area = 0.5 * area2;
     let mut m = [0.0; 3];
     match mass_kind {
@@ -166,12 +172,11 @@ fn face_shares(mesh: &TriMesh, t: [u32; 3], mass_kind: MassKind) -> Option<([f64
                     Some(o) if o == k => area / 2.0,
                     Some(_) => area / 4.0,
                     None => {
-                        // Voronoi area at corner k: 1/8 (|e_kj|² cot at l + |e_kl|² cot at j).
+                        // Voronoi area at corner k: 1/8 (|e_kj|² cot at l + |e_kl|² cot
+                        // at j), with j = k + 1, l = k + 2: e_kj is edge k, e_kl edge
+                        // k + 2.
                         let (j, l) = ((k + 1) % 3, (k + 2) % 3);
-                        let pk = p(t[k]);
-                        let ekj = sub(p(t[j]), pk);
-                        let ekl = sub(p(t[l]), pk);
-                        (dot(ekj, ekj) * cots[l] + dot(ekl, ekl) * cots[j]) / 8.0
+                        (len2[k] * cots[l] + len2[l] * cots[j]) / 8.0
                     }
                 };
             }
@@ -185,12 +190,17 @@ fn face_shares(mesh: &TriMesh, t: [u32; 3], mass_kind: MassKind) -> Option<([f64
 /// Below that the corners are collinear to rounding and angles, cotangents and
 /// half-angle tangents are meaningless. Shared by the geometric operators.
 pub(crate) fn is_proper_triangle(area2: f64, p: [[f64; 3]; 3]) -> bool {
-    let longest2 = (0..3)
-        .map(|k| {
-            let e = sub(p[(k + 1) % 3], p[k]);
-            dot(e, e)
-        })
-        .fold(0.0f64, f64::max);
+    let len2: [f64; 3] = std::array::from_fn(|k| {
+        let e = sub(p[(k + 1) % 3], p[k]);
+        dot(e, e)
+    });
+    proper_triangle(area2, len2)
+}
+
+/// [`is_proper_triangle`] from the squared edge lengths.
+#[inline]
+fn proper_triangle(area2: f64, len2: [f64; 3]) -> bool {
+    let longest2 = len2.into_iter().fold(0.0f64, f64::max);
     area2.is_finite() && longest2.is_finite() && area2 > f64::EPSILON * longest2
 }
 
