@@ -669,12 +669,14 @@ def get_threads() -> int:
 
 
 def keep_freed_memory() -> bool:
-    """Keep up to 64 MiB of freed memory per allocator heap instead of returning it
-    to the kernel at once (glibc ``mallopt(M_TOP_PAD)``), for the whole process.
+    """Reuse freed memory instead of returning it to the kernel at once, for the
+    whole process: glibc keeps up to 64 MiB of free memory per heap and serves every
+    block below 32 MiB from its heaps (``mallopt(M_TOP_PAD)`` and
+    ``mallopt(M_MMAP_THRESHOLD)``).
 
-    Worth it in a loop of many dense bases (:func:`eigs` on meshes or patches of
-    up to a few thousand vertices): the solver's work matrices are then reused
-    instead of page-faulted in again on every call. The ``meshlap`` command does this
+    Worth it in a loop of many calls (:func:`operator`, dense bases, :func:`eigs` on
+    meshes or patches): buffers are then reused instead of page-faulted in again on
+    every call. The ``meshlap`` command does this
     at start; the package does not on import, since the setting also applies to
     every other allocation of the interpreter. Returns whether the allocator took
     the setting (``False`` without glibc, where nothing changes).

@@ -76,7 +76,7 @@ pub mod spectral;
 pub mod watermark;
 
 pub use error::{Error, Result};
-pub use mem::{keep_freed_memory, KEEP_FREED_BYTES};
+pub use mem::{keep_freed_memory, KEEP_FREED_BYTES, MMAP_THRESHOLD_BYTES};
 pub use mesh::{FaceId, TriMesh, VertexId};
 
 /// Sparse matrix type used throughout the crate: compressed sparse column, `f64`

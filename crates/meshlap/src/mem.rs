@@ -107,31 +107,48 @@ pub(crate) fn release_free_memory() {
 /// of each of its heaps: two dense 2,000 × 2,000 matrices' worth.
 pub const KEEP_FREED_BYTES: usize = 64 << 20;
 
-/// Asks the process' allocator to keep up to [`KEEP_FREED_BYTES`] of freed memory at
-/// the top of each heap instead of returning it to the kernel at once (glibc's
-/// `mallopt(M_TOP_PAD)`); returns whether the allocator took the setting (`false` on
-/// systems without glibc, where nothing changes).
+/// The block size from which [`keep_freed_memory`] has glibc map a block on its own
+/// (`M_MMAP_THRESHOLD`): 32 MiB, the largest value glibc's own adaptive threshold
+/// reaches. Smaller blocks come from the heaps and are reused there.
+pub const MMAP_THRESHOLD_BYTES: usize = 32 << 20;
+
+/// Asks the process' allocator to reuse freed memory instead of returning it to the
+/// kernel at once: glibc keeps up to [`KEEP_FREED_BYTES`] of free memory at the top of
+/// each heap (`mallopt(M_TOP_PAD)`) and serves every block below
+/// [`MMAP_THRESHOLD_BYTES`] from its heaps (`mallopt(M_MMAP_THRESHOLD)`). Returns
+/// whether the allocator took both settings (`false` on systems without glibc, where
+/// nothing changes).
 ///
-/// **Why.** A program that computes one dense basis after another (a loop over
-/// patches or meshes, a benchmark) allocates the same work matrices again and again.
-/// The solver runs on rayon's workers, whose glibc heaps (one arena per thread) give
-/// every freed block at their top back to the kernel; the next allocation of the same
-/// size then page-faults and zeroes each 4 KiB page again. At n = 500 on one thread
-/// that is about a fifth of a dense eigendecomposition. With the pad, freed memory
-/// is reused from the heap instead.
+/// **Why.** A program that computes one result after another (a loop over patches or
+/// meshes, a benchmark) allocates the same buffers again and again. Memory that glibc
+/// returned to the kernel is page-faulted and zeroed again, 4 KiB at a time, on the
+/// next use — on this project's 2-core VM about as long as the work itself for the
+/// sparse operators' 16–43 MB arrays, and about a fifth of a dense eigendecomposition
+/// at n = 500. Two glibc behaviours return it: the heaps give every freed block at
+/// their top back (hence the pad), and blocks from the mmap threshold on are mapped
+/// and unmapped on their own. Setting the pad also freezes that threshold at its
+/// initial 128 KiB (glibc stops adapting it once any of these parameters is set),
+/// so the pad alone would send every block above 128 KiB to the kernel on free;
+/// hence the threshold is set too, to the ceiling of glibc's adaptive one.
 ///
 /// **Cost.** Up to [`KEEP_FREED_BYTES`] of freed memory stays resident per heap (one
 /// per thread that allocated), so a later peak that the heap cannot serve from it
-/// can be that much higher per heap. Blocks above glibc's mmap threshold (adaptive,
-/// at most 32 MiB) are mapped on their own and not affected. The setting is process-wide, so
-/// the library never makes it on its own: the `meshlap` binaries call this at start,
-/// and the Python package offers it as `meshlap.keep_freed_memory()`.
+/// can be that much higher per heap. Blocks from [`MMAP_THRESHOLD_BYTES`] on (the
+/// large meshes' arrays, big dense matrices) are mapped on their own and returned at
+/// once, as before. The setting is process-wide, so the library never makes it on its
+/// own: the `meshlap` binaries call this at start, and the Python package offers it as
+/// `meshlap.keep_freed_memory()`.
 pub fn keep_freed_memory() -> bool {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     {
-        // SAFETY: mallopt only changes a tuning parameter of the allocator; it
-        // touches no allocation. M_TOP_PAD takes an int; the value fits.
-        unsafe { libc::mallopt(libc::M_TOP_PAD, KEEP_FREED_BYTES as libc::c_int) == 1 }
+        // SAFETY: mallopt only changes tuning parameters of the allocator; it touches
+        // no allocation. Both take an int; the values fit.
+        unsafe {
+            let pad = libc::mallopt(libc::M_TOP_PAD, KEEP_FREED_BYTES as libc::c_int) == 1;
+            let map =
+                libc::mallopt(libc::M_MMAP_THRESHOLD, MMAP_THRESHOLD_BYTES as libc::c_int) == 1;
+            pad && map
+        }
     }
     #[cfg(not(all(target_os = "linux", target_env = "gnu")))]
     {
@@ -190,14 +207,28 @@ mod tests {
     }
 
     #[test]
-    fn glibc_takes_the_top_pad() {
-        // Process-wide but harmless for the other tests: only how much freed memory
-        // the heaps keep changes.
+    fn glibc_takes_the_settings_and_serves_mid_sized_blocks_from_its_heaps() {
+        // Process-wide but harmless for the other tests: only where blocks come from
+        // and how much freed memory the heaps keep change.
         let took = super::keep_freed_memory();
         assert_eq!(took, cfg!(all(target_os = "linux", target_env = "gnu")));
         // Freed and allocated again, a block is still zeroed by `vec!`.
         drop(super::zeroed_vec(1.0f64, 1 << 20));
         let v = super::zeroed_vec(0.0f64, 1 << 20);
         assert!(v.iter().all(|&x| x == 0.0));
+        #[cfg(all(target_os = "linux", target_env = "gnu", target_pointer_width = "64"))]
+        {
+            // glibc marks a block mapped on its own by bit 1 (IS_MMAPPED) of the size
+            // word just before it. Three 24 MiB blocks held at once outgrow any heap's
+            // padded top; with M_TOP_PAD alone (which freezes the mmap threshold at
+            // 128 KiB) the one that does not fit is mapped, and unmapped on free.
+            let blocks: Vec<Vec<u8>> = (0..3).map(|_| Vec::with_capacity(24 << 20)).collect();
+            for b in &blocks {
+                // SAFETY: glibc's malloc puts the chunk's size word right before the
+                // block it returns; this reads initialised allocator memory.
+                let size_word = unsafe { *(b.as_ptr() as *const usize).sub(1) };
+                assert_eq!(size_word & 2, 0, "a 24 MiB block was mapped on its own");
+            }
+        }
     }
 }
