@@ -6,16 +6,13 @@
 //! constant — which is why it is not a GSML and its truncated spectral reconstructions
 //! are not smooth (the paper's Fig. 1).
 
-use super::{degrees_checked, OperatorError};
+use super::{degree_map_checked, OperatorError};
 use crate::mesh::topology::Topology;
 use crate::SparseMatrix;
 
 /// Assembles the normalized graph Laplacian of `topo`.
 pub fn graph(topo: &Topology) -> Result<SparseMatrix, OperatorError> {
-    let s: Vec<f64> = degrees_checked(topo)?
-        .into_iter()
-        .map(|d| 1.0 / d.sqrt())
-        .collect();
+    let s = degree_map_checked(topo, |d| 1.0 / d.sqrt())?;
     Ok(super::assemble::one_ring_matrix(
         topo,
         |_| 1.0,

@@ -308,11 +308,40 @@ pub(crate) fn first_non_finite(x: &[f64]) -> Option<usize> {
 
 /// Vertex degrees as `f64`, or an error naming an isolated vertex.
 pub(crate) fn degrees_checked(topo: &Topology) -> Result<Vec<f64>, OperatorError> {
-    let d = topo.degrees();
-    if let Some(v) = d.iter().position(|&x| x == 0) {
-        return Err(OperatorError::IsolatedVertex { vertex: v as u32 });
+    degree_map_checked(topo, |d| d)
+}
+
+/// `f(d_v)` for every vertex degree `d_v`, in one parallel pass over the adjacency
+/// offsets; [`OperatorError::IsolatedVertex`] (the first) if a degree is zero.
+pub(crate) fn degree_map_checked(
+    topo: &Topology,
+    f: impl Fn(f64) -> f64 + Sync,
+) -> Result<Vec<f64>, OperatorError> {
+    use rayon::prelude::*;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let isolated = AtomicBool::new(false);
+    let out: Vec<f64> = topo
+        .adjacency_offsets()
+        .par_windows(2)
+        .with_min_len(4096)
+        .map(|w| {
+            let d = w[1] - w[0];
+            if d == 0 {
+                isolated.store(true, Ordering::Relaxed);
+            }
+            f(f64::from(d))
+        })
+        .collect();
+    if isolated.load(Ordering::Relaxed) {
+        let v = topo
+            .adjacency_offsets()
+            .windows(2)
+            .position(|w| w[1] == w[0]);
+        return Err(OperatorError::IsolatedVertex {
+            vertex: v.unwrap_or(0) as u32,
+        });
     }
-    Ok(d.into_iter().map(|x| x as f64).collect())
+    Ok(out)
 }
 
 #[cfg(test)]

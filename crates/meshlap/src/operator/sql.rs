@@ -28,7 +28,7 @@
 //! indefinite. [`crate::analysis::repair`] removes them by greedy edge swapping. The SQL
 //! refuses non-manifold edges (the opposite vertices k, l are not unique there).
 
-use super::{degrees_checked, OperatorError};
+use super::{degree_map_checked, degrees_checked, OperatorError};
 use crate::mesh::{topology::Topology, EdgeId, MeshError, VertexId};
 use crate::SparseMatrix;
 use rayon::prelude::*;
@@ -111,8 +111,7 @@ pub fn sql_diagonal(topo: &Topology, d: &[f64], convention: BoundaryDiagonal) ->
 /// summed over its boundary edges in edge order — so the result equals, bit for bit,
 /// `diag` from [`sql_diagonal`] minus `W` from [`sql_edge_weights`].
 pub fn sql(topo: &Topology, convention: BoundaryDiagonal) -> Result<SparseMatrix, OperatorError> {
-    let d = degrees_checked(topo)?;
-    let inv: Vec<f64> = d.iter().map(|&x| 1.0 / x).collect();
+    let inv = degree_map_checked(topo, |d| 1.0 / d)?;
     let non_manifold = AtomicBool::new(false);
     let w: Vec<f64> = (0..topo.n_edges())
         .into_par_iter()
@@ -136,7 +135,7 @@ pub fn sql(topo: &Topology, convention: BoundaryDiagonal) -> Result<SparseMatrix
         .collect();
     if non_manifold.load(Ordering::Relaxed) {
         // Name the first non-manifold edge, in edge order, as the sequential build did.
-        sql_edge_weights(topo, &d)?;
+        sql_edge_weights(topo, &degrees_checked(topo)?)?;
     }
     let sign = match convention {
         BoundaryDiagonal::ZeroRowSum => 1.0,

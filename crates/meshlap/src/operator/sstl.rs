@@ -4,7 +4,7 @@
 //! (`vᵀJv = ‖Tv‖²`), zero row sums (because `T·1 = 0`), sign convention `F = D − W`.
 //! Its pattern is the two-ring of each vertex. Boundary vertices need no special case.
 
-use super::{assemble, degrees_checked, OperatorError};
+use super::{assemble, degree_map_checked, OperatorError};
 use crate::mesh::topology::Topology;
 use crate::SparseMatrix;
 
@@ -15,7 +15,7 @@ use crate::SparseMatrix;
 /// (`assemble::two_ring_matrix`).
 pub fn sstl(topo: &Topology) -> Result<SparseMatrix, OperatorError> {
     // −1/d_k once per vertex, not once per product.
-    let neg_inv: Vec<f64> = degrees_checked(topo)?.iter().map(|&d| -1.0 / d).collect();
+    let neg_inv = degree_map_checked(topo, |d| -1.0 / d)?;
     // T_kj = 1 on the diagonal, −1/d_k for k ∈ N(j).
     let t_kj = |j: usize, k: usize| if k == j { 1.0 } else { neg_inv[k] };
     Ok(assemble::two_ring_matrix(

@@ -6,14 +6,14 @@
 //! similar to the normalized graph Laplacian, `T = D^{-1/2} G D^{1/2}`, so its
 //! eigenvalues are real and lie in `[0, 2]`. Boundary vertices need no special case.
 
-use super::{degrees_checked, OperatorError};
+use super::{degree_map_checked, OperatorError};
 use crate::mesh::topology::Topology;
 use crate::SparseMatrix;
 
 /// Assembles the Tutte Laplacian `T = I − D⁻¹A` of `topo`.
 pub fn tutte(topo: &Topology) -> Result<SparseMatrix, OperatorError> {
     // −(1/d_i) and −1/d_i are the same number (rounding is sign-symmetric).
-    let inv: Vec<f64> = degrees_checked(topo)?.iter().map(|&d| 1.0 / d).collect();
+    let inv = degree_map_checked(topo, |d| 1.0 / d)?;
     Ok(super::assemble::one_ring_matrix(
         topo,
         |_| 1.0,

@@ -2,7 +2,7 @@
 //! SSTL `TᵀT`: n×n, **not symmetric**, zero row sums, two-ring pattern, sign convention
 //! `F = D − W`; eigenvalues are the squares of the TL's (real, in `[0, 4]`).
 
-use super::{assemble, degrees_checked, OperatorError};
+use super::{assemble, degree_map_checked, OperatorError};
 use crate::mesh::topology::Topology;
 use crate::SparseMatrix;
 
@@ -11,7 +11,7 @@ use crate::SparseMatrix;
 /// pattern filled in place (`assemble::two_ring_matrix`).
 pub fn tutte2(topo: &Topology) -> Result<SparseMatrix, OperatorError> {
     // −1/d_i once per vertex, not once per product.
-    let neg_inv: Vec<f64> = degrees_checked(topo)?.iter().map(|&d| -1.0 / d).collect();
+    let neg_inv = degree_map_checked(topo, |d| -1.0 / d)?;
     let t = |i: usize, k: usize| if i == k { 1.0 } else { neg_inv[i] };
     Ok(assemble::two_ring_matrix(
         topo,
