@@ -90,6 +90,42 @@ pub(crate) fn fold_half_edges_per_edge<T: Copy + Send + Sync>(
     out
 }
 
+/// Per face f, the three values `value(f)` (one per half-edge `3f + m`, or per corner),
+/// computed in parallel over chunks of faces into one slot each; or the error of the
+/// first face (the lowest index) whose `value` fails, whichever thread met it. The
+/// geometric operators' per-face pass (cotan, mean-value).
+pub(crate) fn per_face<T: Copy + Send + Sync, E: Send>(
+    n_faces: usize,
+    value: impl Fn(usize) -> Result<[T; 3], E> + Sync,
+) -> Result<Vec<T>, E> {
+    const CHUNK: usize = 1024;
+    let mut out = crate::mem::uninit_vec::<T>(3 * n_faces);
+    let first_bad = out
+        .par_chunks_mut(3 * CHUNK)
+        .enumerate()
+        .filter_map(|(c, slots)| {
+            for (q, s) in slots.chunks_exact_mut(3).enumerate() {
+                let f = c * CHUNK + q;
+                match value(f) {
+                    Ok(v) => {
+                        for (s, v) in s.iter_mut().zip(v) {
+                            s.write(v);
+                        }
+                    }
+                    Err(err) => return Some((f, err)),
+                }
+            }
+            None
+        })
+        .min_by_key(|&(f, _)| f);
+    if let Some((_, err)) = first_bad {
+        return Err(err);
+    }
+    // SAFETY: no face failed, so every chunk wrote the three slots of each of its
+    // faces, and the chunks cover all 3 · n_faces.
+    Ok(unsafe { crate::mem::assume_init_vec(out) })
+}
+
 /// Rows and values of one block of columns, not yet written.
 type BlockOut<'a> = (
     usize,

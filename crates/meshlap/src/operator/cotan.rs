@@ -27,7 +27,6 @@ use super::geometry::{cross, dot, norm, sub};
 use super::OperatorError;
 use crate::mesh::{topology::Topology, TriMesh};
 use crate::SparseMatrix;
-use rayon::prelude::*;
 
 /// Lumped mass matrix of the cotangent operator.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
@@ -65,64 +64,32 @@ pub fn cotan(
     mass_kind: MassKind,
 ) -> Result<(SparseMatrix, Vec<f64>), OperatorError> {
     let faces = topo.faces();
-    // Per half-edge h = 3f + m (from corner m to corner m + 1 of face f): ½ cot of the
-    // corner opposite it, m + 2; per corner 3f + k: its mass share.
-    let mut half_cot = crate::mem::uninit_vec::<f64>(3 * faces.len());
-    let mut share = crate::mem::uninit_vec::<f64>(3 * faces.len());
-    const CHUNK: usize = 1024;
-    let first_bad = half_cot
-        .par_chunks_mut(3 * CHUNK)
-        .zip(share.par_chunks_mut(3 * CHUNK))
-        .enumerate()
-        .filter_map(|(c, (hc, sh))| {
-            for (q, (hf, sf)) in hc
-                .chunks_exact_mut(3)
-                .zip(sh.chunks_exact_mut(3))
-                .enumerate()
-            {
-                let f = c * CHUNK + q;
-                let Some((half, m)) = face_shares(mesh, faces[f], mass_kind) else {
-                    return Some(f);
-                };
-                for k in 0..3 {
-                    hf[(k + 1) % 3].write(half[k]);
-                    sf[k].write(m[k]);
-                }
-            }
-            None
-        })
-        .min();
-    if let Some(f) = first_bad {
+    // Slot 3f + m: ½ cot of the corner opposite half-edge m (from corner m to corner
+    // m + 1 of face f), which is corner m + 2, and the mass share of corner m.
+    let slots = super::assemble::per_face(faces.len(), |f| {
         let t = faces[f];
-        return Err(OperatorError::DegenerateFace {
+        let (half, m) = face_shares(mesh, t, mass_kind).ok_or(OperatorError::DegenerateFace {
             face: f as u32,
             a: t[0],
             b: t[1],
             c: t[2],
             kind: "cotan",
-        });
-    }
-    // SAFETY: no face failed, so every chunk wrote all three entries of each of its
-    // faces into both arrays, and the chunks cover them.
-    let (half_cot, share) = unsafe {
-        (
-            crate::mem::assume_init_vec(half_cot),
-            crate::mem::assume_init_vec(share),
-        )
-    };
+        })?;
+        Ok::<_, OperatorError>(std::array::from_fn(|k| (half[(k + 2) % 3], m[k])))
+    })?;
     let (mass, l) = rayon::join(
         || {
             let mut mass = vec![0.0f64; topo.n_vertices()];
-            for (t, s) in faces.iter().zip(share.chunks_exact(3)) {
+            for (t, s) in faces.iter().zip(slots.chunks_exact(3)) {
                 for k in 0..3 {
-                    mass[t[k] as usize] += s[k];
+                    mass[t[k] as usize] += s[k].1;
                 }
             }
             mass
         },
         || {
             let w = super::assemble::fold_half_edges_per_edge(topo, 0.0f64, |acc, h| {
-                acc + half_cot[h as usize]
+                acc + slots[h as usize].0
             });
             super::assemble::one_ring_columns(topo, |j, off| {
                 let edges = topo.neighbor_edges(crate::VertexId(j as u32));

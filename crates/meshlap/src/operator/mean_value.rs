@@ -88,32 +88,7 @@ fn directed_weights(mesh: &TriMesh, topo: &Topology) -> Result<Vec<[f64; 2]>, Op
     }
     // Per half-edge h = 3f + m (from corner m to corner m + 1): its edge's two directed
     // contributions, `[from the lower vertex, from the higher]`.
-    let mut half = crate::mem::uninit_vec::<[f64; 2]>(3 * faces.len());
-    const CHUNK: usize = 1024;
-    let first_bad = half
-        .par_chunks_mut(3 * CHUNK)
-        .enumerate()
-        .filter_map(|(c, out)| {
-            for (q, o) in out.chunks_exact_mut(3).enumerate() {
-                let f = c * CHUNK + q;
-                match face_contributions(mesh, f, faces[f]) {
-                    Ok(v) => {
-                        for (o, v) in o.iter_mut().zip(v) {
-                            o.write(v);
-                        }
-                    }
-                    Err(err) => return Some((f, err)),
-                }
-            }
-            None
-        })
-        .min_by_key(|&(f, _)| f);
-    if let Some((_, err)) = first_bad {
-        return Err(err);
-    }
-    // SAFETY: no face failed, so every chunk wrote the three entries of each of its
-    // faces, and the chunks cover them.
-    let half = unsafe { crate::mem::assume_init_vec(half) };
+    let half = super::assemble::per_face(faces.len(), |f| face_contributions(mesh, f, faces[f]))?;
     Ok(super::assemble::fold_half_edges_per_edge(
         topo,
         [0.0f64; 2],

@@ -33,7 +33,7 @@
 //!    `A₂₂ ← A₂₂ − V Wᵀ − W Vᵀ` on the lower triangle (`syr2k`, as faer products
 //!    over blocks of columns). With more than one thread, a partner thread spins for
 //!    the length of the reduction and takes parts of each column's product and each
-//!    panel's update ([`Team`]): a rayon fork–join per column costs about as much as
+//!    panel's update (`Team`): a rayon fork–join per column costs about as much as
 //!    the column's work at these sizes. The parts are fixed by `par`, not by who
 //!    computes them.
 //! 3. The eigenvalues and eigenvectors `Z` of the tridiagonal matrix by LAPACK-style

@@ -67,7 +67,7 @@ pub enum PatchwiseError {
 /// rebuilt by its own patch only. `keep_fraction` in (0, 1]; 1 reproduces the mesh.
 /// `progress(done, total)` is called as patches finish.
 ///
-/// Only the projection is formed, never the eigenvectors (see [`lowest_projection`]):
+/// Only the projection is formed, never the eigenvectors (see `lowest_projection`):
 /// with `A = M^{-1/2} K M^{-1/2} = Q T Qᵀ` (faer's blocked Householder
 /// tridiagonalisation, 4n³/3 flops) and `Z_m` the lowest m eigenvectors of T,
 /// `x⁽ᵐ⁾ = M^{-1/2} Q Z_m Z_mᵀ Qᵀ M^{1/2} x`. This is the same projection as the
