@@ -325,17 +325,21 @@ fn descriptors_write_hks_and_wks_columns() {
 #[test]
 fn spectrum_refinement_and_tolerance_flags() {
     // 10,242 vertices: above the dense limit, so the shift-invert path runs.
-    let run = |extra: &[&str]| {
+    let argv = |count: &'static str, extra: &[&'static str]| {
         let mut args = vec![
             "spectrum",
             "builtin:icosphere:5",
             "--kind",
             "sql",
             "--count",
-            "30",
-            "--json",
+            count,
         ];
         args.extend_from_slice(extra);
+        args
+    };
+    let run = |extra: &[&'static str]| {
+        let mut args = argv("30", extra);
+        args.push("--json");
         json(&meshlap(&args))
     };
     let refined = run(&[]);
@@ -382,15 +386,6 @@ fn spectrum_refinement_and_tolerance_flags() {
         assert!((x.as_f64().unwrap() - y.as_f64().unwrap()).abs() < 1e-10);
     }
     for bad in [["--block-size", "0"], ["--band-size", "4"]] {
-        let mut args = vec![
-            "spectrum",
-            "builtin:icosphere:5",
-            "--kind",
-            "sql",
-            "--count",
-            "5",
-        ];
-        args.extend_from_slice(&bad);
-        assert_one_line_error(&meshlap(&args), "block size");
+        assert_one_line_error(&meshlap(&argv("5", &bad)), "block size");
     }
 }
