@@ -41,13 +41,33 @@ fn inverse_lengths(mesh: &TriMesh, topo: &Topology) -> Result<Vec<f64>, Operator
     }
 }
 
-/// Assembles the scale-dependent Laplacian of `mesh`.
+/// Assembles the scale-dependent Laplacian of `mesh`: n×n, non-symmetric, zero row
+/// sums, `F = D − W` with `D = I` and `W_ij = w_ij · (1/Σ_k w_ik)`, `w_ij = 1/‖x_i − x_j‖`
+/// (each row scaled by the reciprocal of its sum, computed once per vertex).
 pub fn sdl(mesh: &TriMesh, topo: &Topology) -> Result<SparseMatrix, OperatorError> {
     let w = inverse_lengths(mesh, topo)?;
     let sums = super::assemble::vertex_weight_sums(topo, &w);
-    let f = super::assemble::one_ring_matrix(topo, |_| 1.0, |i, _, e| -w[e] / sums[i]);
-    super::check_finite(&f, None, "sdl")?;
-    Ok(f)
+    // Every weight is finite and positive, so every entry `w_ij · (1/Σ_k w_ik)` (at
+    // most 1 in magnitude) is finite once every sum is: a sum that overflows is the
+    // one way to a non-finite entry, and it is found here, on n values, instead of
+    // on the assembled matrix. (An isolated vertex's zero sum is never used.)
+    if let Some(v) = super::first_non_finite(&sums) {
+        return Err(OperatorError::NonFinite {
+            vertex: v as u32,
+            kind: "sdl",
+        });
+    }
+    // One division per vertex, not one per entry.
+    let inv_sums: Vec<f64> = sums
+        .par_iter()
+        .with_min_len(4096)
+        .map(|&s| 1.0 / s)
+        .collect();
+    Ok(super::assemble::one_ring_matrix(
+        topo,
+        |_| 1.0,
+        |i, _, e| -w[e] * inv_sums[i],
+    ))
 }
 
 #[cfg(test)]

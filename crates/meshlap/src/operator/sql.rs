@@ -113,6 +113,9 @@ pub fn sql_diagonal(topo: &Topology, d: &[f64], convention: BoundaryDiagonal) ->
 pub fn sql(topo: &Topology, convention: BoundaryDiagonal) -> Result<SparseMatrix, OperatorError> {
     let inv = degree_map_checked(topo, |d| 1.0 / d)?;
     let non_manifold = AtomicBool::new(false);
+    // Whether any edge is a boundary edge: a closed mesh's columns then skip the
+    // boundary test of each entry.
+    let has_boundary = AtomicBool::new(false);
     let w: Vec<f64> = (0..topo.n_edges())
         .into_par_iter()
         .with_min_len(4096)
@@ -124,7 +127,10 @@ pub fn sql(topo: &Topology, convention: BoundaryDiagonal) -> Result<SparseMatrix
             let h = topo.edge_half_edge(e);
             let inv_k = inv[topo.opposite_vertex(h) as usize];
             match topo.edge_face_count(e) {
-                1 => base - inv_k,
+                1 => {
+                    has_boundary.store(true, Ordering::Relaxed);
+                    base - inv_k
+                }
                 2 => base - 0.5 * (inv_k + inv[topo.opposite_vertex(topo.twin(h)) as usize]),
                 _ => {
                     non_manifold.store(true, Ordering::Relaxed);
@@ -137,6 +143,7 @@ pub fn sql(topo: &Topology, convention: BoundaryDiagonal) -> Result<SparseMatrix
         // Name the first non-manifold edge, in edge order, as the sequential build did.
         sql_edge_weights(topo, &degrees_checked(topo)?)?;
     }
+    let has_boundary = has_boundary.load(Ordering::Relaxed);
     let sign = match convention {
         BoundaryDiagonal::ZeroRowSum => 1.0,
         BoundaryDiagonal::AsPrinted => -1.0,
@@ -151,7 +158,7 @@ pub fn sql(topo: &Topology, convention: BoundaryDiagonal) -> Result<SparseMatrix
         {
             let e = EdgeId(e);
             *o = -w[e.idx()];
-            if topo.is_boundary_edge(e) {
+            if has_boundary && topo.is_boundary_edge(e) {
                 // As in `sql_diagonal`: ±½(1/d_i − 1/d_k), i the other endpoint, k the
                 // opposite vertex; `sign · delta` is exact (a sign flip).
                 let inv_k = inv[topo.opposite_vertex(topo.edge_half_edge(e)) as usize];
