@@ -323,17 +323,17 @@ def eigs(
 
 
 def _count(k: Any) -> int:
-    if isinstance(k, (bool, np.bool_)) or not isinstance(k, (int, np.integer)) or k < 1:
-        raise SpectralError(f"k must be a positive integer, got {k!r}")
-    return int(k)
+    return _positive("k", k)
 
 
-def _size(name: str, x: Any) -> Optional[int]:
-    if x is None:
-        return None
+def _positive(name: str, x: Any) -> int:
     if isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, np.integer)) or x < 1:
         raise SpectralError(f"{name} must be a positive integer, got {x!r}")
     return int(x)
+
+
+def _size(name: str, x: Any) -> Optional[int]:
+    return None if x is None else _positive(name, x)
 
 
 def _mass(M: Any, n: int):

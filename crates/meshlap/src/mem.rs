@@ -1,5 +1,6 @@
-//! Large zero-initialised buffers: the readers' outputs, the sparse matrices the
-//! iterative solvers stream and their work blocks; and the allocator settings that
+//! Large buffers: zero-initialised ones (the readers' outputs, the sparse matrices the
+//! iterative solvers stream and their work blocks), unzeroed ones for outputs a
+//! parallel fill writes once (the operators' CSC arrays); and the allocator settings that
 //! decide whether freed buffers go back to the kernel ([`keep_freed_memory`],
 //! [`release_free_memory`]).
 //!
@@ -34,9 +35,9 @@ pub(crate) fn zeroed_vec<T: Clone>(zero: T, n: usize) -> Vec<T> {
 /// it is large, for an output that a parallel fill writes once, front to back in
 /// blocks: unlike [`zeroed_vec`], no zeroing pass first. (glibc's `calloc` skips the
 /// zeroing only for fresh pages; a block reused from its heap, the usual case from the
-/// second call of a program on, is cleared by one `memset` on the calling thread,
-/// which for the operators' 16–43 MB arrays is a serial pass as long as the parallel
-/// fill.) Turn it into a `Vec<T>` with [`assume_init_vec`] once every element is written.
+/// second call of a program on, is cleared by one `memset` on the calling thread, a
+/// serial pass over the whole array before the parallel fill.) Turn it into a `Vec<T>`
+/// with [`assume_init_vec`] once every element is written.
 pub(crate) fn uninit_vec<T>(n: usize) -> Vec<std::mem::MaybeUninit<T>> {
     let mut v = Vec::with_capacity(n);
     // SAFETY: `MaybeUninit<T>` needs no initialisation and the capacity is n.
@@ -122,9 +123,9 @@ pub const MMAP_THRESHOLD_BYTES: usize = 32 << 20;
 /// **Why.** A program that computes one result after another (a loop over patches or
 /// meshes, a benchmark) allocates the same buffers again and again. Memory that glibc
 /// returned to the kernel is page-faulted and zeroed again, 4 KiB at a time, on the
-/// next use — on this project's 2-core VM about as long as the work itself for the
-/// sparse operators' 16–43 MB arrays, and about a fifth of a dense eigendecomposition
-/// at n = 500. Two glibc behaviours return it: the heaps give every freed block at
+/// next use, a cost comparable to the work itself for the sparse operators' arrays
+/// and a noticeable share of a small dense eigendecomposition (measured in
+/// BENCHMARKS.md). Two glibc behaviours return it: the heaps give every freed block at
 /// their top back (hence the pad), and blocks from the mmap threshold on are mapped
 /// and unmapped on their own. Setting the pad also freezes that threshold at its
 /// initial 128 KiB (glibc stops adapting it once any of these parameters is set),

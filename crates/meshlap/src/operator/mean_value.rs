@@ -25,7 +25,8 @@ use rayon::prelude::*;
 ///
 /// Fixed summation orders, so the same bits on any number of threads: each edge's two
 /// directed weights summed over its faces in face order (`directed_weights`), each
-/// row's normalising sum in neighbour order, then the columns in parallel. Of several
+/// row's normalising sum in neighbour order (its entries are the weights times the
+/// sum's reciprocal), then the columns in parallel. Of several
 /// faulty faces the first is named.
 pub fn mean_value(mesh: &TriMesh, topo: &Topology) -> Result<SparseMatrix, OperatorError> {
     let w = directed_weights(mesh, topo)?;
