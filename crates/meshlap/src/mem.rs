@@ -61,6 +61,17 @@ pub(crate) unsafe fn assume_init_vec<T>(v: Vec<std::mem::MaybeUninit<T>>) -> Vec
     unsafe { Vec::from_raw_parts(ptr.cast::<T>(), len, cap) }
 }
 
+/// `s` as initialised, once every element has been written.
+///
+/// # Safety
+/// Every element of `s` must be initialised.
+#[inline]
+pub(crate) unsafe fn assume_init_slice<T>(s: &mut [std::mem::MaybeUninit<T>]) -> &mut [T] {
+    // SAFETY: the caller guarantees every element is initialised; `MaybeUninit<T>`
+    // has the layout of `T`.
+    unsafe { &mut *(s as *mut [std::mem::MaybeUninit<T>] as *mut [T]) }
+}
+
 /// Writes `x` into every element of `s` and returns it as initialised.
 pub(crate) fn fill_uninit<T: Copy>(s: &mut [std::mem::MaybeUninit<T>], x: T) -> &mut [T] {
     for e in s.iter_mut() {
