@@ -7,14 +7,16 @@ use super::polish::polish;
 use super::residuals::finish;
 use super::solve::ShiftInvert;
 use super::{BandInfo, PartialParams, PartialSpectrum};
-use crate::spectral::krylov_schur::{largest_magnitude, KrylovSchurError, KrylovSchurParams};
+use crate::spectral::krylov_schur::{largest_magnitude_in, KrylovSchurError, KrylovSchurParams};
 use crate::spectral::SpectralError;
 use crate::SparseMatrix;
 use faer::{Col, Mat, MatRef};
 
 /// The `b` eigenpairs of largest |μ| of `A_σ` (on the complement of `deflate`, when
 /// given) as (λ = σ + 1/μ, w) with `w` in the symmetric coordinates (`w = M^{1/2} v`),
-/// by block Krylov–Schur.
+/// by block Krylov–Schur, with its basis in `basis` (kept from band to band, see
+/// [`largest_magnitude_in`]).
+#[allow(clippy::too_many_arguments)]
 fn shift_invert_pairs(
     op: &ShiftInvert<'_>,
     sigma: f64,
@@ -23,9 +25,10 @@ fn shift_invert_pairs(
     opts: &PartialParams,
     seed: u64,
     work: &mut BandWork,
+    basis: &mut Mat<f64>,
 ) -> Result<Vec<(f64, Col<f64>)>, SpectralError> {
     let params = krylov_params(opts, b, seed);
-    let got = largest_magnitude(op, b, deflate, &params);
+    let got = largest_magnitude_in(op, b, deflate, &params, basis);
     let got = got.map_err(|e| match e {
         KrylovSchurError::NoConvergence {
             converged,
@@ -177,6 +180,10 @@ pub(super) fn banded(
         first = None;
     }
     let mut band_no = 0usize;
+    // The Krylov–Schur basis (n × about 2.5 b), kept from band to band and lent to
+    // the refinement as its work space: allocated once instead of once per band
+    // (fresh memory is page-faulted and cleared, see `largest_magnitude_in`).
+    let mut basis = Mat::<f64>::new();
     // Work of the current band, including redone attempts with a lower shift.
     let mut work = BandWork::default();
     loop {
@@ -197,7 +204,7 @@ pub(super) fn banded(
             msqrt,
         };
         let seed = opts.seed.wrapping_add(1_000 * band_no as u64);
-        let mut found = shift_invert_pairs(&op, sigma, b, None, opts, seed, &mut work)?;
+        let mut found = shift_invert_pairs(&op, sigma, b, None, opts, seed, &mut work, &mut basis)?;
         band_no += 1;
         let r = found
             .iter()
@@ -238,6 +245,7 @@ pub(super) fn banded(
                 opts,
                 seed + 7 + tries as u64,
                 &mut work,
+                &mut basis,
             )?;
             let mut added = 0;
             for (l, v) in more {
@@ -263,7 +271,7 @@ pub(super) fn banded(
         // inertia's count (the refined eigenvalues move by far less than `delta`).
         if opts.refine {
             work.solves += found.len();
-            if let Some(refined) = polish(&op, k, metric, &found) {
+            if let Some(refined) = polish(&op, k, metric, &found, &mut basis) {
                 if refined.iter().filter(|(l, _)| in_window(*l)).count() == expected {
                     found = refined;
                 }
@@ -318,6 +326,7 @@ pub(super) fn banded(
         let b_next = next_band_size(count - kept.len(), b_max, opts.block_size);
         sigma = next_shift(upper, r, spacing, b_next, delta);
     }
+    drop(basis);
     Ok(finish(k, metric, kept, bands, false))
 }
 

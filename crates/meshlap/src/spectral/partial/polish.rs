@@ -34,31 +34,43 @@ use faer::{Accum, Col, Mat, Par, Side};
 /// (symmetric coordinates), or `None` when the refinement cannot be trusted (a
 /// rank-deficient product, a failed eigensolve, or non-finite values) and the
 /// Krylov–Schur pairs should be kept.
+///
+/// `work` is scratch storage: its first 2b columns hold the two n×b work matrices
+/// when it has n rows and at least 2b columns (the band's Krylov–Schur basis, which
+/// has about 2.5 b), else it is replaced by a new n×2b matrix. Its contents on entry
+/// do not matter (every entry used is written first) and are unspecified on return.
 pub(super) fn polish(
     op: &ShiftInvert<'_>,
     k: &SparseMatrix,
     metric: &Metric,
     found: &[(f64, Col<f64>)],
+    work: &mut Mat<f64>,
 ) -> Option<Vec<(f64, Col<f64>)>> {
     let n = op.dim();
     let b = found.len();
     if b == 0 || b >= n {
         return None;
     }
-    // Two n×b work matrices: `x` holds W, then C⁻ᵀY; `y` holds Y, then the new
-    // vectors (in place). With the product K C⁻ᵀY and the output, at most four n×b
-    // matrices are alive besides `found`.
-    let mut x = Mat::from_fn(n, b, |i, j| found[j].1[i]);
-    let mut y = Mat::<f64>::zeros(n, b);
+    // Two n×b work matrices in `work`: `x` holds W, then C⁻ᵀY; `y` holds Y, then
+    // the new vectors (in place). With the product K C⁻ᵀY and the output, at most
+    // four n×b matrices are alive besides `found`.
+    if work.nrows() != n || work.ncols() < 2 * b {
+        *work = Mat::new();
+        *work = Mat::<f64>::zeros(n, 2 * b);
+    }
+    let (mut x, mut y) = work.as_mut().subcols_mut(0, 2 * b).split_at_col_mut(b);
+    for (j, (_, w)) in found.iter().enumerate() {
+        x.as_mut().col_mut(j).copy_from(w);
+    }
     op.apply_block(x.as_ref(), y.as_mut());
     // Scale each column back to unit length (the columns of A_σ W are the μ-scaled
     // w's), so that the QR sees a well-conditioned block.
     for j in 0..b {
-        let nj = crate::spectral::thin_products::col_norm2(y.col(j));
+        let nj = crate::spectral::thin_products::col_norm2(y.as_ref().col(j));
         if !(nj.is_finite() && nj > 0.0) {
             return None;
         }
-        y.col_mut(j).iter_mut().for_each(|x| *x /= nj);
+        y.as_mut().col_mut(j).iter_mut().for_each(|x| *x /= nj);
     }
     // Rayleigh–Ritz on span(Y): Y's normalised columns are nearly orthonormal (A_σ
     // maps the nearly orthonormal W to μ-scaled, nearly orthogonal columns), so the
@@ -73,7 +85,7 @@ pub(super) fn polish(
     let llt = g.llt(Side::Lower).ok()?;
     let l = llt.L();
     // Â Y: x = M^{-1/2} Y (C⁻ᵀ Y), K x, then M^{-1/2} (C⁻¹) again.
-    x.copy_from(&y);
+    x.copy_from(y.as_ref());
     metric.solve_ct(x.as_mut());
     let mut kx = Mat::<f64>::zeros(n, b);
     // Split by columns (each column's product alone, in one order).
@@ -93,7 +105,6 @@ pub(super) fn polish(
             )
         },
     );
-    drop(x);
     metric.solve_c(kx.as_mut());
     let h = tn(y.as_ref(), kx.as_ref());
     drop(kx);
@@ -112,7 +123,7 @@ pub(super) fn polish(
     let mut out = Vec::with_capacity(b);
     for j in 0..b {
         let theta = s[j];
-        let mut col = y.col(j).to_owned();
+        let mut col = y.as_ref().col(j).to_owned();
         let norm = crate::spectral::thin_products::col_norm2(col.as_ref());
         if !(theta.is_finite() && norm.is_finite() && norm > 0.0) {
             return None;
