@@ -79,6 +79,16 @@ pub fn extremes(
     mass: Option<&[f64]>,
     lower_bound: f64,
 ) -> Result<Extremes, SpectralError> {
+    // On a pool worker (see `crate::par::on_worker`): the Lanczos run's many short
+    // parallel passes and the factorizations.
+    crate::par::on_worker(|| extremes_on_worker(k, mass, lower_bound))
+}
+
+fn extremes_on_worker(
+    k: &SparseMatrix,
+    mass: Option<&[f64]>,
+    lower_bound: f64,
+) -> Result<Extremes, SpectralError> {
     super::partial::check_problem(k, mass.into())?;
     let n = k.nrows();
     if n == 0 {

@@ -7,6 +7,7 @@ use super::polish::polish;
 use super::residuals::finish;
 use super::solve::ShiftInvert;
 use super::{BandInfo, PartialParams, PartialSpectrum};
+use crate::par::on_worker;
 use crate::spectral::krylov_schur::{largest_magnitude_in, KrylovSchurError, KrylovSchurParams};
 use crate::spectral::SpectralError;
 use crate::SparseMatrix;
@@ -179,7 +180,7 @@ pub(super) fn banded(
     // with negative eigenvalues) fall back to below the Gershgorin bound. A shift far
     // below the spectrum compresses the μ = 1/(λ − σ) and slows convergence.
     let mut sigma = -1e-3 * scale;
-    let mut first = Some(factor_at(&pattern, &symbolic, sigma)?);
+    let mut first = Some(on_worker(|| factor_at(&pattern, &symbolic, sigma))?);
     if first
         .as_ref()
         .is_some_and(|values| negative_pivots(&symbolic, values) > 0)
@@ -203,7 +204,7 @@ pub(super) fn banded(
         work.factorizations += 1;
         let values = match first.take() {
             Some(values) => values,
-            None => factor_at(&pattern, &symbolic, sigma)?,
+            None => on_worker(|| factor_at(&pattern, &symbolic, sigma))?,
         };
         let op = ShiftInvert {
             symbolic: &symbolic,
@@ -215,9 +216,11 @@ pub(super) fn banded(
         // Whether this band may be the last (it alone can complete the count): then
         // its basis is freed early (see `shift_invert_pairs`).
         let keep_basis = kept.len() + b < count;
-        let mut found = shift_invert_pairs(
-            &op, sigma, b, None, opts, seed, &mut work, &mut basis, keep_basis,
-        )?;
+        let mut found = on_worker(|| {
+            shift_invert_pairs(
+                &op, sigma, b, None, opts, seed, &mut work, &mut basis, keep_basis,
+            )
+        })?;
         band_no += 1;
         let r = found
             .iter()
@@ -239,7 +242,7 @@ pub(super) fn banded(
         }
         let new_upper = sigma + r - delta;
         // Sylvester inertia: exactly how many eigenvalues [upper, new_upper) holds.
-        let below_new = count_below(&pattern, &symbolic, new_upper)?;
+        let below_new = on_worker(|| count_below(&pattern, &symbolic, new_upper))?;
         work.factorizations += 1;
         let expected = below_new.saturating_sub(below_upper);
         let in_window = |l: f64| l >= upper && l < new_upper;
@@ -250,17 +253,19 @@ pub(super) fn banded(
         while n_in < expected && tries < 8 {
             let w = Mat::from_fn(n, found.len(), |i, j| found[j].1[i]);
             let want = (expected - n_in).min(b).max(1);
-            let more = shift_invert_pairs(
-                &op,
-                sigma,
-                want,
-                Some(w.as_ref()),
-                opts,
-                seed + 7 + tries as u64,
-                &mut work,
-                &mut basis,
-                keep_basis,
-            )?;
+            let more = on_worker(|| {
+                shift_invert_pairs(
+                    &op,
+                    sigma,
+                    want,
+                    Some(w.as_ref()),
+                    opts,
+                    seed + 7 + tries as u64,
+                    &mut work,
+                    &mut basis,
+                    keep_basis,
+                )
+            })?;
             let mut added = 0;
             for (l, v) in more {
                 if in_window(l) {
@@ -285,7 +290,7 @@ pub(super) fn banded(
         // inertia's count (the refined eigenvalues move by far less than `delta`).
         if opts.refine {
             work.solves += found.len();
-            if let Some(refined) = polish(&op, k, metric, &found, &mut basis) {
+            if let Some(refined) = on_worker(|| polish(&op, k, metric, &found, &mut basis)) {
                 if refined.iter().filter(|(l, _)| in_window(*l)).count() == expected {
                     found = refined;
                 }
@@ -341,7 +346,7 @@ pub(super) fn banded(
         sigma = next_shift(upper, r, spacing, b_next, delta);
     }
     drop(basis);
-    Ok(finish(k, metric, kept, bands, false))
+    Ok(on_worker(|| finish(k, metric, kept, bands, false)))
 }
 
 #[cfg(test)]

@@ -284,7 +284,7 @@ pub fn partial_spectrum_with_mass(
     let band = opts.band_size.max(1).min(count);
     let p = opts.block_size.max(1);
     let out = if n < opts.dense_below || n < 2 * (banded::krylov_dim(band, p) + p) {
-        dense::dense(k, &metric, count)?
+        crate::par::on_worker(|| dense::dense(k, &metric, count))?
     } else {
         banded::banded(k, &metric, opts, progress)?
     };

@@ -42,7 +42,18 @@ pub fn eigenvalue_nearest<'a>(
     mass: impl Into<Mass<'a>>,
     sigma: f64,
 ) -> Result<(f64, Vec<f64>), SpectralError> {
-    let metric = super::check_problem(k, mass.into())?;
+    // On a pool worker (see `crate::par::on_worker`): the factorization and the
+    // inverse iteration's parallel passes.
+    let mass = mass.into();
+    crate::par::on_worker(|| nearest_on_worker(k, mass, sigma))
+}
+
+fn nearest_on_worker(
+    k: &SparseMatrix,
+    mass: Mass<'_>,
+    sigma: f64,
+) -> Result<(f64, Vec<f64>), SpectralError> {
+    let metric = super::check_problem(k, mass)?;
     let n = k.nrows();
     if n == 0 {
         return Err(SpectralError::Empty);
