@@ -109,7 +109,7 @@ impl crate::cpu::Kernel for RowWeights<'_> {
 /// (each row scaled by the reciprocal of its sum, computed once per vertex).
 ///
 /// Two parallel passes. The first computes, per vertex, its weights in adjacency
-/// order and its reciprocal row sum ([`RowWeights`]; each edge's weight twice, once
+/// order and its reciprocal row sum (`RowWeights`; each edge's weight twice, once
 /// from each end, the same bits: `x_i − x_j` and `x_j − x_i` have the same squares).
 /// Since the weights are symmetric, column j's entries `−w_ij · (1/Σ_k w_ik)` then
 /// read j's own weights in order and gather only the reciprocal sums

@@ -244,8 +244,8 @@ impl CholeskySolver {
         let t = Instant::now();
         let sym = &self.symbolic.inner;
         // On a pool worker: faer's parallel factorization called from outside the
-        // pool hands every task to it and sleeps (Igea's SQL, 2 threads: 0.31–0.33 s
-        // from the main thread, 0.23–0.24 s on a worker, 0.22–0.24 s sequential).
+        // pool hands every task to it and sleeps (figures in BENCHMARKS.md,
+        // "Implicit fairing solvers").
         let values = crate::par::on_worker(|| {
             let par = faer::get_global_parallelism();
             let mut values = Vec::new();

@@ -588,8 +588,8 @@ pub fn largest_magnitude(
 /// has n rows and at least m + p columns its storage is used as it is, else it is
 /// replaced by a new zeroed matrix of that size. Large bases are mapped from the
 /// kernel by the allocator and given back when freed, so a new one per run pays a
-/// page fault and a page clearing for every 4 KiB of it (Igea, bands of 200: 0.55
-/// GB per band). The iteration reads only basis columns it has written, so what
+/// page fault and a page clearing for every 4 KiB of its n × (m + p) values.
+/// The iteration reads only basis columns it has written, so what
 /// the storage held before does not matter: the result has the same bits either way.
 /// On return `basis` holds the final basis in its first columns (unspecified
 /// contents to the caller).

@@ -19,8 +19,8 @@ use faer::{Col, Mat, MatRef};
 /// [`largest_magnitude_in`]). Unless `keep_basis`, the basis is freed as soon as
 /// the iteration returns, before its pairs are copied out: in the last band it is
 /// not needed again, and keeping it alive beside the Ritz vectors and their copies
-/// raised the peak memory of a one-band run (the 1M-vertex torus, k = 200: 7.8 →
-/// 8.6 GB).
+/// would raise the peak memory of a one-band run by about a basis (BENCHMARKS.md,
+/// "Partial spectra").
 #[allow(clippy::too_many_arguments)]
 fn shift_invert_pairs(
     op: &ShiftInvert<'_>,
@@ -180,7 +180,7 @@ pub(super) fn banded(
     // with negative eigenvalues) fall back to below the Gershgorin bound. A shift far
     // below the spectrum compresses the μ = 1/(λ − σ) and slows convergence.
     let mut sigma = -1e-3 * scale;
-    let mut first = Some(on_worker(|| factor_at(&pattern, &symbolic, sigma))?);
+    let mut first = Some(factor_at(&pattern, &symbolic, sigma)?);
     if first
         .as_ref()
         .is_some_and(|values| negative_pivots(&symbolic, values) > 0)
@@ -204,7 +204,7 @@ pub(super) fn banded(
         work.factorizations += 1;
         let values = match first.take() {
             Some(values) => values,
-            None => on_worker(|| factor_at(&pattern, &symbolic, sigma))?,
+            None => factor_at(&pattern, &symbolic, sigma)?,
         };
         let op = ShiftInvert {
             symbolic: &symbolic,
@@ -242,7 +242,7 @@ pub(super) fn banded(
         }
         let new_upper = sigma + r - delta;
         // Sylvester inertia: exactly how many eigenvalues [upper, new_upper) holds.
-        let below_new = on_worker(|| count_below(&pattern, &symbolic, new_upper))?;
+        let below_new = count_below(&pattern, &symbolic, new_upper)?;
         work.factorizations += 1;
         let expected = below_new.saturating_sub(below_upper);
         let in_window = |l: f64| l >= upper && l < new_upper;

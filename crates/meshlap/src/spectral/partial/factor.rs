@@ -60,8 +60,8 @@ impl ShiftedPattern {
 
 ///
 /// Runs on a pool worker ([`crate::par::on_worker`]): faer's parallel factorization
-/// called from outside the pool hands every task to it and sleeps (Igea's SQL, 2
-/// threads: 0.31–0.33 s from the main thread, 0.23–0.24 s on a worker).
+/// called from outside the pool hands every task to it and sleeps, about 40 % slower
+/// (figures in BENCHMARKS.md).
 pub(super) fn factor_at(
     pattern: &ShiftedPattern,
     symbolic: &SymbolicCholesky<usize>,
