@@ -77,8 +77,8 @@ pub(crate) fn fill_uninit<T: Copy>(s: &mut [std::mem::MaybeUninit<T>], x: T) -> 
     for e in s.iter_mut() {
         e.write(x);
     }
-    // SAFETY: every element was just written; `MaybeUninit<T>` has the layout of `T`.
-    unsafe { &mut *(s as *mut [std::mem::MaybeUninit<T>] as *mut [T]) }
+    // SAFETY: every element was just written.
+    unsafe { assume_init_slice(s) }
 }
 
 #[cfg(target_os = "linux")]

@@ -68,13 +68,14 @@ pub fn cotan(
     // m + 1 of face f), which is corner m + 2, and the mass share of corner m.
     let slots = super::assemble::per_face(faces.len(), |f| {
         let t = faces[f];
-        let (half, m) = face_shares(mesh, t, mass_kind).ok_or(OperatorError::DegenerateFace {
-            face: f as u32,
-            a: t[0],
-            b: t[1],
-            c: t[2],
-            kind: "cotan",
-        })?;
+        let (half, m) =
+            face_shares(mesh, t, mass_kind).ok_or_else(|| OperatorError::DegenerateFace {
+                face: f as u32,
+                a: t[0],
+                b: t[1],
+                c: t[2],
+                kind: "cotan",
+            })?;
         Ok::<_, OperatorError>(std::array::from_fn(|k| (half[(k + 2) % 3], m[k])))
     })?;
     let (mass, l) = rayon::join(

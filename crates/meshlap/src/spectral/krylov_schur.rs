@@ -246,6 +246,17 @@ fn ritz_vectors(v: MatRef<'_, f64>, q: MatRef<'_, f64>, which: &[usize]) -> Mat<
     y
 }
 
+/// Makes `work` usable as n × at least `cols` storage: kept as it is when it has n
+/// rows and at least `cols` columns (its contents are then whatever it held), else
+/// replaced by a zeroed n × `cols` matrix, the old one freed first so that the two are
+/// never alive together.
+pub(crate) fn reuse_or_zeroed(work: &mut Mat<f64>, n: usize, cols: usize) {
+    if work.nrows() != n || work.ncols() < cols {
+        *work = Mat::new();
+        *work = Mat::<f64>::zeros(n, cols);
+    }
+}
+
 /// Relative size below which the components a second Gram–Schmidt pass measures
 /// are left in place (the basis stays orthogonal to about this level).
 const REORTH_SKIP: f64 = 1e-13;
@@ -615,10 +626,7 @@ pub fn largest_magnitude_in(
     }
     let mut info = KrylovSchurInfo::default();
     let mut rng = params.seed ^ 0xA076_1D64_78BD_642F;
-    if basis.nrows() != n || basis.ncols() < m + p {
-        *basis = Mat::new();
-        *basis = Mat::<f64>::zeros(n, m + p);
-    }
+    reuse_or_zeroed(basis, n, m + p);
     let mut v = basis.as_mut().subcols_mut(0, m + p);
     let mut h = Mat::<f64>::zeros(m + p, m + p);
     // Starting block.

@@ -54,10 +54,7 @@ pub(super) fn polish(
     // Two n×b work matrices in `work`: `x` holds W, then C⁻ᵀY; `y` holds Y, then
     // the new vectors (in place). With the product K C⁻ᵀY and the output, at most
     // four n×b matrices are alive besides `found`.
-    if work.nrows() != n || work.ncols() < 2 * b {
-        *work = Mat::new();
-        *work = Mat::<f64>::zeros(n, 2 * b);
-    }
+    crate::spectral::krylov_schur::reuse_or_zeroed(work, n, 2 * b);
     let (mut x, mut y) = work.as_mut().subcols_mut(0, 2 * b).split_at_col_mut(b);
     for (j, (_, w)) in found.iter().enumerate() {
         x.as_mut().col_mut(j).copy_from(w);
