@@ -49,6 +49,43 @@ pub(crate) fn uninit_vec<T>(n: usize) -> Vec<std::mem::MaybeUninit<T>> {
     v
 }
 
+/// `Mat::zeros(nrows, ncols)` with the zeros written by the rayon pool, in blocks of
+/// columns. faer's `zeros` writes them on the calling thread: for the partial
+/// eigensolver's n × hundreds Krylov bases, Ritz vectors and eigenvectors (gigabytes at
+/// a million vertices) that is a serial pass which also takes every page fault of the
+/// fresh memory, one 4 KiB page at a time. Here each worker faults in and clears its
+/// own columns. Small matrices are left to faer. The same matrix either way.
+pub(crate) fn zeroed_mat(nrows: usize, ncols: usize) -> faer::Mat<f64> {
+    use rayon::prelude::*;
+    /// Elements below which faer's serial fill is used.
+    const PARALLEL_FROM: usize = 1 << 20;
+    if nrows.saturating_mul(ncols) < PARALLEL_FROM {
+        return faer::Mat::zeros(nrows, ncols);
+    }
+    let mut m = faer::Mat::<f64>::with_capacity(nrows, ncols);
+    // The allocation holds `ncols` columns of `stride ≥ nrows` elements each.
+    let stride = m.col_stride() as usize;
+    assert!(stride >= nrows, "faer's column stride below the row count");
+    let storage = Scatter {
+        ptr: m.as_ptr_mut(),
+        len: stride * ncols,
+        _borrow: std::marker::PhantomData,
+    };
+    let per_task = (PARALLEL_FROM / nrows).max(1);
+    (0..ncols)
+        .into_par_iter()
+        .with_min_len(per_task)
+        .for_each(|j| {
+            // SAFETY: column j's rows, which no other task writes; all-zero bits are
+            // 0.0.
+            unsafe { storage.zero_bytes(j * stride, nrows) };
+        });
+    // SAFETY: the capacity is at least nrows × ncols (`with_capacity`), and every
+    // element now in bounds — rows 0..nrows of each column — was written above.
+    unsafe { m.set_dims(nrows, ncols) };
+    m
+}
+
 /// The `Vec<T>` of an [`uninit_vec`] whose every element has been written.
 ///
 /// # Safety
@@ -191,6 +228,22 @@ impl<'a, T: Copy> Scatter<'a, T> {
         }
     }
 
+    /// Sets the bytes of elements `start..start + count` to zero (panics if out of
+    /// bounds).
+    ///
+    /// # Safety
+    /// No other thread may read or write those elements while the `Scatter` lives.
+    #[inline]
+    pub(crate) unsafe fn zero_bytes(&self, start: usize, count: usize) {
+        assert!(
+            start.checked_add(count).is_some_and(|end| end <= self.len),
+            "scatter range {start}+{count} out of bounds ({})",
+            self.len
+        );
+        // SAFETY: in bounds (checked), and the caller guarantees exclusive use.
+        unsafe { std::ptr::write_bytes(self.ptr.add(start), 0, count) }
+    }
+
     /// Writes `value` at `i` (panics if out of bounds).
     ///
     /// # Safety
@@ -209,6 +262,25 @@ impl<'a, T: Copy> Scatter<'a, T> {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn zeroed_mat_is_zero_and_usable_at_any_size() {
+        for (n, k) in [
+            (0, 0),
+            (3, 2),
+            (1000, 2000),
+            ((1 << 20) + 3, 3),
+            (1 << 21, 1),
+        ] {
+            let mut m = super::zeroed_mat(n, k);
+            assert_eq!((m.nrows(), m.ncols()), (n, k));
+            assert!((0..k).all(|j| m.col(j).iter().all(|&x| x == 0.0)));
+            if n > 0 && k > 0 {
+                m[(n - 1, k - 1)] = 1.0;
+                assert_eq!(m.sum(), 1.0);
+            }
+        }
+    }
+
     #[test]
     fn zeroed_vec_is_zero_at_any_size() {
         for n in [0, 1, 1000, (5 << 20) / 12 + 7] {

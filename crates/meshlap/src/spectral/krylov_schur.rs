@@ -241,7 +241,7 @@ fn nn_product(
 /// The Ritz vectors `V Q[:, which]` (n×|which|) for the listed columns of `Q`.
 fn ritz_vectors(v: MatRef<'_, f64>, q: MatRef<'_, f64>, which: &[usize]) -> Mat<f64> {
     let qsel = Mat::from_fn(q.nrows(), which.len(), |i, j| q[(i, which[j])]);
-    let mut y = Mat::<f64>::zeros(v.nrows(), which.len());
+    let mut y = crate::mem::zeroed_mat(v.nrows(), which.len());
     nn_product(y.as_mut(), Accum::Replace, v, qsel.as_ref(), 1.0);
     y
 }
@@ -253,7 +253,7 @@ fn ritz_vectors(v: MatRef<'_, f64>, q: MatRef<'_, f64>, which: &[usize]) -> Mat<
 pub(crate) fn reuse_or_zeroed(work: &mut Mat<f64>, n: usize, cols: usize) {
     if work.nrows() != n || work.ncols() < cols {
         *work = Mat::new();
-        *work = Mat::<f64>::zeros(n, cols);
+        *work = crate::mem::zeroed_mat(n, cols);
     }
 }
 

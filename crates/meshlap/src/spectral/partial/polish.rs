@@ -84,7 +84,7 @@ pub(super) fn polish(
     // Â Y: x = M^{-1/2} Y (C⁻ᵀ Y), K x, then M^{-1/2} (C⁻¹) again.
     x.copy_from(y.as_ref());
     metric.solve_ct(x.as_mut());
-    let mut kx = Mat::<f64>::zeros(n, b);
+    let mut kx = crate::mem::zeroed_mat(n, b);
     // Split by columns (each column's product alone, in one order).
     by_column_halves(
         kx.as_mut(),

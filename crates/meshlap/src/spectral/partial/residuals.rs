@@ -25,7 +25,7 @@ pub(super) fn finish(
     let info = PartialInfo { bands, dense };
     let (n, m) = (metric.dim(), pairs.len());
     // v = C⁻ᵀ w / ‖w‖ (M^{-1/2} w / ‖w‖ for a diagonal M, per pair in parallel).
-    let mut eigenvectors = Mat::<f64>::zeros(n, m);
+    let mut eigenvectors = crate::mem::zeroed_mat(n, m);
     eigenvectors
         .par_col_chunks_mut(1)
         .zip(pairs.par_iter())
