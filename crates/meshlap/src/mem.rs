@@ -66,11 +66,9 @@ pub(crate) fn zeroed_mat(nrows: usize, ncols: usize) -> faer::Mat<f64> {
     // The allocation holds `ncols` columns of `stride ≥ nrows` elements each.
     let stride = m.col_stride() as usize;
     assert!(stride >= nrows, "faer's column stride below the row count");
-    let storage = Scatter {
-        ptr: m.as_ptr_mut(),
-        len: stride * ncols,
-        _borrow: std::marker::PhantomData,
-    };
+    // SAFETY: the allocation holds `stride · ncols` elements (`with_capacity`), and `m`
+    // is not touched until the tasks below, which write disjoint columns, are done.
+    let storage = unsafe { Scatter::from_raw_parts(m.as_ptr_mut(), stride * ncols) };
     let per_task = (PARALLEL_FROM / nrows).max(1);
     (0..ncols)
         .into_par_iter()
@@ -224,6 +222,20 @@ impl<'a, T: Copy> Scatter<'a, T> {
         Self {
             ptr: slice.as_mut_ptr(),
             len: slice.len(),
+            _borrow: std::marker::PhantomData,
+        }
+    }
+
+    /// A `Scatter` over `len` elements from `ptr`, which may be uninitialised (for
+    /// [`Scatter::zero_bytes`]).
+    ///
+    /// # Safety
+    /// `ptr..ptr + len` must be one allocation valid for writes for `'a`, used by no
+    /// one else while the `Scatter` lives.
+    pub(crate) unsafe fn from_raw_parts(ptr: *mut T, len: usize) -> Self {
+        Self {
+            ptr,
+            len,
             _borrow: std::marker::PhantomData,
         }
     }
