@@ -1,13 +1,17 @@
 """Loading: meshlap (read + clean + connectivity) vs trimesh.load (+ its edge
 adjacency), and write/re-read throughput of a 2.6M-vertex mesh with peak memory.
 
-Run: bench/.venv/bin/python bench/load.py
+Run on an idle machine: ../shared/tools/quiet-run -- bench/.venv/bin/python bench/load.py
+(the mesh table alternates the two sides over ROUNDS rounds).
 """
+import statistics
 import subprocess
 import tempfile
 from pathlib import Path
 
 from common import MESHES, THREADS, build, limit_threads, meshlap_bench, table, timeit
+
+ROUNDS = 3
 
 
 def trimesh_load(path):
@@ -40,8 +44,13 @@ def main():
         meshlap_bench("write", MESHES / "igea.ply", igea_faces, "--repeat", 1)
         for path in [MESHES / "stanford-bunny.obj", MESHES / "horse.ply", MESHES / "igea.ply", igea_faces]:
             path = str(path)
-            ours = meshlap_bench("load", path, "--repeat", 7)["load"]["median"]
-            t = timeit(lambda: trimesh_load(path), repeat=5)
+            # Alternated rounds (meshlap, trimesh, meshlap, ...); medians of the round
+            # medians.
+            ours_r, peer_r = [], []
+            for _ in range(ROUNDS):
+                ours_r.append(meshlap_bench("load", path, "--repeat", 3)["load"]["median"])
+                peer_r.append(timeit(lambda: trimesh_load(path), repeat=3))
+            ours, t = statistics.median(ours_r), statistics.median(peer_r)
             faces = len(trimesh_load(path).faces)
             name = "igea.ply as face list" if path == str(igea_faces) else Path(path).name
             rows.append([name, f"{t * 1e3:.1f}", f"{ours * 1e3:.1f}", f"{t / ours:.1f}x", faces])
