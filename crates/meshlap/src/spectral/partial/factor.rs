@@ -58,6 +58,9 @@ impl ShiftedPattern {
     }
 }
 
+/// The numeric LDLᵀ factorization of `K − σM` (`pattern` shifted by `sigma`) on the
+/// supernodal structure `symbolic`: its factor values, or
+/// [`SpectralError::Factorization`] when faer fails or a pivot is not finite.
 ///
 /// Runs on a pool worker ([`crate::par::on_worker`]): faer's parallel factorization
 /// called from outside the pool hands every task to it and sleeps, about 40 % slower
