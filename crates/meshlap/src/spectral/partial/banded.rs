@@ -5,7 +5,7 @@ use super::factor::{count_below, factor_at, negative_pivots, symbolic_of, Shifte
 use super::mass::Metric;
 use super::polish::polish;
 use super::residuals::finish;
-use super::solve::ShiftInvert;
+use super::solve::{ShiftInvert, TreeSplit, TREE_SPLIT_MIN_DIM};
 use super::{BandInfo, PartialParams, PartialSpectrum};
 use crate::par::on_worker;
 use crate::spectral::krylov_schur::{largest_magnitude_in, KrylovSchurError, KrylovSchurParams};
@@ -146,6 +146,7 @@ pub(super) fn banded(
     let mut ones = Vec::new();
     let msqrt = ShiftInvert::scale_of(metric, &mut ones);
     let symbolic = symbolic_of(&pattern)?;
+    let split = TreeSplit::of(&symbolic, TREE_SPLIT_MIN_DIM);
     // Scale of the spectrum (mean diagonal of M⁻¹K) and a Gershgorin lower bound
     // (of the diagonally scaled K; a bound for a diagonal M only — for a sparse M it
     // is just a guess, and the inertia checks below catch a shift that is not below
@@ -211,6 +212,8 @@ pub(super) fn banded(
             values,
             metric,
             msqrt,
+            split,
+            scratch: Default::default(),
         };
         let seed = opts.seed.wrapping_add(1_000 * band_no as u64);
         // Whether this band may be the last (it alone can complete the count): then

@@ -12,7 +12,7 @@
 
 use super::factor::{factor_at, symbolic_of, ShiftedPattern};
 use super::mass::{symmetric_mul, Mass};
-use super::solve::ShiftInvert;
+use super::solve::{ShiftInvert, TreeSplit, TREE_SPLIT_MIN_DIM};
 use crate::spectral::krylov_schur::BlockOperator;
 use crate::spectral::SpectralError;
 use crate::SparseMatrix;
@@ -68,6 +68,8 @@ fn nearest_on_worker(
         values,
         metric: &metric,
         msqrt,
+        split: TreeSplit::of(&symbolic, TREE_SPLIT_MIN_DIM),
+        scratch: Default::default(),
     };
     // Fixed, non-special start (no eigenvector of a symmetric mesh operator).
     let mut w = Mat::<f64>::from_fn(n, 1, |i, _| {

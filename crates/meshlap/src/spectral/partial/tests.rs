@@ -121,35 +121,69 @@ fn interleaved_supernodal_solve_matches_faer_for_both_orderings() {
         // A shift inside the spectrum: K − σI is indefinite.
         let sigma = 0.37;
         let values = factor_at(&pattern, &symbolic, sigma).unwrap();
-        let si = ShiftInvert {
-            symbolic: &symbolic,
-            values: values.clone(),
-            metric: &scaling,
-            msqrt: &msqrt,
-        };
-        for p in [1usize, 3, 8, 13] {
-            let xb = x.as_ref().subcols(0, p);
-            let mut ours = Mat::<f64>::zeros(n, p);
-            si.apply_block(xb, ours.as_mut());
-            // faer's solve of the same system.
-            let mut reference = Mat::from_fn(n, p, |i, j| xb[(i, j)] * msqrt[i]);
-            let mut buf = MemBuffer::new(symbolic.solve_in_place_scratch::<f64>(p, Par::Seq));
-            LdltRef::new(&symbolic, &values).solve_in_place_with_conj(
-                Conj::No,
-                reference.as_mut(),
-                Par::Seq,
-                MemStack::new(&mut buf),
-            );
-            let reference = Mat::from_fn(n, p, |i, j| reference[(i, j)] * msqrt[i]);
-            let err = (&ours - &reference).norm_max() / reference.norm_max();
-            assert!(err < 1e-10, "p = {p}, METIS = {custom}: {err}");
-            // And it solves (K − σI) y = M^{1/2} x for y = M^{-1/2} out.
-            let y = Mat::from_fn(n, p, |i, j| ours[(i, j)] / msqrt[i]);
-            let ky = op.matrix.as_ref() * &y;
-            let res = Mat::from_fn(n, p, |i, j| {
-                ky[(i, j)] - sigma * y[(i, j)] - msqrt[i] * xb[(i, j)]
-            });
-            assert!(res.norm_max() < 1e-8 * y.norm_max().max(1.0), "p = {p}");
+        // Unsplit, and forest by forest where the tree splits (METIS' nested
+        // dissection always does here; AMD's tree may not).
+        let split = super::solve::TreeSplit::of(&symbolic, 0);
+        if custom {
+            assert!(split.is_some(), "nested dissection gives a split tree");
+        }
+        let mut cases = vec![(None, 1usize)];
+        if split.is_some() {
+            cases.extend([(split, 1), (split, 2), (split, 3), (split, 4)]);
+        }
+        let mut split_bits: Vec<Vec<u64>> = Vec::new();
+        for (split, threads) in cases {
+            let si = ShiftInvert {
+                symbolic: &symbolic,
+                values: values.clone(),
+                metric: &scaling,
+                msqrt: &msqrt,
+                split,
+                scratch: Default::default(),
+            };
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            for (q, p) in [1usize, 3, 8, 13].into_iter().enumerate() {
+                let xb = x.as_ref().subcols(0, p);
+                let mut ours = Mat::<f64>::zeros(n, p);
+                pool.install(|| si.apply_block(xb, ours.as_mut()));
+                if split.is_some() {
+                    // The same bits on any pool.
+                    let bits: Vec<u64> = (0..p)
+                        .flat_map(|j| (0..n).map(move |i| (i, j)))
+                        .map(|(i, j)| ours[(i, j)].to_bits())
+                        .collect();
+                    if split_bits.len() <= q {
+                        split_bits.push(bits);
+                    } else {
+                        assert!(split_bits[q] == bits, "p = {p}, {threads} threads");
+                    }
+                }
+                // faer's solve of the same system.
+                let mut reference = Mat::from_fn(n, p, |i, j| xb[(i, j)] * msqrt[i]);
+                let mut buf = MemBuffer::new(symbolic.solve_in_place_scratch::<f64>(p, Par::Seq));
+                LdltRef::new(&symbolic, &values).solve_in_place_with_conj(
+                    Conj::No,
+                    reference.as_mut(),
+                    Par::Seq,
+                    MemStack::new(&mut buf),
+                );
+                let reference = Mat::from_fn(n, p, |i, j| reference[(i, j)] * msqrt[i]);
+                let err = (&ours - &reference).norm_max() / reference.norm_max();
+                assert!(
+                    err < 1e-10,
+                    "p = {p}, METIS = {custom}, split = {split:?}: {err}"
+                );
+                // And it solves (K − σI) y = M^{1/2} x for y = M^{-1/2} out.
+                let y = Mat::from_fn(n, p, |i, j| ours[(i, j)] / msqrt[i]);
+                let ky = op.matrix.as_ref() * &y;
+                let res = Mat::from_fn(n, p, |i, j| {
+                    ky[(i, j)] - sigma * y[(i, j)] - msqrt[i] * xb[(i, j)]
+                });
+                assert!(res.norm_max() < 1e-8 * y.norm_max().max(1.0), "p = {p}");
+            }
         }
     }
 }
@@ -421,6 +455,8 @@ fn refinement_on_a_reused_work_matrix_gives_the_same_bits() {
         values: factor_at(&pattern, &symbolic, sigma).unwrap(),
         metric: &identity,
         msqrt: ShiftInvert::scale_of(&identity, &mut ones),
+        split: None,
+        scratch: Default::default(),
     };
     // The 12 lowest eigenpairs, slightly perturbed (seeded), as a band's pairs.
     let (values, vectors) = dense_reference(&op.matrix, None);
