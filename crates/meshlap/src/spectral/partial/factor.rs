@@ -184,11 +184,47 @@ pub fn eigenvalues_below<'a>(
     mass: impl Into<Mass<'a>>,
     x: f64,
 ) -> Result<usize, SpectralError> {
-    let metric = super::check_problem(k, mass.into())?;
-    if k.nrows() == 0 {
-        return Ok(0);
+    Inertia::new(k, mass)?.below(x)
+}
+
+/// Repeated inertia counts of one problem `K v = λ M v` ([`eigenvalues_below`] at
+/// several x): the pattern of `K − xM` and its symbolic analysis are built once, each
+/// count is one numeric LDLᵀ.
+pub(crate) struct Inertia {
+    n: usize,
+    pattern: Option<(ShiftedPattern, SymbolicCholesky<usize>)>,
+}
+
+impl Inertia {
+    /// The problem's pattern and symbolic analysis; errors as [`eigenvalues_below`].
+    pub(crate) fn new<'a>(
+        k: &SparseMatrix,
+        mass: impl Into<Mass<'a>>,
+    ) -> Result<Self, SpectralError> {
+        let metric = super::check_problem(k, mass.into())?;
+        let n = k.nrows();
+        if n == 0 {
+            return Ok(Self { n, pattern: None });
+        }
+        let pattern = ShiftedPattern::new(k, &metric)?;
+        let symbolic = symbolic_of(&pattern)?;
+        Ok(Self {
+            n,
+            pattern: Some((pattern, symbolic)),
+        })
     }
-    let pattern = ShiftedPattern::new(k, &metric)?;
-    let symbolic = symbolic_of(&pattern)?;
-    count_below(&pattern, &symbolic, x)
+
+    /// The dimension n.
+    pub(crate) fn dim(&self) -> usize {
+        self.n
+    }
+
+    /// The number of eigenvalues strictly below `x` (up to the factorization's
+    /// rounding, see [`eigenvalues_below`]).
+    pub(crate) fn below(&self, x: f64) -> Result<usize, SpectralError> {
+        match &self.pattern {
+            None => Ok(0),
+            Some((pattern, symbolic)) => count_below(pattern, symbolic, x),
+        }
+    }
 }

@@ -106,6 +106,7 @@ mod solve;
 mod tests;
 
 pub use factor::eigenvalues_below;
+pub(crate) use factor::Inertia;
 pub use mass::Mass;
 use mass::Metric;
 pub use nearest::eigenvalue_nearest;
