@@ -67,13 +67,9 @@ fn certified_top(inertia: &Inertia, theta: f64, residual: f64) -> Result<f64, Sp
         }
         step *= 4.0;
         if !step.is_finite() {
-            return Err(SpectralError::Krylov {
-                shift: 0.0,
-                source: super::krylov_schur::KrylovSchurError::NoConvergence {
-                    converged: 0,
-                    wanted: 1,
-                    restarts: 0,
-                },
+            // Only an unbounded operator gets here (its entries were checked finite).
+            return Err(SpectralError::NoConvergence {
+                path: "λ_max inertia bracket",
             });
         }
     }
