@@ -22,9 +22,9 @@ use faer::{Conj, MatMut, MatRef, Par};
 /// of similar cost ([`TreeSplit`], as METIS' nested dissection gives on large
 /// meshes), each thread solves one forest for all the right-hand sides and the top of
 /// the tree follows on one thread: each factor entry is then read once per block
-/// instead of once per thread, which halves the memory traffic of these
-/// bandwidth-bound solves. A simplicial factorization (tiny matrices) falls back to
-/// faer.
+/// instead of once per thread (half the factor bytes per block; the solves also wait
+/// on scattered right-hand-side rows, so the gain is smaller than that — figures in
+/// BENCHMARKS.md). A simplicial factorization (tiny matrices) falls back to faer.
 ///
 /// For a sparse (non-diagonal) `M = C Cᵀ` the operator is `Cᵀ (K − σM)⁻¹ C`: the
 /// products with `C` and `Cᵀ` wrap the solves, which then run unscaled.
