@@ -191,23 +191,13 @@ impl ShiftInvert<'_> {
             }
             return;
         };
-        let mut j0 = 0;
-        while j0 < c {
-            let left = c - j0;
-            let w = if left >= 8 {
-                8
-            } else if left >= 4 {
-                4
-            } else {
-                1
-            };
+        for (j0, w) in column_groups(c) {
             let cols = out.rb_mut().subcols_mut(j0, w);
             match w {
                 8 => self.solve_dispatch::<8>(sym, cols),
                 4 => self.solve_dispatch::<4>(sym, cols),
                 _ => self.solve_dispatch::<1>(sym, cols),
             }
-            j0 += w;
         }
     }
 
@@ -245,7 +235,6 @@ impl ShiftInvert<'_> {
         sym: &faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky<usize>,
         mut out: MatMut<'_, f64>,
     ) {
-        use faer::sparse::linalg::cholesky::supernodal::SupernodalLdltRef;
         let n = out.nrows();
         let ms = self.msqrt;
         let perm = self.symbolic.perm();
@@ -257,82 +246,19 @@ impl ShiftInvert<'_> {
                 std::array::from_fn(|j| out[(f, j)] * ms[f])
             })
             .collect();
-        let l = SupernodalLdltRef::new(sym, &self.values);
-        let nsup = sym.n_supernodes();
-        // Forward: L y = b, L unit lower, column-oriented scatter.
-        for sn in 0..nsup {
-            let node = l.supernode(sn);
-            let val = node.val();
-            let start = node.start();
-            let pattern = node.pattern();
-            let w = val.ncols();
-            for j in 0..w {
-                let xj = x[start + j];
-                let col = val
-                    .col(j)
-                    .try_as_col_major()
-                    .expect("contiguous supernode")
-                    .as_slice();
-                for (row, &lij) in x[start + j + 1..start + w].iter_mut().zip(&col[j + 1..w]) {
-                    for t in 0..W {
-                        row[t] -= lij * xj[t];
-                    }
-                }
-                for (&pi, &lij) in pattern.iter().zip(&col[w..]) {
-                    debug_assert!(pi < n);
-                    // SAFETY: supernode patterns hold row indices below n (faer's
-                    // symbolic factorization of an n×n matrix).
-                    let row = unsafe { x.get_unchecked_mut(pi) };
-                    for t in 0..W {
-                        row[t] -= lij * xj[t];
-                    }
-                }
-            }
-        }
-        // Diagonal: z = D⁻¹ y.
-        for sn in 0..nsup {
-            let node = l.supernode(sn);
-            let val = node.val();
-            let start = node.start();
-            for j in 0..val.ncols() {
-                let inv = 1.0 / val[(j, j)];
-                for v in x[start + j].iter_mut() {
-                    *v *= inv;
-                }
-            }
-        }
-        // Backward: Lᵀ x = z, column-oriented gather (dot products).
-        for sn in (0..nsup).rev() {
-            let node = l.supernode(sn);
-            let val = node.val();
-            let start = node.start();
-            let pattern = node.pattern();
-            let w = val.ncols();
-            for j in (0..w).rev() {
-                let mut acc = [0.0f64; W];
-                let col = val
-                    .col(j)
-                    .try_as_col_major()
-                    .expect("contiguous supernode")
-                    .as_slice();
-                for (row, &lij) in x[start + j + 1..start + w].iter().zip(&col[j + 1..w]) {
-                    for t in 0..W {
-                        acc[t] += lij * row[t];
-                    }
-                }
-                for (&pi, &lij) in pattern.iter().zip(&col[w..]) {
-                    debug_assert!(pi < n);
-                    // SAFETY: as in the forward pass.
-                    let row = unsafe { x.get_unchecked(pi) };
-                    for t in 0..W {
-                        acc[t] += lij * row[t];
-                    }
-                }
-                let row = &mut x[start + j];
-                for t in 0..W {
-                    row[t] -= acc[t];
-                }
-            }
+        // L y = b with z = D⁻¹ y, then Lᵀ x = z, over all supernodes (no top rows).
+        let ns = sym.n_supernodes();
+        for step in [RangeStep::Forward(&mut []), RangeStep::Backward(&[])] {
+            crate::cpu::Kernel::portable(Range {
+                sym,
+                values: &self.values,
+                s0: 0,
+                s1: ns,
+                x: &mut x,
+                off: 0,
+                top_from: n,
+                step,
+            });
         }
         // Scatter back: row fwd(i) of the result is row i of x.
         for (i, row) in x.iter().enumerate() {
@@ -342,6 +268,23 @@ impl ShiftInvert<'_> {
             }
         }
     }
+}
+
+/// The groups `(first column, width)` in which the solves take c columns: as many
+/// groups of 8 as fit, then one of 4, then single columns.
+fn column_groups(c: usize) -> impl Iterator<Item = (usize, usize)> {
+    let mut j0 = 0;
+    std::iter::from_fn(move || {
+        let left = c - j0;
+        let w = match left {
+            0 => return None,
+            8.. => 8,
+            4.. => 4,
+            _ => 1,
+        };
+        j0 += w;
+        Some((j0 - w, w))
+    })
 }
 
 type Supernodal = faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky<usize>;
@@ -473,23 +416,13 @@ impl ShiftInvert<'_> {
             unreachable!("a tree split exists only for supernodal factors");
         };
         let c = out.ncols();
-        let mut j0 = 0;
-        while j0 < c {
-            let left = c - j0;
-            let w = if left >= 8 {
-                8
-            } else if left >= 4 {
-                4
-            } else {
-                1
-            };
+        for (j0, w) in column_groups(c) {
             let cols = out.rb_mut().subcols_mut(j0, w);
             match w {
                 8 => self.solve_split_fixed::<8>(sym, split, cols),
                 4 => self.solve_split_fixed::<4>(sym, split, cols),
                 _ => self.solve_split_fixed::<1>(sym, split, cols),
             }
-            j0 += w;
         }
     }
 
