@@ -8,23 +8,28 @@
 //!
 //! For `K v = λ M v` (K symmetric n×n, M a positive diagonal or the identity):
 //! - `λ_min`: when the inertia count below says no eigenvalue lies below `−τ` and at
-//!   least one lies in `[−τ, τ]`, by inverse iteration at `σ = −10⁻⁶τ`
-//!   ([`super::partial::eigenvalue_nearest`]) — a Krylov band at the solver's usual
+//!   least one lies in `[−τ, τ]`, by inverse iteration at `σ = −10⁻⁶τ` (as
+//!   [`super::partial::eigenvalue_nearest`]) — a Krylov band at the solver's usual
 //!   first shift cannot separate the smallest pair of a tightly clustered low
 //!   spectrum (the SSTL); otherwise the smallest eigenpair by the banded
 //!   shift-invert solver ([`super::partial`]);
 //! - `λ_max`: block Krylov–Schur ([`super::krylov_schur`]) for the eigenvalue of
 //!   largest magnitude of `M^{-1/2} K M^{-1/2} + cI`, with `c = max(0, −g)` for a lower
 //!   bound `g` of the spectrum (Gershgorin), so that the largest magnitude is
-//!   `λ_max + c`, to a residual of 10⁻⁶; its Ritz value is a lower bound, and inertia
-//!   counts certify an upper one and bisect to 10⁻⁹ relative where needed (the top
-//!   of a regular grid's spectrum is too clustered for a tighter Krylov tolerance);
+//!   `λ_max + c`, to a residual of only 10⁻³ (the top of a regular grid's spectrum is
+//!   too clustered for a Krylov run on `K` to resolve); its Ritz value is a lower
+//!   bound, an inertia count certifies an upper one, and a shift-invert Krylov run
+//!   with that count's factorization refines the lower one to 10⁻⁹ relative (see
+//!   `certified_top`);
 //! - the number of eigenvalues in `[−τ, τ]`, `τ = 10⁻⁸·max(1, |λ_max|)`, by
 //!   Sylvester's law of inertia: the negative pivots of the LDLᵀ of `K − τM` minus
 //!   those of `K + τM` ([`super::partial::eigenvalues_below`]).
+//!
+//! Every count and shift-invert step shares one symbolic analysis of `K − xM`
+//! (METIS' nested dissection takes about 5 s at a million vertices).
 
 use super::krylov_schur::{largest_magnitude, BlockOperator, KrylovSchurParams};
-use super::partial::{eigenvalue_nearest, partial_spectrum, Inertia, PartialParams};
+use super::partial::{partial_spectrum, Inertia, PartialParams};
 use super::SpectralError;
 use crate::SparseMatrix;
 use faer::{MatMut, MatRef};
@@ -35,56 +40,121 @@ use serde::Serialize;
 /// itself within rounding of zero.
 const ZERO_SHIFT: f64 = 1e-6;
 
-/// The Krylov–Schur run for `λ_max` stops at this residual relative to `|θ|`; the
-/// inertia counts of [`certified_top`] then pin the eigenvalue down. (At 10⁻¹⁰ the run
-/// never converged on the million-vertex torus, whose top eigenvalues are spaced
-/// about 10⁻⁵ apart: 2,000 restarts, 13 minutes, and no report.)
-const LAMBDA_MAX_RESIDUAL: f64 = 1e-6;
+/// The Krylov–Schur run for `λ_max` stops at this residual relative to `|θ|`: it only
+/// has to land near the top; [`certified_top`] then pins the eigenvalue down by
+/// inertia and a shift-invert step. (A Krylov run to a residual of 10⁻¹⁰ never
+/// converged on the million-vertex torus, whose top eigenvalues are spaced about
+/// 10⁻⁵ apart: 2,000 restarts, 13 minutes, and no report; to 10⁻⁶ it took 5,232
+/// operator applications, against 184 to 10⁻³.)
+const LAMBDA_MAX_RESIDUAL: f64 = 1e-3;
 
 /// Relative accuracy of `λ_max` ([`certified_top`]).
 const LAMBDA_MAX_REL: f64 = 1e-9;
 
+/// Residual (relative to `|μ|`) of the shift-invert Krylov run of [`certified_top`].
+/// The Rayleigh quotient of its vector converges about twice as fast as the residual
+/// (its error is of the order of the squared residual over the gap), and the count
+/// that follows checks it: on the million-vertex torus 10⁻⁵ put ρ within 7·10⁻¹² of
+/// λ_max, and 10⁻⁴ still within 10⁻⁹ (BENCHMARKS.md, "Partial spectra").
+const SHIFT_INVERT_RESIDUAL: f64 = 1e-5;
+
+/// Inertia counts at most in [`certified_top`] (each one LDLᵀ); bisection alone needs
+/// about 40 from a bracket of relative width 1 to [`LAMBDA_MAX_REL`].
+const MAX_COUNTS: usize = 80;
+
 /// `λ_max` from the top Ritz value `theta` of a Krylov run and its residual norm
-/// `residual`, certified by inertia: `theta` is a Rayleigh quotient, so `λ_max ≥
-/// theta`; when fewer than n eigenvalues lie below `theta + 10⁻⁹|theta|` the
-/// bracket is widened from `theta + 2·residual` until all n do, then bisected (one
-/// LDLᵀ per step) to a width of `10⁻⁹|theta|`. Usually the first count settles it:
-/// the Ritz value's error is about residual²/gap.
-fn certified_top(inertia: &Inertia, theta: f64, residual: f64) -> Result<f64, SpectralError> {
+/// `residual`, certified by inertia to `10⁻⁹|theta|`. Invariant: `lo ≤ λ_max`, and
+/// all n eigenvalues lie below `hi` once it is finite.
+/// - `theta` is a Rayleigh quotient, so it starts `lo`.
+/// - The first count is at `theta + residual/4`, widened (×4) until all n
+///   eigenvalues lie below it: that is `hi`; a count short of n raises `lo`. (The
+///   nearer `hi` is to λ_max, the faster the shift-invert run below; the top Ritz
+///   value of a Krylov run usually lies much closer to λ_max than its residual.)
+/// - At each new `hi`, `K − hi·M` is negative definite and its LDLᵀ, just made for
+///   the count, is the shift-invert operator whose largest-magnitude eigenvalue is
+///   λ_max's: a short block Krylov–Schur run on it gives a vector whose Rayleigh
+///   quotient ρ raises `lo` (fast even for the clustered top of a regular grid,
+///   since what matters is the gap relative to `hi − λ_max`, not to the spectrum's
+///   width). The next count is at `ρ + 10⁻⁹|theta|`: all n below it certifies ρ.
+/// - Otherwise (the run found a lower eigenvalue of a cluster, or did not converge)
+///   the counts bisect `[lo, hi]`.
+///
+/// On the million-vertex torus this takes 2 counts and one shift-invert run where
+/// bisection from the Krylov run's bracket took about 19 counts. `shift_invert: false` bisects only (tests).
+fn certified_top(
+    inertia: &Inertia,
+    theta: f64,
+    residual: f64,
+    shift_invert: bool,
+) -> Result<f64, SpectralError> {
     let n = inertia.dim();
     let tol = LAMBDA_MAX_REL * theta.abs().max(f64::MIN_POSITIVE);
-    let mut lo: f64;
-    let mut hi = theta + tol;
-    if inertia.below(hi)? == n {
-        return Ok(theta);
-    }
-    let mut step = (2.0 * residual).max(2.0 * tol);
-    loop {
-        lo = hi;
-        hi = theta + step;
-        if inertia.below(hi)? == n {
-            break;
+    let mut lo = theta;
+    let mut hi = f64::INFINITY;
+    let mut step = (0.25 * residual).max(tol).max(f64::MIN_POSITIVE);
+    let mut probe = theta + step;
+    // Width of `[lo, hi]` at the last shift-invert run: another one is worth its
+    // solves only once the bracket has narrowed to a quarter of that.
+    let mut last_run = f64::INFINITY;
+    // The probe is `lo + tol`: all n below it certifies `lo`.
+    let mut certifying = false;
+    for _ in 0..MAX_COUNTS {
+        let factor = inertia.at(probe)?.ok_or(SpectralError::Empty)?;
+        let was_certifying = std::mem::take(&mut certifying);
+        if factor.below() == n {
+            hi = probe;
+            if was_certifying || hi - lo <= tol {
+                return Ok(lo);
+            }
+            let run = shift_invert && hi - lo <= 0.25 * last_run;
+            if run {
+                last_run = hi - lo;
+            }
+            let rho = if run {
+                factor.nearest_by_krylov(SHIFT_INVERT_RESIDUAL)?
+            } else {
+                None
+            };
+            if let Some(rho) = rho {
+                // A Rayleigh quotient: a lower bound of λ_max (below `hi` up to rounding).
+                lo = lo.max(rho.min(hi));
+                if hi - lo <= tol {
+                    return Ok(lo);
+                }
+                if rho >= lo {
+                    // Try to certify ρ itself.
+                    probe = lo + tol;
+                    certifying = true;
+                    continue;
+                }
+            }
+        } else {
+            lo = lo.max(probe);
+            if !hi.is_finite() {
+                step *= 4.0;
+                probe = theta + step;
+                if !probe.is_finite() {
+                    // Only an unbounded operator gets here (its entries were checked
+                    // finite).
+                    return Err(SpectralError::NoConvergence {
+                        path: "λ_max inertia bracket",
+                    });
+                }
+                continue;
+            }
+            if hi - lo <= tol {
+                return Ok(lo);
+            }
         }
-        step *= 4.0;
-        if !step.is_finite() {
-            // Only an unbounded operator gets here (its entries were checked finite).
-            return Err(SpectralError::NoConvergence {
-                path: "λ_max inertia bracket",
-            });
-        }
-    }
-    while hi - lo > tol {
         let mid = 0.5 * (lo + hi);
         if !(mid > lo && mid < hi) {
-            break;
+            return Ok(lo);
         }
-        if inertia.below(mid)? == n {
-            hi = mid;
-        } else {
-            lo = mid;
-        }
+        probe = mid;
     }
-    Ok(0.5 * (lo + hi))
+    Err(SpectralError::NoConvergence {
+        path: "λ_max inertia bisection",
+    })
 }
 
 /// Extreme eigenvalues and the zero multiplicity of `K v = λ M v`.
@@ -180,7 +250,7 @@ fn extremes_on_worker(
             .residual_history
             .last()
             .map_or(shifted.abs(), |r| r * shifted.abs());
-        certified_top(&inertia, shifted - c, residual)?
+        certified_top(&inertia, shifted - c, residual, true)?
     };
     let tau = 1e-8 * lambda_max.abs().max(1.0);
     let negative = inertia.below(-tau)?;
@@ -189,7 +259,11 @@ fn extremes_on_worker(
     // iteration just below zero (fast however clustered the low spectrum is);
     // otherwise the smallest pair of the banded solver.
     let lambda_min = if negative == 0 && zero_multiplicity > 0 {
-        eigenvalue_nearest(k, mass, -ZERO_SHIFT * tau)?.0
+        inertia
+            .at(-ZERO_SHIFT * tau)?
+            .ok_or(SpectralError::Empty)?
+            .nearest_by_inverse_iteration()?
+            .0
     } else {
         partial_spectrum(k, mass, &PartialParams::new(1), &mut |_, _| {})?.eigenvalues[0]
     };
@@ -228,8 +302,10 @@ mod tests {
     }
 
     /// The inertia certificate from a poor Ritz value: a value 10⁻³ below the top
-    /// with a residual bound of 10⁻², one 10⁻¹² below (accepted as is), and the
-    /// clustered top of a regular torus grid (spacing far below the residual).
+    /// with a residual bound of 10⁻², one 10⁻¹² below, and the clustered top of a
+    /// regular torus grid (spacing far below the residual). The shift-invert step
+    /// needs a handful of counts where bisection alone needs twenty or more, and
+    /// both land within the tolerance.
     #[test]
     fn certified_top_brackets_the_largest_eigenvalue() {
         for (mesh, kind) in [
@@ -240,15 +316,24 @@ mod tests {
             let n = p.stiffness.nrows();
             let all = full_spectrum(&p);
             let top = all[n - 1];
-            let inertia = Inertia::new(&p.stiffness, p.mass.as_deref()).unwrap();
-            let got = certified_top(&inertia, top - 1e-3 * top, 1e-2 * top).unwrap();
-            assert!((got - top).abs() <= 2e-9 * top, "{kind}: {got} vs {top}");
-            let close = top * (1.0 - 1e-12);
-            assert_eq!(
-                certified_top(&inertia, close, 1e-6).unwrap(),
-                close,
-                "{kind}"
-            );
+            for shift_invert in [true, false] {
+                let inertia = Inertia::new(&p.stiffness, p.mass.as_deref()).unwrap();
+                let got =
+                    certified_top(&inertia, top - 1e-3 * top, 1e-2 * top, shift_invert).unwrap();
+                assert!((got - top).abs() <= 2e-9 * top, "{kind}: {got} vs {top}");
+                let counts = inertia.factorizations();
+                if shift_invert {
+                    assert!(counts <= 3, "{kind}: {counts} counts");
+                } else {
+                    assert!(counts >= 20, "{kind}: {counts} counts");
+                }
+                let close = top * (1.0 - 1e-12);
+                let got = certified_top(&inertia, close, 1e-6, shift_invert).unwrap();
+                assert!(
+                    got >= close && (got - top).abs() <= 2e-9 * top,
+                    "{kind}: {got} vs {top}"
+                );
+            }
         }
     }
 

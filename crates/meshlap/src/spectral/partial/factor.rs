@@ -3,7 +3,9 @@
 //! pivots of `K − xM = LDLᵀ` are the eigenvalues of `K v = λ M v` below x).
 
 use super::mass::{Mass, Metric};
+use super::nearest::ShiftedFactor;
 use super::ordering::{nested_dissection, NESTED_DISSECTION_FROM};
+use super::solve::{ShiftInvert, TreeSplit, TREE_SPLIT_MIN_DIM};
 use crate::spectral::{FactorizationFailure, SpectralError};
 use crate::SparseMatrix;
 use faer::dyn_stack::{MemBuffer, MemStack};
@@ -189,10 +191,21 @@ pub fn eigenvalues_below<'a>(
 
 /// Repeated inertia counts of one problem `K v = λ M v` ([`eigenvalues_below`] at
 /// several x): the pattern of `K − xM` and its symbolic analysis are built once, each
-/// count is one numeric LDLᵀ.
+/// count is one numeric LDLᵀ, which [`Inertia::at`] keeps as the shift-invert operator
+/// at x (for the eigenvalue nearest x, [`ShiftedFactor`]).
 pub(crate) struct Inertia {
     n: usize,
-    pattern: Option<(ShiftedPattern, SymbolicCholesky<usize>)>,
+    parts: Option<InertiaParts>,
+    factorizations: std::cell::Cell<usize>,
+}
+
+struct InertiaParts {
+    metric: Metric,
+    pattern: ShiftedPattern,
+    symbolic: SymbolicCholesky<usize>,
+    /// The solves' scaling for a sparse `M` (ones; see [`ShiftInvert::scale_of`]).
+    ones: Vec<f64>,
+    split: Option<TreeSplit>,
 }
 
 impl Inertia {
@@ -203,14 +216,29 @@ impl Inertia {
     ) -> Result<Self, SpectralError> {
         let metric = super::check_problem(k, mass.into())?;
         let n = k.nrows();
+        let factorizations = std::cell::Cell::new(0);
         if n == 0 {
-            return Ok(Self { n, pattern: None });
+            return Ok(Self {
+                n,
+                parts: None,
+                factorizations,
+            });
         }
         let pattern = ShiftedPattern::new(k, &metric)?;
         let symbolic = symbolic_of(&pattern)?;
+        let mut ones = Vec::new();
+        let _ = ShiftInvert::scale_of(&metric, &mut ones);
+        let split = TreeSplit::of(&symbolic, TREE_SPLIT_MIN_DIM);
         Ok(Self {
             n,
-            pattern: Some((pattern, symbolic)),
+            parts: Some(InertiaParts {
+                metric,
+                pattern,
+                symbolic,
+                ones,
+                split,
+            }),
+            factorizations,
         })
     }
 
@@ -219,12 +247,40 @@ impl Inertia {
         self.n
     }
 
+    /// Numeric factorizations made so far (one per count).
+    #[cfg(test)]
+    pub(crate) fn factorizations(&self) -> usize {
+        self.factorizations.get()
+    }
+
     /// The number of eigenvalues strictly below `x` (up to the factorization's
     /// rounding, see [`eigenvalues_below`]).
     pub(crate) fn below(&self, x: f64) -> Result<usize, SpectralError> {
-        match &self.pattern {
-            None => Ok(0),
-            Some((pattern, symbolic)) => count_below(pattern, symbolic, x),
-        }
+        Ok(self.at(x)?.map_or(0, |f| f.below()))
+    }
+
+    /// The LDLᵀ of `K − xM` as the shift-invert operator at x, with its inertia count;
+    /// `None` for n = 0.
+    pub(crate) fn at(&self, x: f64) -> Result<Option<ShiftedFactor<'_>>, SpectralError> {
+        let Some(parts) = &self.parts else {
+            return Ok(None);
+        };
+        let values = factor_at(&parts.pattern, &parts.symbolic, x)?;
+        self.factorizations.set(self.factorizations.get() + 1);
+        let below = negative_pivots(&parts.symbolic, &values);
+        let msqrt = parts.metric.diagonal_sqrt().unwrap_or(&parts.ones);
+        Ok(Some(ShiftedFactor {
+            op: ShiftInvert {
+                symbolic: &parts.symbolic,
+                values,
+                metric: &parts.metric,
+                msqrt,
+                split: parts.split,
+                scratch: Default::default(),
+            },
+            k: &parts.pattern.base,
+            metric: &parts.metric,
+            below,
+        }))
     }
 }

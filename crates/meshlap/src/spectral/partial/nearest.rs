@@ -10,10 +10,10 @@
 //! Laplacian's small eigenvalues), where a Krylov band started at `−10⁻³` of the
 //! spectrum's scale cannot separate the smallest pair from the next ones.
 
-use super::factor::{factor_at, symbolic_of, ShiftedPattern};
-use super::mass::{symmetric_mul, Mass};
-use super::solve::{ShiftInvert, TreeSplit, TREE_SPLIT_MIN_DIM};
-use crate::spectral::krylov_schur::BlockOperator;
+use super::factor::Inertia;
+use super::mass::{symmetric_mul, Mass, Metric};
+use super::solve::ShiftInvert;
+use crate::spectral::krylov_schur::{largest_magnitude, BlockOperator, KrylovSchurParams};
 use crate::spectral::SpectralError;
 use crate::SparseMatrix;
 use faer::Mat;
@@ -45,74 +45,115 @@ pub fn eigenvalue_nearest<'a>(
     // On a pool worker (see `crate::par::on_worker`): the factorization and the
     // inverse iteration's parallel passes.
     let mass = mass.into();
-    crate::par::on_worker(|| nearest_on_worker(k, mass, sigma))
+    crate::par::on_worker(|| {
+        let inertia = Inertia::new(k, mass)?;
+        match inertia.at(sigma)? {
+            Some(factor) => factor.nearest_by_inverse_iteration(),
+            None => Err(SpectralError::Empty),
+        }
+    })
 }
 
-fn nearest_on_worker(
-    k: &SparseMatrix,
-    mass: Mass<'_>,
-    sigma: f64,
-) -> Result<(f64, Vec<f64>), SpectralError> {
-    let metric = super::check_problem(k, mass)?;
-    let n = k.nrows();
-    if n == 0 {
-        return Err(SpectralError::Empty);
+/// One numeric LDLᵀ of `K − σM` (from an [`Inertia`]'s shared symbolic analysis) as
+/// the operator `A_σ = M^{1/2} (K − σM)^{-1} M^{1/2}`, with the inertia count it
+/// gives for free: the property report counts, then asks the same factorization for
+/// the eigenvalue nearest σ. Sign convention: `K` is the positive semi-definite
+/// `F = D − W` of the paper (libigl and pmp use the negative); nothing here assumes
+/// definiteness.
+pub(crate) struct ShiftedFactor<'a> {
+    pub(super) op: ShiftInvert<'a>,
+    /// `K` (the shifted pattern's base: `K` plus explicit zeros where `M` has entries).
+    pub(super) k: &'a SparseMatrix,
+    pub(super) metric: &'a Metric,
+    /// Eigenvalues strictly below σ (negative pivots).
+    pub(super) below: usize,
+}
+
+impl ShiftedFactor<'_> {
+    /// The number of eigenvalues strictly below σ (up to the factorization's rounding,
+    /// see [`super::eigenvalues_below`]).
+    pub(crate) fn below(&self) -> usize {
+        self.below
     }
-    let pattern = ShiftedPattern::new(k, &metric)?;
-    let symbolic = symbolic_of(&pattern)?;
-    let values = factor_at(&pattern, &symbolic, sigma)?;
-    let mut ones = Vec::new();
-    let msqrt = ShiftInvert::scale_of(&metric, &mut ones);
-    let op = ShiftInvert {
-        symbolic: &symbolic,
-        values,
-        metric: &metric,
-        msqrt,
-        split: TreeSplit::of(&symbolic, TREE_SPLIT_MIN_DIM),
-        scratch: Default::default(),
-    };
-    // Fixed, non-special start (no eigenvector of a symmetric mesh operator).
-    let mut w = Mat::<f64>::from_fn(n, 1, |i, _| {
-        1.0 + ((i as f64 + 1.0) * 0.618_033_988_749_895).fract()
-    });
-    let mut y = Mat::<f64>::zeros(n, 1);
-    let mut mu_old = f64::NAN;
-    for _ in 0..MAX_STEPS {
-        let norm = crate::spectral::thin_products::col_norm2(w.col(0));
-        if !(norm.is_finite() && norm > 0.0) {
+
+    /// [`eigenvalue_nearest`] with this factorization.
+    pub(crate) fn nearest_by_inverse_iteration(&self) -> Result<(f64, Vec<f64>), SpectralError> {
+        let n = self.op.dim();
+        // Fixed, non-special start (no eigenvector of a symmetric mesh operator).
+        let mut w = Mat::<f64>::from_fn(n, 1, |i, _| {
+            1.0 + ((i as f64 + 1.0) * 0.618_033_988_749_895).fract()
+        });
+        let mut y = Mat::<f64>::zeros(n, 1);
+        let mut mu_old = f64::NAN;
+        for _ in 0..MAX_STEPS {
+            let norm = crate::spectral::thin_products::col_norm2(w.col(0));
+            if !(norm.is_finite() && norm > 0.0) {
+                return Err(SpectralError::NoConvergence {
+                    path: "inverse iteration",
+                });
+            }
+            w.col_mut(0).iter_mut().for_each(|x| *x /= norm);
+            self.op.apply_block(w.as_ref(), y.as_mut());
+            let mu: f64 = w
+                .col(0)
+                .iter()
+                .zip(y.col(0).iter())
+                .map(|(a, b)| a * b)
+                .sum();
+            std::mem::swap(&mut w, &mut y);
+            if (mu - mu_old).abs() <= CONVERGED * mu.abs() {
+                break;
+            }
+            mu_old = mu;
+        }
+        self.rayleigh(w)
+    }
+
+    /// The Rayleigh quotient `vᵀKv / vᵀMv` of the Ritz vector of the eigenvalue nearest
+    /// σ, by block Krylov–Schur on `A_σ` (blocks of 4, so that a multiple eigenvalue
+    /// of up to that multiplicity is taken whole; residual `≤ tolerance·|μ|`). A
+    /// Rayleigh quotient never exceeds `λ_max` nor falls below `λ_min`, so it is a
+    /// bound whichever eigenvalue the run found; with a residual η in `K`'s terms it
+    /// lies within `η²/gap` of the eigenvalue. Converges fast however clustered the
+    /// spectrum is near σ, as long as σ is nearer the wanted eigenvalue than the
+    /// cluster's spacing is small: the ratio that matters is
+    /// `|λ₁ − λ₂| / |λ₁ − σ|`. `None` when the run does not converge within its
+    /// restarts or the problem is too small for its basis.
+    pub(crate) fn nearest_by_krylov(&self, tolerance: f64) -> Result<Option<f64>, SpectralError> {
+        let n = self.op.dim();
+        let block = if n >= 64 { 4 } else { 1 };
+        let params = KrylovSchurParams {
+            block,
+            max_dim: 60.min(n.saturating_sub(block)),
+            tolerance,
+            max_restarts: 60,
+            seed: 0x6e65_6172,
+        };
+        let Ok(top) = largest_magnitude(&self.op, 1, None, &params) else {
+            return Ok(None);
+        };
+        let w = top.vectors.subcols(0, 1).to_owned();
+        Ok(Some(self.rayleigh(w)?.0))
+    }
+
+    /// `(vᵀKv / vᵀMv, v)` for `v = C⁻ᵀ w` (`M^{-1/2} w`), M-normalised, from the n×1
+    /// symmetric-coordinates vector `w`.
+    fn rayleigh(&self, mut w: Mat<f64>) -> Result<(f64, Vec<f64>), SpectralError> {
+        self.metric.solve_ct(w.as_mut());
+        let mut v: Vec<f64> = w.col(0).iter().copied().collect();
+        let mv = self.metric.mul_m(&v);
+        let vmv: f64 = v.iter().zip(&mv).map(|(a, b)| a * b).sum();
+        let kv = symmetric_mul(self.k, &v);
+        let vkv: f64 = v.iter().zip(&kv).map(|(a, b)| a * b).sum();
+        if !(vmv.is_finite() && vmv > 0.0 && vkv.is_finite()) {
             return Err(SpectralError::NoConvergence {
                 path: "inverse iteration",
             });
         }
-        w.col_mut(0).iter_mut().for_each(|x| *x /= norm);
-        op.apply_block(w.as_ref(), y.as_mut());
-        let mu: f64 = w
-            .col(0)
-            .iter()
-            .zip(y.col(0).iter())
-            .map(|(a, b)| a * b)
-            .sum();
-        std::mem::swap(&mut w, &mut y);
-        if (mu - mu_old).abs() <= CONVERGED * mu.abs() {
-            break;
-        }
-        mu_old = mu;
+        let scale = 1.0 / vmv.sqrt();
+        v.iter_mut().for_each(|x| *x *= scale);
+        Ok((vkv / vmv, v))
     }
-    // v = C⁻ᵀ w (M^{-1/2} w), M-normalised; λ = vᵀKv / vᵀMv.
-    metric.solve_ct(w.as_mut());
-    let mut v: Vec<f64> = w.col(0).iter().copied().collect();
-    let mv = metric.mul_m(&v);
-    let vmv: f64 = v.iter().zip(&mv).map(|(a, b)| a * b).sum();
-    let kv = symmetric_mul(k, &v);
-    let vkv: f64 = v.iter().zip(&kv).map(|(a, b)| a * b).sum();
-    if !(vmv.is_finite() && vmv > 0.0 && vkv.is_finite()) {
-        return Err(SpectralError::NoConvergence {
-            path: "inverse iteration",
-        });
-    }
-    let scale = 1.0 / vmv.sqrt();
-    v.iter_mut().for_each(|x| *x *= scale);
-    Ok((vkv / vmv, v))
 }
 
 #[cfg(test)]
