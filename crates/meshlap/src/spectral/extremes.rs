@@ -253,19 +253,25 @@ fn extremes_on_worker(
         certified_top(&inertia, shifted - c, residual, true)?
     };
     let tau = 1e-8 * lambda_max.abs().max(1.0);
-    let negative = inertia.below(-tau)?;
-    let zero_multiplicity = inertia.below(tau)?.saturating_sub(negative);
+    // The count at τ, then the factorization just below zero: when nothing lies
+    // below −10⁻⁶τ, nothing lies below −τ either, and the same LDLᵀ serves λ_min's
+    // inverse iteration (one factorization fewer than counting at −τ separately;
+    // one factor alive at a time).
+    let below_tau = inertia.below(tau)?;
+    let near_zero = inertia.at(-ZERO_SHIFT * tau)?.ok_or(SpectralError::Empty)?;
+    let (negative, near_zero) = if near_zero.below() == 0 {
+        (0, Some(near_zero))
+    } else {
+        drop(near_zero);
+        (inertia.below(-tau)?, None)
+    };
+    let zero_multiplicity = below_tau.saturating_sub(negative);
     // λ_min: when the inertia says the spectrum starts in [−τ, τ], by inverse
     // iteration just below zero (fast however clustered the low spectrum is);
     // otherwise the smallest pair of the banded solver.
-    let lambda_min = if negative == 0 && zero_multiplicity > 0 {
-        inertia
-            .at(-ZERO_SHIFT * tau)?
-            .ok_or(SpectralError::Empty)?
-            .nearest_by_inverse_iteration()?
-            .0
-    } else {
-        partial_spectrum(k, mass, &PartialParams::new(1), &mut |_, _| {})?.eigenvalues[0]
+    let lambda_min = match near_zero.filter(|_| zero_multiplicity > 0) {
+        Some(factor) => factor.nearest_by_inverse_iteration()?.0,
+        None => partial_spectrum(k, mass, &PartialParams::new(1), &mut |_, _| {})?.eigenvalues[0],
     };
     Ok(Extremes {
         lambda_min,
@@ -378,5 +384,41 @@ mod tests {
             );
             assert_eq!(e.zero_multiplicity, zeros, "{kind}");
         }
+    }
+
+    /// An indefinite problem (the torus' SQL shifted down by 0.3): eigenvalues below
+    /// zero, none at it, so the zero count and λ_min take their other paths (a count
+    /// at −τ, the banded solver's smallest pair).
+    #[test]
+    fn indefinite_problem_counts_no_zero_and_finds_the_negative_minimum() {
+        let p = problem(&builtin::torus(12, 9).unwrap(), OperatorKind::Sql);
+        let k = &p.stiffness;
+        let n = k.nrows();
+        let mut trip = Vec::new();
+        for j in 0..n {
+            for (&i, &v) in k.row_idx_of_col_raw(j).iter().zip(k.val_of_col(j)) {
+                trip.push(faer::sparse::Triplet::new(
+                    i,
+                    j,
+                    v - if i == j { 0.3 } else { 0.0 },
+                ));
+            }
+        }
+        let shifted = SparseMatrix::try_new_from_triplets(n, n, &trip).unwrap();
+        let q = SymmetricProblem {
+            stiffness: shifted,
+            mass: None,
+        };
+        let all = full_spectrum(&q);
+        let e = extremes(&q.stiffness, None, -1e3).unwrap();
+        assert!(
+            (e.lambda_min - all[0]).abs() < 1e-9,
+            "{} vs {}",
+            e.lambda_min,
+            all[0]
+        );
+        assert!((e.lambda_max - all[n - 1]).abs() < 1e-7 * all[n - 1]);
+        assert!(all[0] < -0.29);
+        assert_eq!(e.zero_multiplicity, 0);
     }
 }
