@@ -400,10 +400,6 @@ fn spectrum(f: &SparseMatrix, symmetric: bool, lower: f64, opts: &PropertyOption
 fn centred_norm_estimate(f: &SparseMatrix, k: f64, iters: usize) -> Option<f64> {
     use rayon::prelude::*;
     let n = f.nrows();
-    let centre = |x: &mut [f64]| {
-        let m = x.iter().sum::<f64>() / n as f64;
-        x.iter_mut().for_each(|v| *v -= m);
-    };
     // Column i of `by_rows` is row i of F.
     let by_rows: SparseMatrix = f.as_ref().transpose().to_col_major().ok()?;
     // y_i = x_i − Σ_r (m_ri / k) x_r over column i of `m`, rows ascending.
@@ -429,6 +425,20 @@ fn centred_norm_estimate(f: &SparseMatrix, k: f64, iters: usize) -> Option<f64> 
             apply(&by_rows, x)
         }
     };
+    Some(centred_power_iteration(n, iters, apply_h))
+}
+
+/// `‖P H P‖₂` by `iters` steps of the power iteration on `(PHP)ᵀ(PHP)` from a fixed
+/// start, with `apply_h(x, transpose)` = `H x` or `Hᵀ x` (length n each).
+fn centred_power_iteration(
+    n: usize,
+    iters: usize,
+    apply_h: impl Fn(&[f64], bool) -> Vec<f64>,
+) -> f64 {
+    let centre = |x: &mut [f64]| {
+        let m = x.iter().sum::<f64>() / n as f64;
+        x.iter_mut().for_each(|v| *v -= m);
+    };
     // Deterministic, non-special start vector.
     let mut x: Vec<f64> = (0..n)
         .map(|i| ((i as f64 + 1.0) * 0.618_033_988_75).fract() - 0.5)
@@ -438,7 +448,7 @@ fn centred_norm_estimate(f: &SparseMatrix, k: f64, iters: usize) -> Option<f64> 
     for _ in 0..iters {
         let nx = x.iter().map(|v| v * v).sum::<f64>().sqrt();
         if nx == 0.0 {
-            return Some(0.0);
+            return 0.0;
         }
         x.iter_mut().for_each(|v| *v /= nx);
         let mut y = apply_h(&x, false);
@@ -448,7 +458,7 @@ fn centred_norm_estimate(f: &SparseMatrix, k: f64, iters: usize) -> Option<f64> 
         centre(&mut z);
         x = z;
     }
-    Some(sigma)
+    sigma
 }
 
 #[cfg(test)]
@@ -457,15 +467,11 @@ mod tests {
     use crate::mesh::{builtin, topology::Topology};
     use crate::operator::{Operator, OperatorKind, OperatorOptions};
 
-    /// The serial column-wise definition of [`centred_norm_estimate`] (before it was
-    /// parallel): `H x` scattered column by column.
+    /// The serial column-wise definition of [`centred_norm_estimate`] (before its
+    /// products were parallel): `H x` scattered column by column.
     fn centred_norm_serial(f: &SparseMatrix, k: f64, iters: usize) -> f64 {
         let n = f.nrows();
-        let centre = |x: &mut [f64]| {
-            let m = x.iter().sum::<f64>() / n as f64;
-            x.iter_mut().for_each(|v| *v -= m);
-        };
-        let apply_h = |x: &[f64], transpose: bool| -> Vec<f64> {
+        centred_power_iteration(n, iters, |x: &[f64], transpose: bool| {
             let mut y = x.to_vec();
             for j in 0..n {
                 for (&i, &v) in f.row_idx_of_col_raw(j).iter().zip(f.val_of_col(j)) {
@@ -477,23 +483,7 @@ mod tests {
                 }
             }
             y
-        };
-        let mut x: Vec<f64> = (0..n)
-            .map(|i| ((i as f64 + 1.0) * 0.618_033_988_75).fract() - 0.5)
-            .collect();
-        centre(&mut x);
-        let mut sigma = 0.0;
-        for _ in 0..iters {
-            let nx = x.iter().map(|v| v * v).sum::<f64>().sqrt();
-            x.iter_mut().for_each(|v| *v /= nx);
-            let mut y = apply_h(&x, false);
-            centre(&mut y);
-            sigma = y.iter().map(|v| v * v).sum::<f64>().sqrt();
-            let mut z = apply_h(&y, true);
-            centre(&mut z);
-            x = z;
-        }
-        sigma
+        })
     }
 
     /// The parallel row-wise products give the serial scatter's bits on any pool, for a
