@@ -1,5 +1,7 @@
-//! The eigenvalue of `K v = λ M v` nearest a shift, by inverse iteration with one
-//! sparse LDLᵀ of `K − σM` (Golub & Van Loan, *Matrix Computations*, §8.2.2).
+//! The eigenvalue of `K v = λ M v` nearest a shift, with one sparse LDLᵀ of `K − σM`
+//! ([`ShiftedFactor`], made by an inertia count): by inverse iteration (Golub & Van
+//! Loan, *Matrix Computations*, §8.2.2), or as the Rayleigh quotient of a short block
+//! Krylov–Schur run on `(K − σM)⁻¹`.
 //!
 //! **Sign convention.** Operators are `F = D − W`, positive semi-definite (libigl and
 //! pmp use the negative); nothing here assumes definiteness.
@@ -8,7 +10,10 @@
 //! starts at zero: a shift `σ` just below zero makes `|λ₀ − σ| / |λ₁ − σ|` tiny even
 //! when the low spectrum is tightly clustered (the SSTL `TᵀT` squares the Tutte
 //! Laplacian's small eigenvalues), where a Krylov band started at `−10⁻³` of the
-//! spectrum's scale cannot separate the smallest pair from the next ones.
+//! spectrum's scale cannot separate the smallest pair from the next ones. And for
+//! `λ_max` ([`crate::spectral::extremes`]): with σ an inertia-certified upper bound,
+//! the Krylov run resolves the top of a clustered spectrum that a Krylov run on `K`
+//! itself cannot.
 
 use super::factor::Inertia;
 use super::mass::{symmetric_mul, Mass, Metric};
@@ -106,7 +111,7 @@ impl ShiftedFactor<'_> {
             }
             mu_old = mu;
         }
-        self.rayleigh(w)
+        self.rayleigh(w, "inverse iteration")
     }
 
     /// The Rayleigh quotient `vᵀKv / vᵀMv` of the Ritz vector of the eigenvalue nearest
@@ -133,12 +138,16 @@ impl ShiftedFactor<'_> {
             return Ok(None);
         };
         let w = top.vectors.subcols(0, 1).to_owned();
-        Ok(Some(self.rayleigh(w)?.0))
+        Ok(Some(self.rayleigh(w, "shift-invert Krylov–Schur")?.0))
     }
 
     /// `(vᵀKv / vᵀMv, v)` for `v = C⁻ᵀ w` (`M^{-1/2} w`), M-normalised, from the n×1
-    /// symmetric-coordinates vector `w`.
-    fn rayleigh(&self, mut w: Mat<f64>) -> Result<(f64, Vec<f64>), SpectralError> {
+    /// symmetric-coordinates vector `w`; a non-finite quotient is an error of `path`.
+    fn rayleigh(
+        &self,
+        mut w: Mat<f64>,
+        path: &'static str,
+    ) -> Result<(f64, Vec<f64>), SpectralError> {
         self.metric.solve_ct(w.as_mut());
         let mut v: Vec<f64> = w.col(0).iter().copied().collect();
         let mv = self.metric.mul_m(&v);
@@ -146,9 +155,7 @@ impl ShiftedFactor<'_> {
         let kv = symmetric_mul(self.k, &v);
         let vkv: f64 = v.iter().zip(&kv).map(|(a, b)| a * b).sum();
         if !(vmv.is_finite() && vmv > 0.0 && vkv.is_finite()) {
-            return Err(SpectralError::NoConvergence {
-                path: "inverse iteration",
-            });
+            return Err(SpectralError::NoConvergence { path });
         }
         let scale = 1.0 / vmv.sqrt();
         v.iter_mut().for_each(|x| *x *= scale);
