@@ -182,15 +182,29 @@ impl BlockOperator for Shifted<'_> {
         self.k.nrows()
     }
 
-    fn apply_block(&self, x: MatRef<'_, f64>, mut out: MatMut<'_, f64>) {
-        let scale = |i: usize| self.inv_sqrt_mass.as_ref().map_or(1.0, |s| s[i]);
-        let y = faer::Mat::from_fn(x.nrows(), x.ncols(), |i, j| x[(i, j)] * scale(i));
-        let ky = self.k.as_ref() * &y;
-        for j in 0..x.ncols() {
-            for i in 0..x.nrows() {
-                out[(i, j)] = ky[(i, j)] * scale(i) + self.c * x[(i, j)];
-            }
-        }
+    /// In parallel over blocks of rows, without temporaries: `K` is symmetric
+    /// (checked), so row i of `K y` gathers column i.
+    fn apply_block(&self, x: MatRef<'_, f64>, out: MatMut<'_, f64>) {
+        use rayon::prelude::*;
+        const ROWS: usize = 4096;
+        let p = x.ncols();
+        let s = self.inv_sqrt_mass.as_deref();
+        let scale = |i: usize| s.map_or(1.0, |s| s[i]);
+        out.par_row_chunks_mut(ROWS)
+            .enumerate()
+            .for_each(|(b, mut rows)| {
+                for q in 0..rows.nrows() {
+                    let i = b * ROWS + q;
+                    let (idx, val) = (self.k.row_idx_of_col_raw(i), self.k.val_of_col(i));
+                    for t in 0..p {
+                        let mut acc = 0.0;
+                        for (&r, &v) in idx.iter().zip(val) {
+                            acc += v * (x[(r, t)] * scale(r));
+                        }
+                        rows[(q, t)] = acc * scale(i) + self.c * x[(i, t)];
+                    }
+                }
+            });
     }
 }
 
