@@ -470,25 +470,14 @@ impl ShiftInvert<'_> {
         });
         let mut top0 = vec![[0.0f64; W]; n - rb];
         let mut top1 = vec![[0.0f64; W]; n - rb];
-        {
-            let (x0, rest) = x.split_at_mut(ra);
-            let (x1, _) = rest.split_at_mut(rb - ra);
-            let range = |s0, s1, x, off, step| Range {
-                sym,
-                values,
-                s0,
-                s1,
-                x,
-                off,
-                top_from: rb,
-                step,
-            };
-            let (r0, r1) = (
-                range(0, split.a, x0, 0, RangeStep::Forward(&mut top0)),
-                range(split.a, split.b, x1, ra, RangeStep::Forward(&mut top1)),
-            );
-            rayon::join(|| crate::cpu::dispatch(r0), || crate::cpu::dispatch(r1));
-        }
+        solve_forests(
+            sym,
+            values,
+            split,
+            (ra, rb),
+            &mut x[..rb],
+            [RangeStep::Forward(&mut top0), RangeStep::Forward(&mut top1)],
+        );
         // The top: both forests' updates, then its own solves on one thread.
         let (low, xt) = x.split_at_mut(rb);
         for ((row, u0), u1) in xt.iter_mut().zip(&top0).zip(&top1) {
@@ -509,22 +498,15 @@ impl ShiftInvert<'_> {
                 step,
             });
         }
-        {
-            let xt: &[[f64; W]] = xt;
-            let (x0, x1) = low.split_at_mut(ra);
-            let range = |s0, s1, x, off| Range {
-                sym,
-                values,
-                s0,
-                s1,
-                x,
-                off,
-                top_from: rb,
-                step: RangeStep::Backward(xt),
-            };
-            let (r0, r1) = (range(0, split.a, x0, 0), range(split.a, split.b, x1, ra));
-            rayon::join(|| crate::cpu::dispatch(r0), || crate::cpu::dispatch(r1));
-        }
+        let xt: &[[f64; W]] = xt;
+        solve_forests(
+            sym,
+            values,
+            split,
+            (ra, rb),
+            low,
+            [RangeStep::Backward(xt), RangeStep::Backward(xt)],
+        );
         // Scatter back, a column per task: row r of the result is row inv(r) of x.
         let x = &*x;
         let mut cols: Vec<MatMut<'_, f64>> = Vec::with_capacity(W);
@@ -541,6 +523,36 @@ impl ShiftInvert<'_> {
             }
         });
     }
+}
+
+/// One step over both forests of `split` in parallel: `steps[0]` over the supernodes
+/// `0..a` (rows `0..ra` of `low`), `steps[1]` over `a..b` (rows `ra..rb`); `low`
+/// holds rows `0..rb`, and rows from `rb` on are the top's (see [`TreeSplit`]).
+fn solve_forests<const W: usize>(
+    sym: &Supernodal,
+    values: &[f64],
+    split: TreeSplit,
+    (ra, rb): (usize, usize),
+    low: &mut [[f64; W]],
+    steps: [RangeStep<'_, W>; 2],
+) {
+    let (x0, x1) = low.split_at_mut(ra);
+    let [step0, step1] = steps;
+    let range = |s0, s1, x, off, step| Range {
+        sym,
+        values,
+        s0,
+        s1,
+        x,
+        off,
+        top_from: rb,
+        step,
+    };
+    let (r0, r1) = (
+        range(0, split.a, x0, 0, step0),
+        range(split.a, split.b, x1, ra, step1),
+    );
+    rayon::join(|| crate::cpu::dispatch(r0), || crate::cpu::dispatch(r1));
 }
 
 impl BlockOperator for ShiftInvert<'_> {
