@@ -508,11 +508,24 @@ def repair_sql(V: Any, F: Any, method: str = "swap", *, max_dihedral: Optional[f
     return v2, f2, _json.loads(rep)
 
 
-def partition(V: Any, F: Any, patch_size: int, *, seed: int = 0, return_stats: bool = False):
-    """Connected METIS patches of about ``patch_size`` vertices: int32 labels (n,)
-    (with ``return_stats``, also the dict of ``meshlap partition --json``)."""
+def partition(
+    V: Any,
+    F: Any,
+    patch_size: int,
+    *,
+    seed: int = 0,
+    method: str = "metis",
+    return_stats: bool = False,
+):
+    """Connected patches of about ``patch_size`` vertices: int32 labels (n,) (with
+    ``return_stats``, also the dict of ``meshlap partition --json``).
+
+    ``method``: ``"metis"`` (METIS k-way, ``seed`` its random seed: the lowest edge
+    cut, sizes within a few vertices) or ``"lloyd"`` (Lloyd-relaxed graph Voronoi
+    cells: an edge cut close to METIS's in a fraction of the time, more spread in the
+    sizes; the compressor's partition since ``.mlz`` format 7)."""
     v, f = _mesh(V, F)
-    labels, stats = _meshlap.partition(v, f, int(patch_size), int(seed))
+    labels, stats = _meshlap.partition(v, f, int(patch_size), int(seed), str(method))
     return (labels, _json.loads(stats)) if return_stats else labels
 
 

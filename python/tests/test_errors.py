@@ -149,6 +149,8 @@ def test_filter_errors(tet):
         meshlap.project(V, F, "kirchhoff", 5)
     with pytest.raises(meshlap.PartitionError):
         meshlap.partition(V, F, 0)
+    with pytest.raises(meshlap.PartitionError, match="unknown partition method"):
+        meshlap.partition(V, F, 10, method="kway")
 
 
 def test_index_dtypes_and_layouts_give_the_same_operator(tet):

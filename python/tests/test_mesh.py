@@ -124,6 +124,17 @@ def test_partition_labels(big_sphere):
     assert labels.dtype == np.int32 and labels.shape == (len(V),)
     assert labels.min() == 0 and labels.max() + 1 == stats["patches"]
     assert np.bincount(labels).min() == stats["min_size"]
+    assert stats["method"] == "metis"
+
+
+def test_partition_lloyd_cells(big_sphere):
+    V, F = big_sphere
+    labels, stats = meshlap.partition(V, F, 100, method="lloyd", return_stats=True)
+    assert stats["method"] == "lloyd" and labels.max() + 1 == stats["patches"]
+    metis = meshlap.partition(V, F, 100, return_stats=True)[1]
+    assert stats["edge_cut"] <= 1.1 * metis["edge_cut"]
+    again = meshlap.partition(V, F, 100, method="lloyd")
+    np.testing.assert_array_equal(again, labels)
 
 
 def test_render_returns_an_rgb_picture(sphere):

@@ -144,19 +144,23 @@ fn repair_sql<'py>(
     Ok((va, fa, json(py, &report)?))
 }
 
-/// `partition(V, F, patch_size, seed=0)` → `(labels int32 (n,), stats JSON)`.
+/// `partition(V, F, patch_size, seed=0, method="metis")` → `(labels int32 (n,),
+/// stats JSON)`.
 #[pyfunction]
-#[pyo3(signature = (v, f, patch_size, seed=0))]
+#[pyo3(signature = (v, f, patch_size, seed=0, method="metis"))]
 fn partition<'py>(
     py: Python<'py>,
     v: PyReadonlyArray2<'_, f64>,
     f: FaceArray<'_>,
     patch_size: usize,
     seed: i32,
+    method: &str,
 ) -> PyResult<(Bound<'py, PyArray1<i32>>, String)> {
-    use meshlap::partition::{partition_mesh, PartitionOptions};
+    use meshlap::partition::{partition_mesh, PartitionMethod, PartitionOptions};
+    let method: PartitionMethod = method.parse().or_raise(py)?;
     let input = mesh_of(py, &v, &f)?;
     let opts = PartitionOptions {
+        method,
         seed,
         ..PartitionOptions::new(patch_size)
     };

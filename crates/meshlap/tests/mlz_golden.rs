@@ -63,18 +63,19 @@ fn golden_files_decode_bit_for_bit() {
         );
     }
     let mut with_rejoin = 0;
-    let mut per_version = [0usize; 7];
+    let mut per_version = [0usize; 8];
     for (file, n, nf, hash) in &files {
         let bytes = std::fs::read(dir().join(file)).unwrap();
         // Version 4 files never have a re-join section; the non-manifold ones (v5,
-        // v6) do. Version 6 files are named `v6-…`.
+        // v6, v7) do. Version 6 and 7 files are named `v6-…` and `v7-…`.
         let version = u16::from_le_bytes([bytes[4], bytes[5]]);
+        let prefix = format!("v{version}-");
         assert_eq!(
-            version == 6,
-            file.starts_with("v6-"),
+            version >= 6,
+            file.starts_with(&prefix),
             "{file} (version {version})"
         );
-        per_version[usize::from(version.min(6))] += 1;
+        per_version[usize::from(version.min(7))] += 1;
         let secs = meshlap::codec::container::read(&bytes).unwrap();
         let rejoin = meshlap::codec::container::section(
             &secs,
@@ -82,7 +83,7 @@ fn golden_files_decode_bit_for_bit() {
         );
         let non_manifold = ["nm-", "suzanne-", "beetle-"]
             .iter()
-            .any(|p| file.trim_start_matches("v6-").starts_with(p));
+            .any(|p| file.get(3..).is_some_and(|f| f.starts_with(p)) || file.starts_with(p));
         assert_eq!(
             rejoin.is_some(),
             version >= 5 && non_manifold,
@@ -97,9 +98,12 @@ fn golden_files_decode_bit_for_bit() {
         with_rejoin >= 3,
         "golden files of non-manifold meshes (version 5)"
     );
-    // Every version still read has golden files (version 6: spectral files whose
-    // decoded bits are the same on every CPU).
-    assert!(per_version[4] >= 9 && per_version[5] >= 4 && per_version[6] >= 3);
+    // Every version still read has golden files (versions 6 and 7: spectral files
+    // whose decoded bits are the same on every CPU; version 7 partitions by Lloyd
+    // cells and predicts through the kept Cholesky factor).
+    assert!(
+        per_version[4] >= 9 && per_version[5] >= 4 && per_version[6] >= 3 && per_version[7] >= 4
+    );
 }
 
 #[test]
@@ -110,7 +114,7 @@ fn a_changed_golden_file_is_noticed() {
     use meshlap::codec::container::{read, section, write, SectionKind};
     let (file, .., hash) = manifest()
         .into_iter()
-        .find(|(f, ..)| f == "torus-spectral-sql-po.mlz")
+        .find(|(f, ..)| f == "v7-torus-spectral-sql-po.mlz")
         .unwrap();
     let bytes = std::fs::read(dir().join(&file)).unwrap();
     let secs = read(&bytes).unwrap();

@@ -6,6 +6,7 @@ use super::header::Header;
 use super::patches::{
     bases_of, border_and_loose, chunks, layout, predictor_owners, stream, Arithmetic, CHUNK_BYTES,
 };
+use super::prediction::PredictorForm;
 use super::residuals::Residuals;
 use crate::codec::container::ByteReader;
 use crate::codec::entropy::RangeDecoder;
@@ -33,7 +34,7 @@ pub(super) fn decode_chunked(
     let mut r = ByteReader::new(data, "geometry header");
     let Header { params, step } = Header::read(&mut r)?;
     let arith = Arithmetic::for_version(version);
-    let layout = layout(topo, &params)?;
+    let layout = layout(topo, &params, version)?;
     let mut dec = RangeDecoder::new(r.rest());
     let mut models = Models::new();
     let n = topo.n_vertices();
@@ -75,6 +76,7 @@ pub(super) fn decode_chunked(
             topo,
             &params,
             arith,
+            PredictorForm::for_version(version),
             &layout,
             owner.as_deref(),
             r.clone(),

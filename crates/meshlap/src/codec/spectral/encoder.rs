@@ -8,6 +8,7 @@ use super::patches::{
     bases_of, border_and_loose, chunks, layout, predictor_owners, stream, Arithmetic, PatchBasis,
     PatchLayout, CHUNK_BYTES,
 };
+use super::prediction::PredictorForm;
 use super::residuals::Residuals;
 use crate::codec::entropy::RangeEncoder;
 use crate::codec::quantize::{dead_zone, nearest};
@@ -39,8 +40,8 @@ pub struct SpectralStats {
     pub bytes: usize,
 }
 
-/// The arithmetic of the current format (version 6): fixed-order products, the same
-/// on every CPU.
+/// The arithmetic of the current format (version 6 on): fixed-order products, the
+/// same on every CPU.
 const ARITH: Arithmetic = Arithmetic::Fixed;
 
 /// A patch's coordinates (n_p×3, the basis' row order) from the positions (n×3).
@@ -59,7 +60,16 @@ fn bases_and_coefficients(
     positions: &[[f64; 3]],
     range: std::ops::Range<usize>,
 ) -> Result<(Vec<PatchBasis>, Vec<Mat<f64>>), CodecError> {
-    let b = bases_of(topo, params, ARITH, layout, owner, range, |_| usize::MAX)?;
+    let b = bases_of(
+        topo,
+        params,
+        ARITH,
+        PredictorForm::for_version(crate::codec::container::VERSION),
+        layout,
+        owner,
+        range,
+        |_| usize::MAX,
+    )?;
     let c = b
         .par_iter()
         .map(|b| b.analyze(&patch_coordinates(b, positions)))
@@ -152,7 +162,7 @@ impl<'a> SpectralEncoder<'a> {
         chunk: usize,
     ) -> Result<Self, CodecError> {
         params.validate()?;
-        let layout = layout(topo, &params)?;
+        let layout = layout(topo, &params, crate::codec::container::VERSION)?;
         let owner = predictor_owners(topo.n_vertices(), &params, &layout);
         let total: usize = layout.iter().map(|l| l.verts.len().pow(2) * 8).sum();
         let bases = if total <= budget {

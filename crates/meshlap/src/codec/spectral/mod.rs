@@ -34,9 +34,12 @@
 //! decoded connectivity in the decoded vertex order, so encoder and decoder agree
 //! exactly; tests check this on `builtin:icosphere:3` and `builtin:cube:8`.
 //!
-//! **Partition and patch size.** Patches come from METIS ([`crate::partition`]),
-//! numbered by their smallest vertex, which is also the coding (and prediction)
-//! order. Basis cost grows as `n·P²` (a dense eigendecomposition per patch); with
+//! **Partition and patch size.** Patches come from [`crate::partition`], numbered
+//! by their smallest vertex, which is also the coding (and prediction) order. Format
+//! version 7 partitions by [`PartitionMethod::Lloyd`](crate::partition::PartitionMethod)
+//! (Lloyd-relaxed graph Voronoi cells: integer arithmetic from the connectivity, an
+//! edge cut close to METIS's in a fraction of its time; BENCHMARKS.md); versions 4–6 used METIS k-way with a fixed seed, and are still decoded
+//! with it. Basis cost grows as `n·P²` (a dense eigendecomposition per patch); with
 //! inter-patch prediction the rate hardly depends on `P`, so the default, 100, is
 //! chosen for speed (larger patches lower the error by a few per cent at several
 //! times the basis cost; BENCHMARKS.md). Patches are at most [`MAX_PATCH`] vertices
@@ -60,7 +63,10 @@
 //!
 //! **Arithmetic of the products** (`patches::Arithmetic`). Since format version 6 the
 //! coefficient products (`X = E⁻¹x`, `x̃ = E_m X̃`) and the predictor's Cholesky are
-//! plain loops in index order (no fused operations), so a file encodes to the same
+//! plain loops in index order (no fused operations); since version 7 the predictor
+//! keeps its Cholesky factor and solves three right-hand sides per patch,
+//! `x̂ = −M⁻¹(L_Uᵀ(L_S y))`, instead of forming `G` with one solve per known
+//! neighbour (`prediction::PredictorForm`; the same prediction up to rounding), so a file encodes to the same
 //! bytes and decodes to the same coordinates on every CPU, whatever its SIMD width
 //! and whatever `MESHLAP_PORTABLE` says (tested in `meshlap-cli`'s
 //! `tests/portable.rs`, and under an emulated CPU without AVX2/FMA, RELIABILITY.md).

@@ -7,7 +7,7 @@
 //! and bases.
 
 use super::params::{Keep, SpectralParams};
-use super::prediction::{patch_prediction, Prediction};
+use super::prediction::{patch_prediction, Prediction, PredictorForm};
 use crate::codec::CodecError;
 use crate::mesh::topology::Topology;
 use crate::mesh::TriMesh;
@@ -92,15 +92,31 @@ fn inverse_fixed(b: &EigenBasis, c: &Mat<f64>) -> Mat<f64> {
     Mat::from_fn(n, 3, |i, k| acc[i][k])
 }
 
-/// Patches of about `p` vertices from the multilevel partitioner
-/// ([`crate::partition`]: METIS k-way with a fixed seed, connected patches,
-/// every vertex on a face of its own patch). Deterministic for a given connectivity, so
-/// the decoder, which has the same connectivity in the same order, gets the same
-/// patches. Each vertex belongs to exactly one patch.
-fn partition(topo: &Topology, p: usize) -> Result<Vec<Vec<u32>>, CodecError> {
-    use crate::partition::{partition as metis_patches, PartitionOptions};
-    let part =
-        metis_patches(topo, &PartitionOptions::new(p.max(3))).map_err(CodecError::Partition)?;
+/// The partitioner files of format `version` were written with: METIS k-way with a
+/// fixed seed up to version 6, the Lloyd relaxation of graph Voronoi cells from
+/// version 7 (integer arithmetic from the connectivity alone, several times faster;
+/// [`crate::partition::PartitionMethod`]).
+pub(super) fn partition_method(version: u16) -> crate::partition::PartitionMethod {
+    use crate::partition::PartitionMethod;
+    if version >= 7 {
+        PartitionMethod::Lloyd
+    } else {
+        PartitionMethod::Metis
+    }
+}
+
+/// Patches of about `p` vertices ([`crate::partition`] with the method of format
+/// `version`, [`partition_method`]: connected patches, every vertex on a face of its
+/// own patch). Deterministic for a given connectivity, so the decoder, which has the
+/// same connectivity in the same order, gets the same patches. Each vertex belongs to
+/// exactly one patch.
+fn partition(topo: &Topology, p: usize, version: u16) -> Result<Vec<Vec<u32>>, CodecError> {
+    use crate::partition::{partition as make_patches, PartitionOptions};
+    let opts = PartitionOptions {
+        method: partition_method(version),
+        ..PartitionOptions::new(p.max(3))
+    };
+    let part = make_patches(topo, &opts).map_err(CodecError::Partition)?;
     Ok((0..part.n_patches())
         .map(|i| part.patch_vertices(i).to_vec())
         .collect())
@@ -261,13 +277,14 @@ fn patch_basis(
     })
 }
 
-/// The partition into patches and each patch's layout, in coding order (in
-/// parallel). Depends on the connectivity only.
+/// The partition into patches (by the method of format `version`) and each patch's
+/// layout, in coding order (in parallel). Depends on the connectivity only.
 pub(super) fn layout(
     topo: &Topology,
     params: &SpectralParams,
+    version: u16,
 ) -> Result<Vec<PatchLayout>, CodecError> {
-    let patches = partition(topo, params.patch_size)?;
+    let patches = partition(topo, params.patch_size, version)?;
     let n = topo.n_vertices();
     let mut patch_of = vec![0u32; n];
     for (p, patch) in patches.iter().enumerate() {
@@ -305,16 +322,18 @@ pub(super) fn predictor_owners(
 
 /// The bases of the patches `range` of `layout` ([`layout`]), in coding order (in
 /// parallel; each decomposition is sequential), with their predictors when `owner`
-/// is given ([`predictor_owners`]); `arith` says how their products are computed
-/// (the format version's). Patch `p` gets at least its first `need(p)` vectors (all
+/// is given ([`predictor_owners`]); `arith` and `form` say how their products and
+/// predictions are computed (the format version's). Patch `p` gets at least its first `need(p)` vectors (all
 /// for `usize::MAX`; none for 0, its synthesis then being zero): the decoder, which
 /// knows the coefficients before the bases, needs the vectors up to a patch's last
 /// non-zero coefficient only. Bases and predictors are computed together (they are
 /// independent: the predictors need the vertex sets only).
+#[allow(clippy::too_many_arguments)] // the format's two recipes, the patch range, `need`
 pub(super) fn bases_of(
     topo: &Topology,
     params: &SpectralParams,
     arith: Arithmetic,
+    form: PredictorForm,
     layout: &[PatchLayout],
     owner: Option<&[u32]>,
     range: std::ops::Range<usize>,
@@ -326,7 +345,7 @@ pub(super) fn bases_of(
         .map(|(l, p)| {
             let pred = match owner {
                 Some(owner) if !l.verts.is_empty() => {
-                    patch_prediction(topo, owner, &l.verts, p as u32, arith)
+                    patch_prediction(topo, owner, &l.verts, p as u32, arith, form)
                 }
                 _ => None,
             };

@@ -15,27 +15,102 @@ use super::patches::Arithmetic;
 use crate::mesh::topology::Topology;
 use faer::Mat;
 
-/// Prediction of a patch's coordinates from decoded vertices of earlier patches:
-/// `x̂ = G·y`, `y` the positions of `src` (n_src×3), `G` n_p×n_src.
+/// How a format version computes the prediction `x̂ = G y` ([`patch_prediction`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum PredictorForm {
+    /// Versions 4–6: `G = −M⁻¹ L_UᵀL_S` formed (n_p × |S|, one Cholesky solve per
+    /// column of `L_UᵀL_S`), then `x̂ = G y`.
+    Matrix,
+    /// Version 7 on: `x̂ = −M⁻¹ (L_Uᵀ (L_S y))`, three right-hand sides per patch
+    /// instead of |S|, from the kept Cholesky factor of `M` (fixed-order arithmetic).
+    /// The same prediction up to rounding, at a fraction of the cost.
+    Factored,
+}
+
+impl PredictorForm {
+    /// The form files of format `version` were written with.
+    pub fn for_version(version: u16) -> Self {
+        if version >= 7 {
+            PredictorForm::Factored
+        } else {
+            PredictorForm::Matrix
+        }
+    }
+}
+
+/// Prediction of a patch's coordinates from decoded vertices of earlier patches,
+/// `x̂ = G·y` with `y` the positions of `src` (n_src×3).
 pub(super) struct Prediction {
     src: Vec<u32>,
-    g: Mat<f64>,
+    how: How,
+}
+
+enum How {
+    /// `G` (n_p×n_src), formed.
+    Matrix(Mat<f64>),
+    /// `G = −M⁻¹ L_UᵀL_S` kept factored: `L` of `M = LLᵀ` (row-major, n_p×n_p) and
+    /// the sparse rows of `L_U` and `L_S` (row `r` in `lu[lu_at[r]..lu_at[r + 1]]`).
+    Factored {
+        l: Vec<f64>,
+        lu: Vec<(usize, f64)>,
+        lu_at: Vec<usize>,
+        ls: Vec<(usize, f64)>,
+        ls_at: Vec<usize>,
+    },
 }
 
 impl Prediction {
     /// `x̂ = G·y` (n_p×3) from the decoded positions `rec` (fixed summation order).
     pub fn predict(&self, rec: &[[f64; 3]]) -> Mat<f64> {
-        let mut out = Mat::<f64>::zeros(self.g.nrows(), 3);
-        for (t, &v) in self.src.iter().enumerate() {
-            let y = rec[v as usize];
-            for j in 0..self.g.nrows() {
-                let w = self.g[(j, t)];
-                for k in 0..3 {
-                    out[(j, k)] += w * y[k];
+        match &self.how {
+            How::Matrix(g) => {
+                let mut out = Mat::<f64>::zeros(g.nrows(), 3);
+                for (t, &v) in self.src.iter().enumerate() {
+                    let y = rec[v as usize];
+                    for j in 0..g.nrows() {
+                        let w = g[(j, t)];
+                        for k in 0..3 {
+                            out[(j, k)] += w * y[k];
+                        }
+                    }
                 }
+                out
+            }
+            How::Factored {
+                l,
+                lu,
+                lu_at,
+                ls,
+                ls_at,
+            } => {
+                let np = (l.len() as f64).sqrt() as usize;
+                // b = −L_Uᵀ (L_S y): each row's L_S y summed in entry order, then
+                // scattered into b row by row, entry by entry.
+                let mut b = [vec![0.0f64; np], vec![0.0f64; np], vec![0.0f64; np]];
+                for r in 0..lu_at.len() - 1 {
+                    let mut t = [0.0f64; 3];
+                    for &(c, w) in &ls[ls_at[r]..ls_at[r + 1]] {
+                        let y = rec[self.src[c] as usize];
+                        for k in 0..3 {
+                            t[k] += w * y[k];
+                        }
+                    }
+                    for &(a, w) in &lu[lu_at[r]..lu_at[r + 1]] {
+                        for k in 0..3 {
+                            b[k][a] -= w * t[k];
+                        }
+                    }
+                }
+                let mut out = Mat::<f64>::zeros(np, 3);
+                for (k, bk) in b.iter_mut().enumerate() {
+                    solve_in_place(l, np, bk);
+                    for (i, &x) in bk.iter().enumerate() {
+                        out[(i, k)] = x;
+                    }
+                }
+                out
             }
         }
-        out
     }
 }
 
@@ -58,6 +133,7 @@ pub(super) fn patch_prediction(
     verts: &[u32],
     p: u32,
     arith: Arithmetic,
+    form: PredictorForm,
 ) -> Option<Prediction> {
     let np = verts.len();
     let known = |w: u32| owner[w as usize] < p;
@@ -115,21 +191,38 @@ pub(super) fn patch_prediction(
     }
     // M = L_UᵀL_U + ridge, G = −L_UᵀL_S.
     let mut m = Mat::<f64>::zeros(np, np);
-    let mut g = Mat::<f64>::zeros(np, src.len());
+    let factored = form == PredictorForm::Factored;
+    let mut g = Mat::<f64>::zeros(np, if factored { 0 } else { src.len() });
     for r in 0..rows {
         let (ru, rs) = (&lu[lu_at[r]..lu_at[r + 1]], &ls[ls_at[r]..ls_at[r + 1]]);
         for &(a, wa) in ru {
             for &(c, wc) in ru {
                 m[(a, c)] += wa * wc;
             }
-            for &(t, wt) in rs {
-                g[(a, t)] -= wa * wt;
+            if !factored {
+                for &(t, wt) in rs {
+                    g[(a, t)] -= wa * wt;
+                }
             }
         }
     }
     let tr = (0..np).map(|i| m[(i, i)]).sum::<f64>() / np as f64;
     for i in 0..np {
         m[(i, i)] += 1e-10 * tr;
+    }
+    if factored {
+        // Fixed-order arithmetic only (format 7 on).
+        let l = cholesky_fixed(&m)?;
+        return Some(Prediction {
+            src,
+            how: How::Factored {
+                l,
+                lu,
+                lu_at,
+                ls,
+                ls_at,
+            },
+        });
     }
     match arith {
         Arithmetic::Faer => cholesky_solve_faer(&mut m, &mut g)?,
@@ -138,7 +231,10 @@ pub(super) fn patch_prediction(
     if (0..g.ncols()).any(|c| g.col(c).iter().any(|x| !x.is_finite())) {
         return None;
     }
-    Some(Prediction { src, g })
+    Some(Prediction {
+        src,
+        how: How::Matrix(g),
+    })
 }
 
 /// `G ← M⁻¹G` by faer's dense Cholesky (format versions 4 and 5); `None` when `M` is
@@ -238,9 +334,10 @@ fn dot4_x4(a: [&[f64]; 4], b: [&[f64]; 4]) -> [f64; 4] {
     s.map(|s| (s[0] + s[1]) + (s[2] + s[3]))
 }
 
-/// [`cholesky_solve_fixed`]'s arithmetic, inlined into the build `dispatch` picks.
+/// The factorization of [`cholesky_solve_fixed`] (and [`cholesky_fixed`]), inlined
+/// into the build `dispatch` picks.
 #[inline(always)]
-fn cholesky_solve_kernel(m: &Mat<f64>, g: &mut Mat<f64>) -> Option<()> {
+fn cholesky_factor_kernel(m: &Mat<f64>) -> Option<Vec<f64>> {
     let n = m.nrows();
     // L row-major: row i is l[i·n .. i·n + i + 1], so the dot products of the
     // factorization and of the forward solve run over contiguous rows.
@@ -273,6 +370,14 @@ fn cholesky_solve_kernel(m: &Mat<f64>, g: &mut Mat<f64>) -> Option<()> {
             li[j] = (m[(j + 1 + r, j)] - dot4(&li[..j], lj)) / djj;
         }
     }
+    Some(l)
+}
+
+/// [`cholesky_solve_fixed`]'s arithmetic, inlined into the build `dispatch` picks.
+#[inline(always)]
+fn cholesky_solve_kernel(m: &Mat<f64>, g: &mut Mat<f64>) -> Option<()> {
+    let n = m.nrows();
+    let l = cholesky_factor_kernel(m)?;
     let nc = g.ncols();
     let c4 = nc / 4 * 4;
     // Four columns at a time: y[t] is column c + t.
@@ -313,6 +418,37 @@ fn cholesky_solve_kernel(m: &Mat<f64>, g: &mut Mat<f64>) -> Option<()> {
         solve_column(&l, n, g, c, y);
     }
     Some(())
+}
+
+/// `L` of `M = LLᵀ` (row-major, n×n, row i is `l[i·n .. i·n + i + 1]`) in the
+/// fixed-order arithmetic of [`cholesky_solve_fixed`] (the same factorization, bit
+/// for bit); `None` when a pivot is not positive and finite.
+pub(super) fn cholesky_fixed(m: &Mat<f64>) -> Option<Vec<f64>> {
+    struct Factor<'a>(&'a Mat<f64>);
+    impl crate::cpu::Kernel for Factor<'_> {
+        type Output = Option<Vec<f64>>;
+        #[inline(always)]
+        fn portable(self) -> Self::Output {
+            cholesky_factor_kernel(self.0)
+        }
+    }
+    crate::cpu::dispatch(Factor(m))
+}
+
+/// `b ← (L Lᵀ)⁻¹ b` for the row-major factor `l` (n×n) of [`cholesky_fixed`], in the
+/// fixed order of [`solve_column`].
+fn solve_in_place(l: &[f64], n: usize, b: &mut [f64]) {
+    for i in 0..n {
+        b[i] = (b[i] - dot4(&l[i * n..i * n + i], &b[..i])) / l[i * n + i];
+    }
+    for i in (0..n).rev() {
+        let xi = b[i] / l[i * n + i];
+        b[i] = xi;
+        let (head, _) = b.split_at_mut(i);
+        for (yk, &lik) in head.iter_mut().zip(&l[i * n..i * n + i]) {
+            *yk -= lik * xi;
+        }
+    }
 }
 
 /// Column `c` of `g` (n rows) replaced by `(L Lᵀ)⁻¹ g_c`, one row at a time: `l` is

@@ -234,6 +234,38 @@ fn interleaved_cholesky_gives_the_reference_bits() {
     }
 }
 
+/// Format 7's factored predictor, `x̂ = −M⁻¹(L_Uᵀ(L_S y))`, predicts what the formed
+/// `G` of formats 4–6 does (up to rounding), for every predicted patch of a torus.
+#[test]
+fn factored_prediction_matches_the_formed_matrix() {
+    use super::patches::{layout, predictor_owners, Arithmetic};
+    use super::prediction::{patch_prediction, PredictorForm};
+    let mesh = crate::mesh::builtin::torus(24, 16).unwrap();
+    let topo = crate::mesh::topology::Topology::new(&mesh).unwrap();
+    let params = SpectralParams {
+        patch_size: 40,
+        ..Default::default()
+    };
+    let lay = layout(&topo, &params, crate::codec::container::VERSION).unwrap();
+    let owner = predictor_owners(topo.n_vertices(), &params, &lay).unwrap();
+    let mut compared = 0;
+    for (p, l) in lay.iter().enumerate() {
+        let make =
+            |form| patch_prediction(&topo, &owner, &l.verts, p as u32, Arithmetic::Fixed, form);
+        match (make(PredictorForm::Matrix), make(PredictorForm::Factored)) {
+            (Some(a), Some(b)) => {
+                let (xa, xb) = (a.predict(&mesh.positions), b.predict(&mesh.positions));
+                let scale = xa.norm_max().max(1.0);
+                assert!((&xa - &xb).norm_max() <= 1e-9 * scale, "patch {p}");
+                compared += 1;
+            }
+            (None, None) => {}
+            _ => panic!("patch {p}: one form predicts, the other does not"),
+        }
+    }
+    assert!(compared >= lay.len() / 2, "{compared} of {}", lay.len());
+}
+
 #[test]
 fn fixed_order_cholesky_matches_faer() {
     use super::prediction::cholesky_solve_fixed;
@@ -324,7 +356,7 @@ fn chunks_cover_every_patch_in_order_within_the_budget() {
         patch_size: 50,
         ..Default::default()
     };
-    let layout = super::patches::layout(&topo, &params).unwrap();
+    let layout = super::patches::layout(&topo, &params, crate::codec::container::VERSION).unwrap();
     let bytes = |r: &std::ops::Range<usize>| -> usize {
         layout[r.clone()]
             .iter()

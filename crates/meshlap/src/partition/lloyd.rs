@@ -1,0 +1,353 @@
+//! Parts by Lloyd relaxation of graph Voronoi cells: the first step of
+//! [`PartitionMethod::Lloyd`](super::PartitionMethod::Lloyd).
+//!
+//! k-means on the vertex graph with hop distances (Lloyd's algorithm with the
+//! Chebyshev centre in place of the centroid, which a graph does not have):
+//! 1. **Seeds.** Each connected component of `c` vertices gets
+//!    `max(1, round(c·k/n))` seeds, spread evenly over its vertices in index order
+//!    (the `i`-th of `s` seeds is its vertex number `⌊(2i + 1)·c / 2s⌋`).
+//! 2. **Cells.** A multi-source breadth-first search from the seeds, level by level:
+//!    every vertex first reached at level `d + 1` joins the cell that most of its
+//!    neighbours at level `d` belong to (ties: the lowest cell index). The decision
+//!    reads only earlier levels, so it does not depend on the order in which a level
+//!    is visited. A cell of [`CAP_PERCENT`] % of the mean size `n / seeds` takes no
+//!    more vertices while a neighbouring cell can: a vertex whose earlier neighbours
+//!    are all in full cells waits for the next level, and when a level assigns
+//!    nothing the cap is lifted for the rest. Each cell is connected (every vertex
+//!    joins through a neighbour of its own cell).
+//! 3. **Centres.** Every cell's new seed is its vertex farthest from the cell's
+//!    border (hops, counted inside the cell from the vertices with a neighbour in
+//!    another cell; ties: the lowest vertex index). A cell without a border (a whole
+//!    component) keeps its seed.
+//! 4. Steps 2 and 3 repeat `iterations` times; the cells of the last seeds are the
+//!    parts.
+//!
+//! Integer arithmetic only, and no random numbers: the parts depend on the
+//! connectivity and its vertex numbering alone, the same on every CPU and thread
+//! count, which is what lets a decoder recompute them ([`crate::codec`], format 7).
+//! Written by hand because no crate offers a deterministic graph k-means; METIS
+//! (the other method) keeps its random generator in process-global state and runs
+//! on one thread. Cost: `O(iterations · (n + edges))`; each level's decisions run in
+//! parallel (they read earlier levels only, so the result does not depend on the
+//! thread count).
+
+use rayon::prelude::*;
+
+/// A cell stops growing at this percentage of the mean cell size `n / seeds` while
+/// a neighbouring cell can take the vertex.
+const CAP_PERCENT: usize = 125;
+
+/// A vertex not yet reached by the search.
+const NONE: u32 = u32::MAX;
+/// A vertex reached at the level being decided.
+const PENDING: u32 = u32::MAX - 1;
+
+/// Parts of the graph with adjacency `adj[off[v]..off[v + 1]]` (symmetric, no self
+/// loops) from about `k` seeds after `iterations` Lloyd steps; returns each vertex's
+/// part (`0..parts`; every part non-empty and connected) and the number of parts.
+pub(super) fn lloyd_parts(
+    off: &[u32],
+    adj: &[u32],
+    k: usize,
+    iterations: usize,
+) -> (Vec<u32>, usize) {
+    let n = off.len().saturating_sub(1);
+    if n == 0 {
+        return (Vec::new(), 0);
+    }
+    let nbrs = Graph { off, adj };
+    let mut seeds = initial_seeds(n, &nbrs, k.max(1));
+    let mut scratch = Scratch::new(n);
+    let mut lab = vec![NONE; n];
+    let cap = (n * CAP_PERCENT).div_ceil(100 * seeds.len());
+    grow(&nbrs, &seeds, &mut lab, &mut scratch, cap);
+    for _ in 0..iterations {
+        centres(&nbrs, &lab, &mut seeds, &mut scratch);
+        grow(&nbrs, &seeds, &mut lab, &mut scratch, cap);
+    }
+    (lab, seeds.len())
+}
+
+/// The adjacency: the neighbours of `v` are `adj[off[v]..off[v + 1]]`.
+struct Graph<'a> {
+    off: &'a [u32],
+    adj: &'a [u32],
+}
+
+impl Graph<'_> {
+    fn of(&self, v: u32) -> &[u32] {
+        &self.adj[self.off[v as usize] as usize..self.off[v as usize + 1] as usize]
+    }
+}
+
+/// Work arrays kept from pass to pass.
+struct Scratch {
+    front: Vec<u32>,
+    next: Vec<u32>,
+    pick: Vec<u32>,
+    dist: Vec<u32>,
+}
+
+impl Scratch {
+    fn new(n: usize) -> Self {
+        Self {
+            front: Vec::new(),
+            next: Vec::new(),
+            pick: Vec::new(),
+            dist: vec![0; n],
+        }
+    }
+}
+
+/// Step 1: seeds spread over each component's vertices in index order, ascending.
+fn initial_seeds(n: usize, nbrs: &Graph<'_>, k: usize) -> Vec<u32> {
+    let mut comp = vec![NONE; n];
+    let mut members: Vec<Vec<u32>> = Vec::new();
+    let mut stack = Vec::new();
+    for s in 0..n as u32 {
+        if comp[s as usize] != NONE {
+            continue;
+        }
+        let c = members.len() as u32;
+        comp[s as usize] = c;
+        stack.push(s);
+        while let Some(v) = stack.pop() {
+            for &w in nbrs.of(v) {
+                if comp[w as usize] == NONE {
+                    comp[w as usize] = c;
+                    stack.push(w);
+                }
+            }
+        }
+        members.push(Vec::new());
+    }
+    for v in 0..n as u32 {
+        members[comp[v as usize] as usize].push(v);
+    }
+    let mut seeds = Vec::with_capacity(k + members.len());
+    for m in &members {
+        let c = m.len();
+        let s = ((c * k + n / 2) / n).clamp(1, c);
+        seeds.extend((0..s).map(|i| m[(2 * i + 1) * c / (2 * s)]));
+    }
+    seeds.sort_unstable();
+    seeds
+}
+
+/// Step 2: the cells of `seeds` (cell `i` grows from `seeds[i]`) into `lab`; a cell
+/// of `cap` vertices takes no more while another can.
+fn grow(nbrs: &Graph<'_>, seeds: &[u32], lab: &mut [u32], s: &mut Scratch, cap: usize) {
+    lab.fill(NONE);
+    s.front.clear();
+    let mut size = vec![0usize; seeds.len()];
+    for (i, &v) in seeds.iter().enumerate() {
+        lab[v as usize] = i as u32;
+        size[i] = 1;
+        s.front.push(v);
+    }
+    let mut deferred: Vec<u32> = Vec::new();
+    let mut relax = false;
+    loop {
+        s.next.clear();
+        for &v in &s.front {
+            for &w in nbrs.of(v) {
+                if lab[w as usize] == NONE {
+                    lab[w as usize] = PENDING;
+                    s.next.push(w);
+                }
+            }
+        }
+        // Deferred vertices (every assigned neighbour's cell was full) try again.
+        s.next.append(&mut deferred);
+        if s.next.is_empty() {
+            break;
+        }
+        // Each decision reads the labels of earlier levels only: in parallel.
+        let decide = |w: &u32| {
+            majority(
+                nbrs.of(*w)
+                    .iter()
+                    .map(|&u| lab[u as usize])
+                    .filter(|&l| l < PENDING && (relax || size[l as usize] < cap)),
+            )
+        };
+        s.pick.clear();
+        if s.next.len() >= PAR_LEVEL {
+            s.next.par_iter().map(decide).collect_into_vec(&mut s.pick);
+        } else {
+            s.pick.extend(s.next.iter().map(decide));
+        }
+        let mut progressed = false;
+        s.front.clear();
+        for (&w, &l) in s.next.iter().zip(&s.pick) {
+            if l == NONE {
+                deferred.push(w);
+            } else {
+                lab[w as usize] = l;
+                size[l as usize] += 1;
+                s.front.push(w);
+                progressed = true;
+            }
+        }
+        if !progressed {
+            relax = true;
+        }
+    }
+}
+
+/// Levels of at least this many vertices are decided in parallel.
+const PAR_LEVEL: usize = 4096;
+
+/// The most frequent label (ties: the lowest), `NONE` for none.
+fn majority(labels: impl Iterator<Item = u32>) -> u32 {
+    let mut buf = [0u32; 32];
+    let mut len = 0usize;
+    let mut spill: Vec<u32> = Vec::new();
+    for l in labels {
+        if len < buf.len() {
+            buf[len] = l;
+        } else {
+            spill.push(l);
+        }
+        len += 1;
+    }
+    let all: &mut [u32] = if spill.is_empty() {
+        &mut buf[..len]
+    } else {
+        spill.extend_from_slice(&buf);
+        &mut spill[..]
+    };
+    let Some(&first) = all.first() else {
+        return NONE;
+    };
+    // Most vertices see one cell only.
+    if all.iter().all(|&l| l == first) {
+        return first;
+    }
+    all.sort_unstable();
+    let (mut best, mut best_count, mut run) = (NONE, 0usize, 0usize);
+    for i in 0..all.len() {
+        run = if i > 0 && all[i - 1] == all[i] {
+            run + 1
+        } else {
+            1
+        };
+        if run > best_count {
+            (best, best_count) = (all[i], run);
+        }
+    }
+    best
+}
+
+/// Step 3: every cell's vertex farthest from its border becomes its seed.
+fn centres(nbrs: &Graph<'_>, lab: &[u32], seeds: &mut [u32], s: &mut Scratch) {
+    let n = lab.len();
+    let dist = &mut s.dist;
+    dist.fill(NONE);
+    s.front.clear();
+    for v in 0..n as u32 {
+        let l = lab[v as usize];
+        if nbrs.of(v).iter().any(|&w| lab[w as usize] != l) {
+            dist[v as usize] = 0;
+            s.front.push(v);
+        }
+    }
+    let mut d = 0;
+    while !s.front.is_empty() {
+        s.next.clear();
+        for &v in &s.front {
+            let l = lab[v as usize];
+            for &w in nbrs.of(v) {
+                if dist[w as usize] == NONE && lab[w as usize] == l {
+                    dist[w as usize] = d + 1;
+                    s.next.push(w);
+                }
+            }
+        }
+        std::mem::swap(&mut s.front, &mut s.next);
+        d += 1;
+    }
+    // Deepest vertex per cell, ties to the lowest index (vertices in ascending order,
+    // so only a strictly deeper one replaces the best).
+    let mut best: Vec<u32> = vec![NONE; seeds.len()];
+    for v in 0..n {
+        let (l, dv) = (lab[v] as usize, dist[v]);
+        if dv != NONE && (best[l] == NONE || dv > dist[best[l] as usize]) {
+            best[l] = v as u32;
+        }
+    }
+    for (seed, b) in seeds.iter_mut().zip(best) {
+        if b != NONE {
+            *seed = b;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::topology::Topology;
+
+    fn parts_of(topo: &Topology, k: usize, it: usize) -> (Vec<u32>, usize) {
+        lloyd_parts(topo.adjacency_offsets(), topo.adjacency(), k, it)
+    }
+
+    /// Every part is non-empty and connected, on a closed mesh and one with two
+    /// components; the seeds split over the components by size.
+    #[test]
+    fn parts_are_connected_and_cover_every_component() {
+        let ico = crate::mesh::builtin::icosphere(3).unwrap();
+        let t = Topology::new(&ico).unwrap();
+        for (k, it) in [(1, 0), (7, 0), (20, 3), (64, 5)] {
+            let (lab, parts) = parts_of(&t, k, it);
+            assert_eq!(parts, k);
+            check_connected(&t, &lab, parts);
+        }
+    }
+
+    /// Levels wide enough to be decided in parallel give the same parts on pools of
+    /// 1 and 3 threads.
+    #[test]
+    fn same_parts_on_any_thread_count() {
+        let ico = crate::mesh::builtin::icosphere(6).unwrap();
+        let t = Topology::new(&ico).unwrap();
+        let run = |threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| parts_of(&t, 1000, 2))
+        };
+        let (a, parts) = run(1);
+        assert_eq!(run(3).0, a);
+        check_connected(&t, &a, parts);
+    }
+
+    fn check_connected(t: &Topology, lab: &[u32], parts: usize) {
+        let n = lab.len();
+        let mut seen = vec![false; n];
+        let mut count = vec![0usize; parts];
+        for v in 0..n {
+            count[lab[v] as usize] += 1;
+        }
+        assert!(count.iter().all(|&c| c > 0), "empty part");
+        let mut comps = vec![0usize; parts];
+        for s in 0..n {
+            if seen[s] {
+                continue;
+            }
+            comps[lab[s] as usize] += 1;
+            let mut stack = vec![s as u32];
+            seen[s] = true;
+            while let Some(v) = stack.pop() {
+                for &w in t.neighbors(crate::mesh::VertexId(v)) {
+                    if !seen[w as usize] && lab[w as usize] == lab[v as usize] {
+                        seen[w as usize] = true;
+                        stack.push(w);
+                    }
+                }
+            }
+        }
+        assert!(comps.iter().all(|&c| c == 1), "a part is not connected");
+    }
+}
