@@ -12,11 +12,24 @@ use meshlap::experiment::eigen_cost::bfs_patch;
 use meshlap::input::{open, OpenOptions};
 use meshlap::mesh::{builtin, clean, topology::Topology};
 use meshlap::operator::{Operator, OperatorKind, OperatorOptions};
-use meshlap::partition::{partition, PartitionOptions};
+use meshlap::partition::{partition, PartitionMethod, PartitionOptions};
 use meshlap::spectral::{BasisOptions, DenseSolver, EigenBasis};
 
 fn main() {
     divan::main();
+}
+
+/// Patches of 100 on icosphere 7 (163,842 vertices, 1,639 parts), by each method
+/// (the repairs included).
+#[divan::bench(args = ["metis", "lloyd"], sample_count = 10)]
+fn partition_patches(bencher: divan::Bencher, method: &str) {
+    let m = builtin::icosphere(7).unwrap();
+    let t = Topology::new(&m).unwrap();
+    let opts = PartitionOptions {
+        method: method.parse::<PartitionMethod>().unwrap(),
+        ..PartitionOptions::new(100)
+    };
+    bencher.bench(|| partition(divan::black_box(&t), &opts).unwrap());
 }
 
 #[divan::bench(args = [5, 7, 8])]

@@ -41,6 +41,8 @@ const CAP_PERCENT: usize = 125;
 const NONE: u32 = u32::MAX;
 /// A vertex reached at the level being decided.
 const PENDING: u32 = u32::MAX - 1;
+/// A vertex whose earlier neighbours are in several cells.
+const CONTESTED: u32 = u32::MAX - 2;
 
 /// Parts of the graph with adjacency `adj[off[v]..off[v + 1]]` (symmetric, no self
 /// loops) from about `k` seeds after `iterations` Lloyd steps; returns each vertex's
@@ -85,6 +87,7 @@ struct Scratch {
     front: Vec<u32>,
     next: Vec<u32>,
     pick: Vec<u32>,
+    cand: Vec<u32>,
     dist: Vec<u32>,
 }
 
@@ -94,6 +97,7 @@ impl Scratch {
             front: Vec::new(),
             next: Vec::new(),
             pick: Vec::new(),
+            cand: vec![NONE; n],
             dist: vec![0; n],
         }
     }
@@ -147,29 +151,43 @@ fn grow(nbrs: &Graph<'_>, seeds: &[u32], lab: &mut [u32], s: &mut Scratch, cap: 
     }
     let mut deferred: Vec<u32> = Vec::new();
     let mut relax = false;
+    // The cell of every vertex of the level being decided, when its earlier
+    // neighbours name just one (full cells not counted unless relaxing); NONE when
+    // they name none, CONTESTED when several: those count their neighbours again.
+    let cand = &mut s.cand;
     loop {
         s.next.clear();
         for &v in &s.front {
+            let l = lab[v as usize];
+            let open = relax || size[l as usize] < cap;
             for &w in nbrs.of(v) {
-                if lab[w as usize] == NONE {
-                    lab[w as usize] = PENDING;
-                    s.next.push(w);
+                let w = w as usize;
+                if lab[w] == NONE {
+                    lab[w] = PENDING;
+                    s.next.push(w as u32);
+                    cand[w] = if open { l } else { NONE };
+                } else if lab[w] == PENDING && open && cand[w] != l {
+                    cand[w] = if cand[w] == NONE { l } else { CONTESTED };
                 }
             }
         }
         // Deferred vertices (every assigned neighbour's cell was full) try again.
+        for &w in &deferred {
+            cand[w as usize] = CONTESTED;
+        }
         s.next.append(&mut deferred);
         if s.next.is_empty() {
             break;
         }
         // Each decision reads the labels of earlier levels only: in parallel.
-        let decide = |w: &u32| {
-            majority(
+        let decide = |w: &u32| match cand[*w as usize] {
+            CONTESTED => majority(
                 nbrs.of(*w)
                     .iter()
                     .map(|&u| lab[u as usize])
                     .filter(|&l| l < PENDING && (relax || size[l as usize] < cap)),
-            )
+            ),
+            c => c,
         };
         s.pick.clear();
         if s.next.len() >= PAR_LEVEL {
@@ -243,15 +261,19 @@ fn majority(labels: impl Iterator<Item = u32>) -> u32 {
 fn centres(nbrs: &Graph<'_>, lab: &[u32], seeds: &mut [u32], s: &mut Scratch) {
     let n = lab.len();
     let dist = &mut s.dist;
-    dist.fill(NONE);
+    // Border vertices (a neighbour in another cell) at distance 0, in parallel; the
+    // distances do not depend on the order of the search's levels.
+    dist.par_iter_mut().enumerate().for_each(|(v, d)| {
+        let l = lab[v];
+        *d = if nbrs.of(v as u32).iter().any(|&w| lab[w as usize] != l) {
+            0
+        } else {
+            NONE
+        };
+    });
     s.front.clear();
-    for v in 0..n as u32 {
-        let l = lab[v as usize];
-        if nbrs.of(v).iter().any(|&w| lab[w as usize] != l) {
-            dist[v as usize] = 0;
-            s.front.push(v);
-        }
-    }
+    s.front
+        .extend((0..n as u32).filter(|&v| dist[v as usize] == 0));
     let mut d = 0;
     while !s.front.is_empty() {
         s.next.clear();
