@@ -47,10 +47,14 @@ def test_compress_decompress_round_trip(sphere):
     data, rep = meshlap.compress(V, F, bits=12, preserve_order=True, return_report=True)
     assert isinstance(data, bytes) and rep["bytes"] == len(data)
     V2, F2 = meshlap.decompress(data)
-    # Connectivity exactly (same vertex order), geometry within the quantization.
+    # Connectivity exactly (same vertex order), geometry within the quantization: the
+    # RMS within the step (below); the largest error within two steps, since the
+    # spectral coder (which auto keeps here since format 7) spreads a coefficient's
+    # rounding over its patch, so one vertex can exceed a step (1.17 steps here).
     assert sorted(map(tuple, np.sort(F2, axis=1))) == sorted(map(tuple, np.sort(F, axis=1)))
     diag = np.linalg.norm(V.max(0) - V.min(0))
-    assert np.abs(V2 - V).max() <= diag * 2.0**-12
+    assert rep["geometry_mode"] in ("spectral", "spatial")
+    assert np.abs(V2 - V).max() <= diag * 2.0**-11
     c = meshlap.compare(V, F, V2, F2, samples=2000)
     assert c["vertex_rms"] < 2.0**-12 and c["hausdorff"] < 2.0**-11
     # Spatial and spectral coders both round-trip; a lower rate is smaller.
