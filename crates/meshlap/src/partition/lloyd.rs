@@ -314,8 +314,8 @@ mod tests {
         lloyd_parts(topo.adjacency_offsets(), topo.adjacency(), k, it)
     }
 
-    /// Every part is non-empty and connected, on a closed mesh and one with two
-    /// components; the seeds split over the components by size.
+    /// Every part is non-empty and connected, one per seed, from a single seed up
+    /// to 64 (two components: `partition`'s tests).
     #[test]
     fn parts_are_connected_and_cover_every_component() {
         let ico = crate::mesh::builtin::icosphere(3).unwrap();

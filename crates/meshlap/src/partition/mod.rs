@@ -402,7 +402,9 @@ fn interior(part: &[u32], t: &[u32; 3]) -> bool {
 /// corner of a face interior to its patch. With `pair_moves` (the Lloyd method), a
 /// stuck state first moves two vertices instead of merging three patches: the
 /// dangling vertex of lowest index and the lower of the two other corners of its
-/// first face join the third corner's patch (at most `n` times, then merges).
+/// first face join the third corner's patch (at most once per patch, then merges:
+/// each sweep costs a pass over the faces, so the bound keeps the worst case where
+/// the merges alone put it).
 fn make_every_vertex_interior(
     part: &mut [u32],
     faces: &[[u32; 3]],
@@ -410,7 +412,8 @@ fn make_every_vertex_interior(
     pair_moves: bool,
 ) {
     let n = part.len();
-    let mut pair_budget = if pair_moves { n } else { 0 };
+    let patches = part.iter().map(|&p| p as usize + 1).max().unwrap_or(0);
+    let mut pair_budget = if pair_moves { patches } else { 0 };
     loop {
         let mut has_interior = vec![false; n];
         for t in faces {
