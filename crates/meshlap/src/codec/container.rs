@@ -2,7 +2,12 @@
 //!
 //! ```text
 //! magic      4 bytes  "MLZ\x1a"
-//! version    u16 LE   (6: as 5, but the spectral coder's coefficient products and
+//! version    u16 LE   (7: as 6, but the spectral coder's patches are Lloyd-relaxed
+//!                     graph Voronoi cells (`partition::PartitionMethod::Lloyd`)
+//!                     instead of METIS parts, and its predictor is solved through
+//!                     the kept Cholesky factor (three right-hand sides); 6, 5 and 4
+//!                     are decoded as they were written;
+//!                     6: as 5, but the spectral coder's coefficient products and
 //!                     inter-patch predictor use fixed-order arithmetic, so files
 //!                     encode and decode to the same bits on every CPU (with or
 //!                     without AVX2/FMA); 5 and 4 are decoded with faer's kernels,

@@ -33,7 +33,7 @@ pub(super) struct Coders<'a> {
 impl<'a> Coders<'a> {
     /// Sets up the coders of `modes` for the decoded connectivity `topo` and the
     /// positions in its vertex order. The spectral coder's set-up (partition, bases,
-    /// prediction) is long and starts with the sequential METIS call; the spatial
+    /// prediction) is long and starts with the partition; the spatial
     /// coder's plan — and, at a `fixed_step`, its whole encode — runs beside it on
     /// the other thread.
     pub fn new(

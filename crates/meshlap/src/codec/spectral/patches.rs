@@ -1,4 +1,5 @@
-//! Patches and their bases: the METIS partition of the decoded connectivity, per patch
+//! Patches and their bases: the partition of the decoded connectivity (Lloyd cells
+//! from format 7, METIS before; [`partition_method`]), per patch
 //! the eigenvectors of the combinatorial operator of the patch submesh, and which
 //! vertices lie on a patch border or on no face of their patch.
 //!
