@@ -51,6 +51,7 @@ enum How {
     /// `G = −M⁻¹ L_UᵀL_S` kept factored: `L` of `M = LLᵀ` (row-major, n_p×n_p) and
     /// the sparse rows of `L_U` and `L_S` (row `r` in `lu[lu_at[r]..lu_at[r + 1]]`).
     Factored {
+        np: usize,
         l: Vec<f64>,
         lu: Vec<(usize, f64)>,
         lu_at: Vec<usize>,
@@ -77,13 +78,14 @@ impl Prediction {
                 out
             }
             How::Factored {
+                np,
                 l,
                 lu,
                 lu_at,
                 ls,
                 ls_at,
             } => {
-                let np = (l.len() as f64).sqrt() as usize;
+                let np = *np;
                 // b = −L_Uᵀ (L_S y): each row's L_S y summed in entry order, then
                 // scattered into b row by row, entry by entry.
                 let mut b = [vec![0.0f64; np], vec![0.0f64; np], vec![0.0f64; np]];
@@ -216,6 +218,7 @@ pub(super) fn patch_prediction(
         return Some(Prediction {
             src,
             how: How::Factored {
+                np,
                 l,
                 lu,
                 lu_at,
