@@ -756,14 +756,20 @@ mod tests {
         check_invariants(&mesh, &topo, &a);
     }
 
-    #[test]
-    fn closed_and_boundary_meshes_at_several_sizes() {
-        for (mesh, p) in [
+    /// Closed and boundary meshes with a patch size each, from a few vertices per
+    /// patch up: the cases both methods are checked on.
+    fn closed_and_boundary_cases() -> Vec<(TriMesh, usize)> {
+        vec![
             (builtin::torus(30, 20).unwrap(), 40),
             (builtin::cube(8).unwrap(), 25),
             (builtin::step(12).unwrap(), 17),
             (builtin::icosphere(2).unwrap(), 3),
-        ] {
+        ]
+    }
+
+    #[test]
+    fn closed_and_boundary_meshes_at_several_sizes() {
+        for (mesh, p) in closed_and_boundary_cases() {
             let topo = Topology::new(&mesh).unwrap();
             let part = partition(&topo, &PartitionOptions::new(p)).unwrap();
             check_invariants(&mesh, &topo, &part);
@@ -824,13 +830,9 @@ mod tests {
 
     #[test]
     fn lloyd_method_keeps_the_invariants_and_cuts_like_metis() {
-        for (mesh, p) in [
-            (builtin::torus(30, 20).unwrap(), 40),
-            (builtin::cube(8).unwrap(), 25),
-            (builtin::step(12).unwrap(), 17),
-            (builtin::icosphere(2).unwrap(), 3),
-            (builtin::icosphere(4).unwrap(), 60),
-        ] {
+        let mut cases = closed_and_boundary_cases();
+        cases.push((builtin::icosphere(4).unwrap(), 60));
+        for (mesh, p) in cases {
             let topo = Topology::new(&mesh).unwrap();
             let part = partition(&topo, &lloyd(p)).unwrap();
             check_invariants(&mesh, &topo, &part);
