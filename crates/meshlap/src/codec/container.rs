@@ -38,7 +38,7 @@ use super::CodecError;
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"MLZ\x1a";
 /// Current format version (what [`write()`] writes).
-pub const VERSION: u16 = 7;
+pub const VERSION: u16 = 8;
 /// Oldest format version [`read`] accepts (its files decode as they always did).
 pub const MIN_VERSION: u16 = 4;
 const MAX_SECTIONS: u16 = 16;
@@ -262,7 +262,7 @@ mod tests {
         old[4..6].copy_from_slice(&3u16.to_le_bytes());
         let e = read(&old).unwrap_err();
         assert!(matches!(e, CodecError::Version { found: 3, .. }));
-        assert!(e.to_string().contains("reads versions 4 to 7"), "{e}");
+        assert!(e.to_string().contains("reads versions 4 to 8"), "{e}");
         // Versions 4 and 5 are still read; version 4 without the section version 5
         // added.
         let mut v5 = img.clone();

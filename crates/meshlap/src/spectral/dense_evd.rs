@@ -260,7 +260,7 @@ pub(crate) fn power_of_two_scaling(amax: f64) -> (f64, f64) {
 }
 
 /// `2^e` for |e| ≤ 1000, exactly.
-fn pow2(e: i32) -> f64 {
+pub(super) fn pow2(e: i32) -> f64 {
     f64::from_bits(((e + 1023) as u64) << 52)
 }
 
@@ -304,7 +304,7 @@ fn evd(
 
 /// `y += a·x`.
 #[inline(always)]
-fn axpy(y: &mut [f64], a: f64, x: &[f64]) {
+pub(super) fn axpy(y: &mut [f64], a: f64, x: &[f64]) {
     for (y, &x) in y.iter_mut().zip(x) {
         *y = x.mul_add(a, *y);
     }
@@ -321,7 +321,7 @@ fn rank2(b: &mut [f64], v: &[f64], w: &[f64], vj: f64, wj: f64) {
 
 /// Dot product in a fixed order: four interleaved partial sums, then the tail.
 #[inline(always)]
-fn dot(a: &[f64], b: &[f64]) -> f64 {
+pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
     let n = a.len().min(b.len());
     let mut acc = [0.0f64; 4];
     let n4 = n / 4 * 4;
@@ -343,7 +343,7 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 /// return `v_k` (`v_k[0] = 1`) with `H_k = I − τ_k v_k v_kᵀ` (`τ_k = 0`: identity),
 /// `Q = H_0 H_1 ⋯ H_{n−2}`.
 #[inline(always)]
-fn tridiagonalize(a: &mut [f64], n: usize, d: &mut [f64], e: &mut [f64], tau: &mut [f64]) {
+pub(super) fn tridiagonalize(a: &mut [f64], n: usize, d: &mut [f64], e: &mut [f64], tau: &mut [f64]) {
     // w of the pending rank-2 update (rows k.. at step k) and the next one.
     let mut w = vec![0.0f64; n];
     let mut y = vec![0.0f64; n];
@@ -430,7 +430,7 @@ fn tridiagonalize(a: &mut [f64], n: usize, d: &mut [f64], e: &mut [f64], tau: &m
 /// Deflation: `e_m² ≤ ε² max(|d_m| + |d_{m+1}|, ‖T‖∞)²`. `None` after 30 iterations
 /// on one eigenvalue.
 #[inline(always)]
-fn ql_eigenvalues(d: &[f64], e: &[f64]) -> Option<Vec<f64>> {
+pub(super) fn ql_eigenvalues(d: &[f64], e: &[f64]) -> Option<Vec<f64>> {
     let n = d.len();
     let mut d = d.to_vec();
     let mut e2: Vec<f64> = e
@@ -499,6 +499,205 @@ fn ql_eigenvalues(d: &[f64], e: &[f64]) -> Option<Vec<f64>> {
     }
     d.sort_by(f64::total_cmp);
     Some(d)
+}
+
+/// One tridiagonal's state in [`ql_eigenvalues_pair`]: the QL iteration of
+/// [`ql_eigenvalues`] cut into sweeps, so that two can run interleaved.
+struct QlState {
+    d: Vec<f64>,
+    e2: Vec<f64>,
+    tnorm: f64,
+    /// The eigenvalue being found, and the sweeps spent on it.
+    l: usize,
+    iter: u32,
+}
+
+/// One QL sweep in progress over rows `l..=m` of a [`QlState`]: the next row `i`
+/// (descending; the sweep is over when `i < l`, i.e. `left == 0`) and the rotation
+/// state.
+struct QlSweep {
+    l: usize,
+    m: usize,
+    i: usize,
+    left: usize,
+    sigma: f64,
+    c: f64,
+    s: f64,
+    gamma: f64,
+    p: f64,
+}
+
+impl QlState {
+    #[inline(always)]
+    fn new(d: &[f64], e: &[f64]) -> Self {
+        let e2: Vec<f64> = e
+            .iter()
+            .map(|x| x * x)
+            .chain(std::iter::once(0.0))
+            .collect();
+        Self {
+            tnorm: infinity_norm(d, e),
+            d: d.to_vec(),
+            e2,
+            l: 0,
+            iter: 0,
+        }
+    }
+
+    /// The next sweep ([`ql_eigenvalues`]' deflation test and Wilkinson shift), `Ok(None)`
+    /// when every eigenvalue is found, `Err` after 30 sweeps on one eigenvalue.
+    #[inline(always)]
+    fn next_sweep(&mut self) -> Result<Option<QlSweep>, ()> {
+        let n = self.d.len();
+        let eps2 = f64::EPSILON * f64::EPSILON;
+        let (d, e2) = (&self.d, &self.e2);
+        while self.l < n {
+            let l = self.l;
+            let mut m = l;
+            while m + 1 < n {
+                let dd = (d[m].abs() + d[m + 1].abs()).max(self.tnorm);
+                if e2[m] <= eps2 * dd * dd {
+                    break;
+                }
+                m += 1;
+            }
+            if m == l {
+                self.l += 1;
+                self.iter = 0;
+                continue;
+            }
+            self.iter += 1;
+            if self.iter > 30 {
+                return Err(());
+            }
+            let rte = e2[l].sqrt();
+            let mut sigma = (d[l + 1] - d[l]) / (2.0 * rte);
+            let r = sigma.mul_add(sigma, 1.0).sqrt();
+            sigma = d[l] - rte / (sigma + if sigma >= 0.0 { r } else { -r });
+            let gamma = d[m] - sigma;
+            return Ok(Some(QlSweep {
+                l,
+                m,
+                i: m - 1,
+                left: m - l,
+                sigma,
+                c: 1.0,
+                s: 0.0,
+                gamma,
+                p: gamma * gamma,
+            }));
+        }
+        Ok(None)
+    }
+
+    /// One row of the sweep (`w.left > 0`).
+    #[inline(always)]
+    fn step(&mut self, w: &mut QlSweep) {
+        let i = w.i;
+        let bb = self.e2[i];
+        let r = w.p + bb;
+        if i + 1 != w.m {
+            self.e2[i + 1] = w.s * r;
+        }
+        let oldc = w.c;
+        let (inv_r, inv_p) = (1.0 / r, 1.0 / w.p);
+        w.c = w.p * inv_r;
+        w.s = bb * inv_r;
+        let oldgam = w.gamma;
+        let alpha = self.d[i];
+        w.gamma = w.c.mul_add(alpha - w.sigma, -(w.s * oldgam));
+        self.d[i + 1] = oldgam + (alpha - w.gamma);
+        w.p = if w.p != 0.0 {
+            (w.gamma * w.gamma) * (r * inv_p)
+        } else {
+            oldc * bb
+        };
+        w.left -= 1;
+        w.i = i.wrapping_sub(1);
+    }
+
+    #[inline(always)]
+    fn finish(&mut self, w: &QlSweep) {
+        self.e2[w.l] = w.s * w.p;
+        self.d[w.l] = w.sigma + w.gamma;
+    }
+
+    #[inline(always)]
+    fn result(self) -> Option<Vec<f64>> {
+        let mut d = self.d;
+        if d.iter().any(|x| !x.is_finite()) {
+            return None;
+        }
+        d.sort_by(f64::total_cmp);
+        Some(d)
+    }
+}
+
+/// [`ql_eigenvalues`] of K tridiagonals (`(d, e)` each) at once, with the same bits:
+/// each one's sweeps run exactly as alone, but the current sweeps of all K run
+/// interleaved, row by row, so that the CPU overlaps their K chains of dependent
+/// divisions (a sweep alone waits on its own chain).
+#[inline(always)]
+pub(super) fn ql_eigenvalues_many<const K: usize>(
+    t: [(&[f64], &[f64]); K],
+) -> [Option<Vec<f64>>; K] {
+    let mut q: [QlState; K] = t.map(|(d, e)| QlState::new(d, e));
+    let mut failed = [false; K];
+    let mut sw: [Option<QlSweep>; K] = std::array::from_fn(|_| None);
+    for k in 0..K {
+        match q[k].next_sweep() {
+            Ok(x) => sw[k] = x,
+            Err(()) => failed[k] = true,
+        }
+    }
+    loop {
+        let mut any = false;
+        for k in 0..K {
+            any |= sw[k].is_some();
+        }
+        if !any {
+            break;
+        }
+        // Rows of all running sweeps together while every one has rows left.
+        loop {
+            let mut all = true;
+            for k in 0..K {
+                if let Some(w) = &sw[k] {
+                    all &= w.left > 0;
+                }
+            }
+            if !all {
+                break;
+            }
+            for k in 0..K {
+                if let Some(w) = &mut sw[k] {
+                    q[k].step(w);
+                }
+            }
+        }
+        // A finished sweep is closed and the next one started.
+        for k in 0..K {
+            if let Some(w) = &mut sw[k] {
+                if w.left == 0 {
+                    q[k].finish(w);
+                    match q[k].next_sweep() {
+                        Ok(x) => sw[k] = x,
+                        Err(()) => {
+                            failed[k] = true;
+                            sw[k] = None;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    let mut out: [Option<Vec<f64>>; K] = std::array::from_fn(|_| None);
+    for (k, st) in q.into_iter().enumerate() {
+        if !failed[k] {
+            out[k] = st.result();
+        }
+    }
+    out
 }
 
 /// Eigenvectors computed together by [`tridiagonal_vectors`]: their LU
@@ -622,15 +821,33 @@ impl TridiagonalLu {
 /// ascending eigenvalues `lam` (at least `count` of them), by inverse iteration (see the module documentation),
 /// [`LANES`] at a time; row-major n×count. Vector j depends only on vectors < j.
 #[inline(always)]
-fn tridiagonal_vectors(d: &[f64], e: &[f64], lam: &[f64], count: usize) -> Vec<f64> {
+pub(super) fn tridiagonal_vectors(d: &[f64], e: &[f64], lam: &[f64], count: usize) -> Vec<f64> {
     let n = d.len();
+    let zc = tridiagonal_vectors_by_column(d, e, lam, count);
     let mut z = vec![0.0f64; n * count];
+    for j in 0..count {
+        for i in 0..n {
+            z[i * count + j] = zc[j * n + i];
+        }
+    }
+    z
+}
+
+/// [`tridiagonal_vectors`] column-major (`z[j·n + i]` = component i of vector j):
+/// the same bits.
+#[inline(always)]
+pub(super) fn tridiagonal_vectors_by_column(
+    d: &[f64],
+    e: &[f64],
+    lam: &[f64],
+    count: usize,
+) -> Vec<f64> {
+    let n = d.len();
     if count == 0 {
-        return z;
+        return Vec::new();
     }
     if n == 1 {
-        z[0] = 1.0;
-        return z;
+        return vec![1.0];
     }
     let tnorm = infinity_norm(d, e).max(f64::MIN_POSITIVE);
     // As dstein works per unreduced block: negligible couplings become exact zeros.
@@ -719,12 +936,7 @@ fn tridiagonal_vectors(d: &[f64], e: &[f64], lam: &[f64], count: usize) -> Vec<f
             zc[j * n..(j + 1) * n].copy_from_slice(&lane[l]);
         }
     }
-    for j in 0..count {
-        for i in 0..n {
-            z[i * count + j] = zc[j * n + i];
-        }
-    }
-    z
+    zc
 }
 
 /// `‖T‖∞` of the symmetric tridiagonal (`d`, off-diagonal `e`).
@@ -1086,6 +1298,19 @@ mod tests {
         out.push((d, vec![-1.0; 79], "path laplacian"));
         out.push((vec![1.0; 60], vec![1e-20; 59], "tiny coupling"));
         out
+    }
+
+    #[test]
+    fn paired_ql_gives_each_ones_bits() {
+        let t = hard_tridiagonals();
+        for (i, (da, ea, na)) in t.iter().enumerate() {
+            let (db, eb, nb) = &t[(i * 7 + 3) % t.len()];
+            let [pa, pb] = ql_eigenvalues_many([(da, ea), (db, eb)]);
+            let (sa, sb) = (ql_eigenvalues(da, ea), ql_eigenvalues(db, eb));
+            let bits = |v: Option<Vec<f64>>| v.map(|v| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>());
+            assert_eq!(bits(pa), bits(sa), "{na}");
+            assert_eq!(bits(pb), bits(sb), "{nb}");
+        }
     }
 
     #[test]

@@ -25,11 +25,13 @@ pub mod blocked_evd;
 pub mod compaction;
 pub mod dense_evd;
 pub mod descriptors;
+pub mod factored_evd;
 pub mod transform;
 pub mod tridiagonal_dc;
 
 pub use basis::{BasisOptions, DenseSolver, EigenBasis, EigenPath, Normalization, DENSE_LIMIT};
 pub use compaction::{energy_compaction, Compaction};
+pub use factored_evd::FactoredEvd;
 pub use smallest::{smallest, Smallest, SmallestInfo, SmallestParams, SmallestPath};
 pub use transform::{forward, inverse, mat_to_positions, positions_to_mat, truncated};
 

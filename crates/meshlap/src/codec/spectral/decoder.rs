@@ -4,9 +4,9 @@
 use super::coefficients::Models;
 use super::header::Header;
 use super::patches::{
-    bases_of, border_and_loose, chunks, layout, predictor_owners, stream, Arithmetic, CHUNK_BYTES,
+    bases_of, border_and_loose, chunks, layout, predictor_owners, stream, Arithmetic, Recipe,
+    CHUNK_BYTES,
 };
-use super::prediction::PredictorForm;
 use super::residuals::Residuals;
 use crate::codec::container::ByteReader;
 use crate::codec::entropy::RangeDecoder;
@@ -33,7 +33,7 @@ pub(super) fn decode_chunked(
 ) -> Result<Vec<[f64; 3]>, CodecError> {
     let mut r = ByteReader::new(data, "geometry header");
     let Header { params, step } = Header::read(&mut r)?;
-    let arith = Arithmetic::for_version(version);
+    let recipe = Recipe::for_version(version);
     let layout = layout(topo, &params, version)?;
     let mut dec = RangeDecoder::new(r.rest());
     let mut models = Models::new();
@@ -60,7 +60,7 @@ pub(super) fn decode_chunked(
     // version 6 on (fixed-order products); older files use every vector.
     let need: Vec<usize> = coefs
         .iter()
-        .map(|q| match arith {
+        .map(|q| match recipe.arith {
             Arithmetic::Fixed => (0..q.nrows())
                 .rev()
                 .find(|&j| (0..3).any(|k| q[(j, k)] != 0.0))
@@ -75,8 +75,7 @@ pub(super) fn decode_chunked(
         let bases = bases_of(
             topo,
             &params,
-            arith,
-            PredictorForm::for_version(version),
+            recipe,
             &layout,
             owner.as_deref(),
             r.clone(),

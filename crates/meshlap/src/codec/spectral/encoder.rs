@@ -5,10 +5,9 @@ use super::coefficients::{octave, Models, FREQ_BANDS};
 use super::header::Header;
 use super::params::SpectralParams;
 use super::patches::{
-    bases_of, border_and_loose, chunks, layout, predictor_owners, stream, Arithmetic, PatchBasis,
-    PatchLayout, CHUNK_BYTES,
+    bases_of, border_and_loose, chunks, layout, predictor_owners, stream, PatchBasis, PatchLayout,
+    Recipe, CHUNK_BYTES,
 };
-use super::prediction::PredictorForm;
 use super::residuals::Residuals;
 use crate::codec::entropy::RangeEncoder;
 use crate::codec::quantize::{dead_zone, nearest};
@@ -40,9 +39,6 @@ pub struct SpectralStats {
     pub bytes: usize,
 }
 
-/// The arithmetic of the current format (version 6 on): fixed-order products, the
-/// same on every CPU.
-const ARITH: Arithmetic = Arithmetic::Fixed;
 
 /// A patch's coordinates (n_p×3, the basis' row order) from the positions (n×3).
 fn patch_coordinates(b: &PatchBasis, positions: &[[f64; 3]]) -> Mat<f64> {
@@ -63,8 +59,7 @@ fn bases_and_coefficients(
     let b = bases_of(
         topo,
         params,
-        ARITH,
-        PredictorForm::for_version(crate::codec::container::VERSION),
+        Recipe::for_version(crate::codec::container::VERSION),
         layout,
         owner,
         range,

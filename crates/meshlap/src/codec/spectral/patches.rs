@@ -13,7 +13,9 @@ use crate::codec::CodecError;
 use crate::mesh::topology::Topology;
 use crate::mesh::TriMesh;
 use crate::operator::{Operator, OperatorKind, OperatorOptions};
-use crate::spectral::{forward, inverse, BasisOptions, DenseSolver, EigenBasis, EigenPath};
+use crate::spectral::{
+    forward, inverse, BasisOptions, DenseSolver, EigenBasis, EigenPath, FactoredEvd, SpectralError,
+};
 use faer::Mat;
 use rayon::prelude::*;
 
@@ -42,6 +44,68 @@ impl Arithmetic {
             Arithmetic::Faer
         }
     }
+}
+
+/// How a patch's basis is kept and applied.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub(crate) enum BasisForm {
+    /// The basis matrix E itself ([`EigenBasis`]: back-transformed, canonical
+    /// vectors), applied by products with E. Format versions 4 to 7, and the Tutte
+    /// operator (not symmetric) in every version.
+    Explicit,
+    /// For the symmetric operators (Kirchhoff, graph, SQL, SSTL), the decomposition
+    /// kept factored ([`FactoredEvd`]: Householder reflectors and the tridiagonal
+    /// eigenvectors, `X = Zᵀ(Qᵀx)`, `x̃ = Q(Z X̃)`), so that E is never formed: the
+    /// back-transformation (as many flops as the tridiagonalisation) is skipped on
+    /// both sides. Format version 8 on.
+    Factored,
+}
+
+impl BasisForm {
+    /// The form files of format `version` were written with.
+    pub fn for_version(version: u16) -> Self {
+        if version >= 8 {
+            BasisForm::Factored
+        } else {
+            BasisForm::Explicit
+        }
+    }
+}
+
+/// How the files of one format version compute their patches' bases, coefficient
+/// products and predictors.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub(crate) struct Recipe {
+    /// The arithmetic of the products and the predictor's Cholesky.
+    pub arith: Arithmetic,
+    /// How the predictor is applied.
+    pub predictor: PredictorForm,
+    /// How the bases are kept.
+    pub basis: BasisForm,
+}
+
+impl Recipe {
+    /// The recipe of format `version`.
+    pub fn for_version(version: u16) -> Self {
+        Self {
+            arith: Arithmetic::for_version(version),
+            predictor: PredictorForm::for_version(version),
+            basis: BasisForm::for_version(version),
+        }
+    }
+}
+
+/// A patch's basis, in the form its format version keeps it.
+pub(super) enum Basis {
+    /// The basis matrix ([`BasisForm::Explicit`]).
+    Explicit(EigenBasis),
+    /// The factored decomposition ([`BasisForm::Factored`]).
+    Factored(FactoredEvd),
+}
+
+/// The three columns of `x` (n×3) as vectors.
+fn columns(x: &Mat<f64>) -> [Vec<f64>; 3] {
+    std::array::from_fn(|k| (0..x.nrows()).map(|i| x[(i, k)]).collect())
 }
 
 /// `X = g ∘ Eᵀ(s ∘ x)` (m×3, the first `m` coefficients) in index order: what
@@ -131,7 +195,7 @@ pub(super) struct PatchBasis {
     /// loose vertices), in the basis' row order.
     pub verts: Vec<u32>,
     /// `None` for a patch without faces.
-    pub basis: Option<EigenBasis>,
+    pub basis: Option<Basis>,
     /// Coefficients kept.
     pub m: usize,
     /// The predictor from earlier patches (with inter-patch prediction on).
@@ -145,10 +209,17 @@ impl PatchBasis {
     pub fn analyze(&self, x: &Mat<f64>) -> Result<Mat<f64>, CodecError> {
         match &self.basis {
             None => Ok(Mat::zeros(0, 3)),
-            Some(b) if self.arith == Arithmetic::Fixed && b.path() != EigenPath::General => {
+            Some(Basis::Factored(f)) => {
+                let x = columns(x);
+                let c = f.analyze([&x[0], &x[1], &x[2]], self.m.min(f.len()));
+                Ok(Mat::from_fn(c[0].len(), 3, |j, k| c[k][j]))
+            }
+            Some(Basis::Explicit(b))
+                if self.arith == Arithmetic::Fixed && b.path() != EigenPath::General =>
+            {
                 Ok(forward_fixed(b, x, self.m))
             }
-            Some(b) => {
+            Some(Basis::Explicit(b)) => {
                 let all = forward(b, x.as_ref()).map_err(CodecError::PatchBasis)?;
                 Ok(all.subrows(0, self.m).to_owned())
             }
@@ -161,10 +232,18 @@ impl PatchBasis {
     pub fn synthesize(&self, c: &Mat<f64>) -> Result<Mat<f64>, CodecError> {
         match &self.basis {
             None => Ok(Mat::zeros(self.verts.len(), 3)),
-            Some(b) if self.arith == Arithmetic::Fixed && c.nrows() <= b.len() => {
+            Some(Basis::Factored(f)) if c.nrows() <= f.len() => {
+                let c = columns(c);
+                let y = f.synthesize([&c[0], &c[1], &c[2]]);
+                Ok(Mat::from_fn(f.n(), 3, |i, k| y[k][i]))
+            }
+            Some(Basis::Factored(_)) => Err(CodecError::Internal(
+                "more coefficients than the factored basis keeps",
+            )),
+            Some(Basis::Explicit(b)) if self.arith == Arithmetic::Fixed && c.nrows() <= b.len() => {
                 Ok(inverse_fixed(b, c))
             }
-            Some(b) => inverse(b, c.as_ref()).map_err(CodecError::PatchBasis),
+            Some(Basis::Explicit(b)) => inverse(b, c.as_ref()).map_err(CodecError::PatchBasis),
         }
     }
 
@@ -244,38 +323,124 @@ fn patch_layout(patch: &[u32], faces: &[[u32; 3]], keep: Keep) -> PatchLayout {
     }
 }
 
-/// The basis of a patch ([`crate::spectral::EigenBasis`]: canonical, deterministic
-/// eigenvectors, ascending eigenvalues) of the operator `kind` on the patch submesh:
-/// all of it for `need = usize::MAX`, else at least its first `need` vectors
-/// ([`EigenBasis::compute_lowest`], the same bits); none for `need = 0` or a patch
+/// The operator `kind` (`F = D − W`, PSD) of a patch's submesh; `None` for a patch
 /// without faces.
-fn patch_basis(
-    layout: &PatchLayout,
-    kind: OperatorKind,
-    need: usize,
-    arith: Arithmetic,
-) -> Result<PatchBasis, CodecError> {
+pub(super) fn patch_operator(layout: &PatchLayout, kind: OperatorKind) -> Result<Option<Operator>, CodecError> {
     let np = layout.verts.len();
-    let basis = if np > 0 && need > 0 {
-        let sub = TriMesh::new(vec![[0.0; 3]; np], layout.faces.clone());
-        let st = Topology::new(&sub).map_err(CodecError::PatchTopology)?;
-        let op = Operator::assemble(kind, &sub, &st, &OperatorOptions::default())
-            .map_err(CodecError::PatchOperator)?;
+    if np == 0 {
+        return Ok(None);
+    }
+    let sub = TriMesh::new(vec![[0.0; 3]; np], layout.faces.clone());
+    let st = Topology::new(&sub).map_err(CodecError::PatchTopology)?;
+    Operator::assemble(kind, &sub, &st, &OperatorOptions::default())
+        .map(Some)
+        .map_err(CodecError::PatchOperator)
+}
+
+/// The bases of a few patches (`layouts`, needing `needs` vectors each: all for
+/// `usize::MAX`, none for 0) of the operator `kind`, kept as `recipe` says: factored
+/// ([`FactoredEvd::batch`], the first `min(need, m)` tridiagonal eigenvectors) for the
+/// symmetric operators from format 8, else explicit ([`EigenBasis::compute_lowest`]:
+/// canonical vectors, at least the first `need`). `None` for a patch without faces
+/// or needing none.
+fn patch_bases(
+    layouts: &[PatchLayout],
+    needs: &[usize],
+    kind: OperatorKind,
+    recipe: Recipe,
+) -> Result<Vec<Option<Basis>>, CodecError> {
+    let factored = recipe.basis == BasisForm::Factored && kind.is_symmetric();
+    if factored && kind == OperatorKind::Kirchhoff {
+        // K = D − A straight from the faces: the values `Operator::assemble` gives
+        // (small integers, exact), without building the patch's topology.
+        let mut dense = Vec::new();
+        let mut at = Vec::new();
+        for (i, (l, &need)) in layouts.iter().zip(needs).enumerate() {
+            if need > 0 && !l.verts.is_empty() {
+                dense.push((kirchhoff_dense(l), need.min(l.m)));
+                at.push(i);
+            }
+        }
+        return factored_bases(layouts.len(), &dense, at);
+    }
+    let mut ops = Vec::with_capacity(layouts.len());
+    for (l, &need) in layouts.iter().zip(needs) {
+        ops.push(if need > 0 { patch_operator(l, kind)? } else { None });
+    }
+    if !factored {
         let opts = BasisOptions {
             dense_solver: DenseSolver::Reproducible,
             ..Default::default()
         };
-        Some(EigenBasis::compute_lowest(&op, &opts, need).map_err(CodecError::PatchBasis)?)
-    } else {
-        None
-    };
-    Ok(PatchBasis {
-        verts: layout.verts.clone(),
-        basis,
-        m: layout.m,
-        pred: None,
-        arith,
-    })
+        return ops
+            .iter()
+            .zip(needs)
+            .map(|(op, &need)| {
+                op.as_ref()
+                    .map(|op| {
+                        EigenBasis::compute_lowest(op, &opts, need)
+                            .map(Basis::Explicit)
+                            .map_err(CodecError::PatchBasis)
+                    })
+                    .transpose()
+            })
+            .collect();
+    }
+    let mut dense = Vec::new();
+    let mut at = Vec::new();
+    for (i, op) in ops.iter().enumerate() {
+        if let Some(op) = op {
+            if op.mass.is_some() {
+                return Err(CodecError::Internal("a combinatorial operator with a mass"));
+            }
+            // The coefficients past the kept ones are never used.
+            dense.push((op.matrix.to_dense(), needs[i].min(layouts[i].m)));
+            at.push(i);
+        }
+    }
+    factored_bases(layouts.len(), &dense, at)
+}
+
+/// The factored bases ([`FactoredEvd::batch`]) of the dense operators `dense`
+/// (`(matrix, vectors kept)`) of patches `at` among `count`; `None` for the others.
+fn factored_bases(
+    count: usize,
+    dense: &[(Mat<f64>, usize)],
+    at: Vec<usize>,
+) -> Result<Vec<Option<Basis>>, CodecError> {
+    let items: Vec<_> = dense.iter().map(|(a, c)| (a.as_ref(), *c)).collect();
+    let mut out: Vec<Option<Basis>> = (0..count).map(|_| None).collect();
+    for (i, f) in at.into_iter().zip(FactoredEvd::batch(&items)) {
+        let f = f.ok_or(CodecError::PatchBasis(SpectralError::NoConvergence {
+            path: "symmetric (factored reproducible solver)",
+        }))?;
+        out[i] = Some(Basis::Factored(f));
+    }
+    Ok(out)
+}
+
+/// The Kirchhoff operator `K = D − A` (PSD sign convention) of a patch's submesh,
+/// dense n_p×n_p: −1 for each edge of its faces, the vertex degrees on the diagonal.
+pub(super) fn kirchhoff_dense(layout: &PatchLayout) -> Mat<f64> {
+    let np = layout.verts.len();
+    let mut k = Mat::<f64>::zeros(np, np);
+    for f in &layout.faces {
+        for (a, b) in [(f[0], f[1]), (f[1], f[2]), (f[2], f[0])] {
+            let (a, b) = (a as usize, b as usize);
+            k[(a, b)] = -1.0;
+            k[(b, a)] = -1.0;
+        }
+    }
+    for i in 0..np {
+        let mut deg = 0.0;
+        for j in 0..np {
+            if k[(i, j)] != 0.0 {
+                deg += 1.0;
+            }
+        }
+        k[(i, i)] = deg;
+    }
+    k
 }
 
 /// The partition into patches (by the method of format `version`) and each patch's
@@ -323,38 +488,61 @@ pub(super) fn predictor_owners(
 
 /// The bases of the patches `range` of `layout` ([`layout`]), in coding order (in
 /// parallel; each decomposition is sequential), with their predictors when `owner`
-/// is given ([`predictor_owners`]); `arith` and `form` say how their products and
-/// predictions are computed (the format version's). Patch `p` gets at least its first `need(p)` vectors (all
-/// for `usize::MAX`; none for 0, its synthesis then being zero): the decoder, which
+/// is given ([`predictor_owners`]); `recipe` (the format version's) says how their
+/// bases are kept and their products and predictions computed. Patch `p` gets at
+/// least its first `need(p)` vectors (all for `usize::MAX`; none for 0, its synthesis
+/// then being zero): the decoder, which
 /// knows the coefficients before the bases, needs the vectors up to a patch's last
 /// non-zero coefficient only. Bases and predictors are computed together (they are
 /// independent: the predictors need the vertex sets only).
-#[allow(clippy::too_many_arguments)] // the format's two recipes, the patch range, `need`
 pub(super) fn bases_of(
     topo: &Topology,
     params: &SpectralParams,
-    arith: Arithmetic,
-    form: PredictorForm,
+    recipe: Recipe,
     layout: &[PatchLayout],
     owner: Option<&[u32]>,
     range: std::ops::Range<usize>,
     need: impl Fn(usize) -> usize + Sync,
 ) -> Result<Vec<PatchBasis>, CodecError> {
-    layout[range.clone()]
-        .par_iter()
-        .zip(range)
-        .map(|(l, p)| {
-            let pred = match owner {
-                Some(owner) if !l.verts.is_empty() => {
-                    patch_prediction(topo, owner, &l.verts, p as u32, arith, form)
-                }
-                _ => None,
-            };
-            let mut b = patch_basis(l, params.operator, need(p), arith)?;
-            b.pred = pred;
-            Ok(b)
+    // Four patches per task: their factored decompositions run together
+    // ([`FactoredEvd::batch`]).
+    const GROUP: usize = 4;
+    let start = range.start;
+    let groups = layout[range]
+        .par_chunks(GROUP)
+        .enumerate()
+        .map(|(g, ls)| {
+            let p0 = start + g * GROUP;
+            let needs: Vec<usize> = (p0..p0 + ls.len()).map(&need).collect();
+            let bases = patch_bases(ls, &needs, params.operator, recipe)?;
+            Ok(ls
+                .iter()
+                .zip(bases)
+                .enumerate()
+                .map(|(i, (l, basis))| {
+                    let pred = match owner {
+                        Some(owner) if !l.verts.is_empty() => patch_prediction(
+                            topo,
+                            owner,
+                            &l.verts,
+                            (p0 + i) as u32,
+                            recipe.arith,
+                            recipe.predictor,
+                        ),
+                        _ => None,
+                    };
+                    PatchBasis {
+                        verts: l.verts.clone(),
+                        basis,
+                        m: l.m,
+                        pred,
+                        arith: recipe.arith,
+                    }
+                })
+                .collect::<Vec<_>>())
         })
-        .collect()
+        .collect::<Result<Vec<_>, CodecError>>()?;
+    Ok(groups.into_iter().flatten().collect())
 }
 
 /// Bytes of dense bases computed at once by [`stream`]: with two chunks alive (one

@@ -392,3 +392,107 @@ fn chunks_cover_every_patch_in_order_within_the_budget() {
         }
     }
 }
+
+/// Format 8 builds the Kirchhoff operator of a patch straight from its faces: the
+/// same values as `Operator::assemble`, on a closed mesh and on one with boundary.
+#[test]
+fn direct_kirchhoff_matches_the_assembled_operator() {
+    use super::patches::{kirchhoff_dense, layout, patch_operator};
+    use crate::operator::OperatorKind;
+    let meshes = [
+        crate::mesh::builtin::torus(24, 16).unwrap(),
+        crate::mesh::builtin::grid(14).unwrap(),
+    ];
+    for mesh in &meshes {
+        let topo = crate::mesh::topology::Topology::new(mesh).unwrap();
+        let params = SpectralParams {
+            patch_size: 40,
+            ..Default::default()
+        };
+        let lay = layout(&topo, &params, crate::codec::container::VERSION).unwrap();
+        assert!(lay.len() > 2);
+        for l in &lay {
+            let op = patch_operator(l, OperatorKind::Kirchhoff).unwrap().unwrap();
+            assert_eq!(op.matrix.to_dense(), kirchhoff_dense(l));
+        }
+    }
+}
+
+/// The factored bases of format 8 give the explicit bases' coefficients up to
+/// rounding and sign (per vector), for each symmetric operator.
+#[test]
+fn factored_bases_match_the_explicit_ones() {
+    use super::patches::{bases_of, layout, Recipe};
+    use crate::operator::OperatorKind;
+    let mesh = crate::mesh::builtin::torus(20, 12).unwrap();
+    let topo = crate::mesh::topology::Topology::new(&mesh).unwrap();
+    for kind in [
+        OperatorKind::Kirchhoff,
+        OperatorKind::Graph,
+        OperatorKind::Sql,
+        OperatorKind::Sstl,
+    ] {
+        let params = SpectralParams {
+            patch_size: 30,
+            operator: kind,
+            predicted: false,
+            ..Default::default()
+        };
+        let lay = layout(&topo, &params, 8).unwrap();
+        let n = lay.len();
+        let old = bases_of(&topo, &params, Recipe::for_version(7), &lay, None, 0..n, |_| usize::MAX)
+            .unwrap();
+        let new = bases_of(&topo, &params, Recipe::for_version(8), &lay, None, 0..n, |_| usize::MAX)
+            .unwrap();
+        for (a, b) in old.iter().zip(&new) {
+            let x = faer::Mat::from_fn(a.verts.len(), 3, |i, k| {
+                mesh.positions[a.verts[i] as usize][k]
+            });
+            let (ca, cb) = (a.analyze(&x).unwrap(), b.analyze(&x).unwrap());
+            let scale = x.norm_max().max(1.0) * (a.verts.len() as f64).sqrt();
+            let Some(super::patches::Basis::Factored(f)) = &b.basis else {
+                panic!("{kind}: format 8 keeps a symmetric operator's basis factored");
+            };
+            let lam = f.eigenvalues();
+            let mut compared = 0;
+            for j in 0..ca.nrows() {
+                // A simple eigenvalue's coefficients agree up to the vector's sign
+                // (inside a cluster the vectors may differ by a rotation).
+                let gap = [j.checked_sub(1), Some(j + 1)]
+                    .into_iter()
+                    .flatten()
+                    .filter(|&i| i < lam.len())
+                    .map(|i| (lam[i] - lam[j]).abs())
+                    .fold(f64::INFINITY, f64::min);
+                if gap < 1e-6 * lam[lam.len() - 1] {
+                    continue;
+                }
+                let sign = if (0..3).map(|k| ca[(j, k)] * cb[(j, k)]).sum::<f64>() < 0.0 {
+                    -1.0
+                } else {
+                    1.0
+                };
+                for k in 0..3 {
+                    let d = (ca[(j, k)] - sign * cb[(j, k)]).abs();
+                    assert!(d <= 1e-8 * scale, "{kind}: row {j}: {d:e}");
+                }
+                compared += 1;
+            }
+            assert!(compared * 2 >= ca.nrows(), "{kind}: {compared} of {}", ca.nrows());
+            // Parseval: the energies agree, and synthesis gives the positions back.
+            let energy = |c: &faer::Mat<f64>| -> f64 {
+                let mut e = 0.0;
+                for j in 0..c.nrows() {
+                    for k in 0..3 {
+                        e += c[(j, k)].powi(2);
+                    }
+                }
+                e
+            };
+            let (ea, eb) = (energy(&ca), energy(&cb));
+            assert!((ea - eb).abs() <= 1e-10 * ea.max(1.0), "{kind}: {ea} vs {eb}");
+            let back = b.synthesize(&cb).unwrap();
+            assert!((&back - &x).norm_max() <= 1e-12 * scale, "{kind}");
+        }
+    }
+}
