@@ -63,11 +63,11 @@ fn golden_files_decode_bit_for_bit() {
         );
     }
     let mut with_rejoin = 0;
-    let mut per_version = [0usize; 8];
+    let mut per_version = [0usize; 9];
     for (file, n, nf, hash) in &files {
         let bytes = std::fs::read(dir().join(file)).unwrap();
         // Version 4 files never have a re-join section; the non-manifold ones (v5,
-        // v6, v7) do. Version 6 and 7 files are named `v6-…` and `v7-…`.
+        // v6, v7, v8) do. Version 6 on, files are named `v6-…`, `v7-…`, `v8-…`.
         let version = u16::from_le_bytes([bytes[4], bytes[5]]);
         let prefix = format!("v{version}-");
         assert_eq!(
@@ -75,7 +75,7 @@ fn golden_files_decode_bit_for_bit() {
             file.starts_with(&prefix),
             "{file} (version {version})"
         );
-        per_version[usize::from(version.min(7))] += 1;
+        per_version[usize::from(version.min(8))] += 1;
         let secs = meshlap::codec::container::read(&bytes).unwrap();
         let rejoin = meshlap::codec::container::section(
             &secs,
@@ -98,11 +98,16 @@ fn golden_files_decode_bit_for_bit() {
         with_rejoin >= 3,
         "golden files of non-manifold meshes (version 5)"
     );
-    // Every version still read has golden files (versions 6 and 7: spectral files
-    // whose decoded bits are the same on every CPU; version 7 partitions by Lloyd
-    // cells and predicts through the kept Cholesky factor).
+    // Every version still read has golden files (versions 6 on: spectral files whose
+    // decoded bits are the same on every CPU; version 7 partitions by Lloyd cells and
+    // predicts through the kept Cholesky factor; version 8 keeps the symmetric
+    // operators' bases factored, one file per such operator).
     assert!(
-        per_version[4] >= 9 && per_version[5] >= 4 && per_version[6] >= 3 && per_version[7] >= 4
+        per_version[4] >= 9
+            && per_version[5] >= 4
+            && per_version[6] >= 3
+            && per_version[7] >= 4
+            && per_version[8] >= 6
     );
 }
 
@@ -114,7 +119,7 @@ fn a_changed_golden_file_is_noticed() {
     use meshlap::codec::container::{read, section, write, SectionKind};
     let (file, .., hash) = manifest()
         .into_iter()
-        .find(|(f, ..)| f == "v7-torus-spectral-sql-po.mlz")
+        .find(|(f, ..)| f == "v8-torus-spectral-sql-po.mlz")
         .unwrap();
     let bytes = std::fs::read(dir().join(&file)).unwrap();
     let secs = read(&bytes).unwrap();

@@ -2,7 +2,12 @@
 //!
 //! ```text
 //! magic      4 bytes  "MLZ\x1a"
-//! version    u16 LE   (7: as 6, but the spectral coder's patches are Lloyd-relaxed
+//! version    u16 LE   (8: as 7, but the spectral coder keeps the bases of the
+//!                     symmetric operators (Kirchhoff, graph, SQL, SSTL) factored,
+//!                     `X = Zᵀ(Qᵀx)`, `x̃ = Q(Z X̃)` (`spectral::FactoredEvd`: no
+//!                     back-transformation, no canonicalisation; Tutte keeps the
+//!                     explicit basis); 7 and older are decoded as they were written;
+//!                     7: as 6, but the spectral coder's patches are Lloyd-relaxed
 //!                     graph Voronoi cells (`partition::PartitionMethod::Lloyd`)
 //!                     instead of METIS parts, and its predictor is solved through
 //!                     the kept Cholesky factor (three right-hand sides); 6, 5 and 4

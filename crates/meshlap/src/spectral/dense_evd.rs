@@ -343,7 +343,13 @@ pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
 /// return `v_k` (`v_k[0] = 1`) with `H_k = I − τ_k v_k v_kᵀ` (`τ_k = 0`: identity),
 /// `Q = H_0 H_1 ⋯ H_{n−2}`.
 #[inline(always)]
-pub(super) fn tridiagonalize(a: &mut [f64], n: usize, d: &mut [f64], e: &mut [f64], tau: &mut [f64]) {
+pub(super) fn tridiagonalize(
+    a: &mut [f64],
+    n: usize,
+    d: &mut [f64],
+    e: &mut [f64],
+    tau: &mut [f64],
+) {
     // w of the pending rank-2 update (rows k.. at step k) and the next one.
     let mut w = vec![0.0f64; n];
     let mut y = vec![0.0f64; n];
@@ -1307,7 +1313,8 @@ mod tests {
             let (db, eb, nb) = &t[(i * 7 + 3) % t.len()];
             let [pa, pb] = ql_eigenvalues_many([(da, ea), (db, eb)]);
             let (sa, sb) = (ql_eigenvalues(da, ea), ql_eigenvalues(db, eb));
-            let bits = |v: Option<Vec<f64>>| v.map(|v| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>());
+            let bits =
+                |v: Option<Vec<f64>>| v.map(|v| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>());
             assert_eq!(bits(pa), bits(sa), "{na}");
             assert_eq!(bits(pb), bits(sb), "{nb}");
         }

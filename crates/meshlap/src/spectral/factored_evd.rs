@@ -14,7 +14,7 @@
 //! tridiagonalisation, QL eigenvalues and inverse iteration, bit for bit) without its
 //! back-transformation. The products sum in a fixed order with correctly rounded
 //! operations only (reductions in `dense_evd`'s four-lane order) and run on the build
-//! [`crate::cpu::dispatch`] picks, so the results are the same bits on every CPU and
+//! `crate::cpu::dispatch` picks, so the results are the same bits on every CPU and
 //! thread count. The vectors are not canonicalised (no sign or cluster rule): they are
 //! whatever the fixed arithmetic gives, which is all a coder whose decoder runs the
 //! same arithmetic needs. Sign convention: the operators decomposed here are PSD,
@@ -318,7 +318,7 @@ const QL_BATCH: usize = 4;
 
 /// Tridiagonalisation (in `w`, whose columns keep the reflectors), all eigenvalues
 /// (QL, [`QL_BATCH`] matrices interleaved) and the first `count` eigenvectors of T
-/// of each scaled matrix, on the build [`crate::cpu::dispatch`] picks; `None` for a
+/// of each scaled matrix, on the build `crate::cpu::dispatch` picks; `None` for a
 /// matrix whose QL iteration does not converge.
 fn decompose_batch(work: &mut [(usize, Scaled)]) -> Vec<Option<Decomposed>> {
     struct Batch<'a>(&'a mut [(usize, Scaled)]);
@@ -473,13 +473,19 @@ mod tests {
     fn a_batch_gives_each_ones_bits() {
         // Eleven matrices (two groups of four and a remainder), among them a zero one,
         // a 1×1 and one with a NaN.
-        let mut mats: Vec<Mat<f64>> = (0..8).map(|k| random_symmetric(20 + 7 * k, 30 + k as u64)).collect();
+        let mut mats: Vec<Mat<f64>> = (0..8)
+            .map(|k| random_symmetric(20 + 7 * k, 30 + k as u64))
+            .collect();
         mats.push(Mat::<f64>::zeros(5, 5));
         mats.push(random_symmetric(1, 3));
         let mut bad = random_symmetric(6, 4);
         bad[(3, 1)] = f64::NAN;
         mats.push(bad);
-        let items: Vec<_> = mats.iter().enumerate().map(|(k, a)| (a.as_ref(), 3 + 5 * k)).collect();
+        let items: Vec<_> = mats
+            .iter()
+            .enumerate()
+            .map(|(k, a)| (a.as_ref(), 3 + 5 * k))
+            .collect();
         let batch = FactoredEvd::batch(&items);
         assert_eq!(batch.len(), items.len());
         for (&(a, count), b) in items.iter().zip(&batch) {
@@ -543,8 +549,12 @@ mod tests {
                 let (mut d, mut e, mut tau) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
                 tridiagonalize(w, n, &mut d, &mut e, &mut tau);
                 let lam = ql_eigenvalues(&d, &e[..n - 1])?;
-                let z =
-                    crate::spectral::dense_evd::tridiagonal_vectors_by_column(&d, &e[..n - 1], &lam, n);
+                let z = crate::spectral::dense_evd::tridiagonal_vectors_by_column(
+                    &d,
+                    &e[..n - 1],
+                    &lam,
+                    n,
+                );
                 Some((lam, z))
             }
         }

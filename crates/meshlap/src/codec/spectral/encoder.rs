@@ -39,7 +39,6 @@ pub struct SpectralStats {
     pub bytes: usize,
 }
 
-
 /// A patch's coordinates (n_p×3, the basis' row order) from the positions (n×3).
 fn patch_coordinates(b: &PatchBasis, positions: &[[f64; 3]]) -> Mat<f64> {
     Mat::from_fn(b.verts.len(), 3, |i, k| positions[b.verts[i] as usize][k])
@@ -83,7 +82,7 @@ pub struct EncodedSpectral {
     pub stats: SpectralStats,
 }
 
-/// Bytes of dense bases (n_p² values per patch) that
+/// Bytes of bases (at most 3n_p²/2 values per patch, `PatchLayout::basis_bytes`) that
 /// [`SpectralEncoder::new`] keeps for rate control's repeated encodes; above it every
 /// encode computes the bases again, a chunk at a time. With their predictors and
 /// allocations the kept bases take about twice this.
@@ -159,7 +158,7 @@ impl<'a> SpectralEncoder<'a> {
         params.validate()?;
         let layout = layout(topo, &params, crate::codec::container::VERSION)?;
         let owner = predictor_owners(topo.n_vertices(), &params, &layout);
-        let total: usize = layout.iter().map(|l| l.verts.len().pow(2) * 8).sum();
+        let total: usize = layout.iter().map(PatchLayout::basis_bytes).sum();
         let bases = if total <= budget {
             let (b, c) = bases_and_coefficients(
                 topo,

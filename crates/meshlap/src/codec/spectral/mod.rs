@@ -29,10 +29,11 @@
 //!
 //! **Determinism.** The decoder must reproduce the encoder's basis bit for bit,
 //! including inside repeated eigenvalues (icosphere, cube). The bases come from
-//! [`crate::spectral::EigenBasis`] (canonical vectors: probe-vector rule inside
-//! eigenvalue clusters, thread-independent arithmetic) on a matrix built from the
-//! decoded connectivity in the decoded vertex order, so encoder and decoder agree
-//! exactly; tests check this on `builtin:icosphere:3` and `builtin:cube:8`.
+//! thread-independent, fixed-order arithmetic (factored bases, or
+//! [`crate::spectral::EigenBasis`]' canonical vectors for Tutte and old files) on a
+//! matrix built from the decoded connectivity in the decoded vertex order, so encoder
+//! and decoder agree exactly; tests check this on `builtin:icosphere:3` and
+//! `builtin:cube:8`.
 //!
 //! **Partition and patch size.** Patches come from [`crate::partition`], numbered
 //! by their smallest vertex, which is also the coding (and prediction) order. Format
@@ -45,8 +46,9 @@
 //! times the basis cost; BENCHMARKS.md). Patches are at most [`MAX_PATCH`] vertices
 //! (a hostile file cannot ask for more).
 //!
-//! **Memory.** A patch's dense basis takes n_p² values (80 KB at the default 100),
-//! so a 10-million-vertex mesh's bases would take about 8 GB. The layout of the
+//! **Memory.** A patch's basis takes n_p² values (80 KB at the default 100), or up
+//! to 3n_p²/2 factored (reflectors and Z; the unit of the budgets below), so a
+//! 10-million-vertex mesh's bases would take 8–12 GB. The layout of the
 //! patches (vertices and faces) is kept for all of them; the bases are computed a chunk
 //! of about 64 MiB at a time (`patches::stream`: the next chunk in parallel while the
 //! current one is coded in order), by the decoder always and by the encoder when they
@@ -54,12 +56,27 @@
 //! rate control bases that fit are kept for the repeated encodes. Streaming changes no
 //! bit of the stream or of the decoding (tested).
 //!
-//! **Eigensolver.** Bases come from [`crate::spectral::dense_evd`] (selected by
-//! [`crate::spectral::DenseSolver::Reproducible`]) and the canonicalization in
-//! `spectral::basis` (plain loops in index order): the arithmetic is fixed-order and
+//! **Eigensolver.** Bases come from [`crate::spectral::dense_evd`]'s arithmetic
+//! (tridiagonalisation, QL eigenvalues, inverse iteration): fixed-order and
 //! correctly rounded, so the bases are the same bit for bit on every CPU (with or
 //! without AVX2/FMA: `mul_add` is correctly rounded in hardware and in the C
-//! library's `fma`), and the solver is faster than faer's at these sizes.
+//! library's `fma`), and faster than faer's solver at these sizes.
+//!
+//! **Factored bases** (format version 8 on, `patches::BasisForm`). A symmetric
+//! operator's basis (Kirchhoff, graph, SQL, SSTL) is kept as its decomposition
+//! [`crate::spectral::FactoredEvd`]: the Householder reflectors Q of the
+//! tridiagonalisation and the tridiagonal eigenvectors Z, with `X = Zᵀ(Qᵀx)` and
+//! `x̃ = Q(Z X̃)`. E = QZ is never formed, which skips the back-transformation (as
+//! many flops as the tridiagonalisation) on both sides; the vectors are not
+//! canonicalised (the decoder runs the same arithmetic, so it needs no sign or
+//! cluster rule), and a decoder computes exactly the vectors up to a patch's last
+//! non-zero coefficient. Four patches are decomposed together
+//! ([`crate::spectral::FactoredEvd::batch`]: their QL iterations interleaved, the
+//! same bits as one at a time), and the Kirchhoff operator is built straight from a
+//! patch's faces. The Tutte operator, not symmetric, keeps the explicit basis
+//! ([`crate::spectral::EigenBasis`] with [`crate::spectral::DenseSolver::Reproducible`]
+//! and the canonicalization in `spectral::basis`), as every operator did up to
+//! version 7, and as older files are still decoded.
 //!
 //! **Arithmetic of the products** (`patches::Arithmetic`). Since format version 6 the
 //! coefficient products (`X = E⁻¹x`, `x̃ = E_m X̃`) and the predictor's Cholesky are

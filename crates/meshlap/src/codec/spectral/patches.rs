@@ -279,10 +279,12 @@ pub(super) struct PatchLayout {
 }
 
 impl PatchLayout {
-    /// Bytes of the patch's dense basis (n_p² values), the unit of
-    /// [`chunks`]' budget.
-    fn basis_bytes(&self) -> usize {
-        self.verts.len() * self.verts.len() * std::mem::size_of::<f64>()
+    /// Bytes of the patch's basis at most, the unit of [`chunks`]' budget: 3n_p²/2
+    /// values, what a factored basis keeps with every vector (n_p(n_p − 1)/2
+    /// reflector entries and n_p² of Z); an explicit basis takes n_p².
+    pub(super) fn basis_bytes(&self) -> usize {
+        let n = self.verts.len();
+        (n * n + n * n / 2) * std::mem::size_of::<f64>()
     }
 }
 
@@ -325,7 +327,10 @@ fn patch_layout(patch: &[u32], faces: &[[u32; 3]], keep: Keep) -> PatchLayout {
 
 /// The operator `kind` (`F = D − W`, PSD) of a patch's submesh; `None` for a patch
 /// without faces.
-pub(super) fn patch_operator(layout: &PatchLayout, kind: OperatorKind) -> Result<Option<Operator>, CodecError> {
+pub(super) fn patch_operator(
+    layout: &PatchLayout,
+    kind: OperatorKind,
+) -> Result<Option<Operator>, CodecError> {
     let np = layout.verts.len();
     if np == 0 {
         return Ok(None);
@@ -365,7 +370,11 @@ fn patch_bases(
     }
     let mut ops = Vec::with_capacity(layouts.len());
     for (l, &need) in layouts.iter().zip(needs) {
-        ops.push(if need > 0 { patch_operator(l, kind)? } else { None });
+        ops.push(if need > 0 {
+            patch_operator(l, kind)?
+        } else {
+            None
+        });
     }
     if !factored {
         let opts = BasisOptions {

@@ -360,12 +360,12 @@ fn chunks_cover_every_patch_in_order_within_the_budget() {
     let bytes = |r: &std::ops::Range<usize>| -> usize {
         layout[r.clone()]
             .iter()
-            .map(|l| l.verts.len().pow(2) * 8)
+            .map(super::patches::PatchLayout::basis_bytes)
             .sum()
     };
     let largest = layout
         .iter()
-        .map(|l| l.verts.len().pow(2) * 8)
+        .map(super::patches::PatchLayout::basis_bytes)
         .max()
         .unwrap();
     for budget in [0, 1, largest, 3 * largest, usize::MAX] {
@@ -440,10 +440,26 @@ fn factored_bases_match_the_explicit_ones() {
         };
         let lay = layout(&topo, &params, 8).unwrap();
         let n = lay.len();
-        let old = bases_of(&topo, &params, Recipe::for_version(7), &lay, None, 0..n, |_| usize::MAX)
-            .unwrap();
-        let new = bases_of(&topo, &params, Recipe::for_version(8), &lay, None, 0..n, |_| usize::MAX)
-            .unwrap();
+        let old = bases_of(
+            &topo,
+            &params,
+            Recipe::for_version(7),
+            &lay,
+            None,
+            0..n,
+            |_| usize::MAX,
+        )
+        .unwrap();
+        let new = bases_of(
+            &topo,
+            &params,
+            Recipe::for_version(8),
+            &lay,
+            None,
+            0..n,
+            |_| usize::MAX,
+        )
+        .unwrap();
         for (a, b) in old.iter().zip(&new) {
             let x = faer::Mat::from_fn(a.verts.len(), 3, |i, k| {
                 mesh.positions[a.verts[i] as usize][k]
@@ -478,7 +494,11 @@ fn factored_bases_match_the_explicit_ones() {
                 }
                 compared += 1;
             }
-            assert!(compared * 2 >= ca.nrows(), "{kind}: {compared} of {}", ca.nrows());
+            assert!(
+                compared * 2 >= ca.nrows(),
+                "{kind}: {compared} of {}",
+                ca.nrows()
+            );
             // Parseval: the energies agree, and synthesis gives the positions back.
             let energy = |c: &faer::Mat<f64>| -> f64 {
                 let mut e = 0.0;
@@ -490,7 +510,10 @@ fn factored_bases_match_the_explicit_ones() {
                 e
             };
             let (ea, eb) = (energy(&ca), energy(&cb));
-            assert!((ea - eb).abs() <= 1e-10 * ea.max(1.0), "{kind}: {ea} vs {eb}");
+            assert!(
+                (ea - eb).abs() <= 1e-10 * ea.max(1.0),
+                "{kind}: {ea} vs {eb}"
+            );
             let back = b.synthesize(&cb).unwrap();
             assert!((&back - &x).norm_max() <= 1e-12 * scale, "{kind}");
         }
