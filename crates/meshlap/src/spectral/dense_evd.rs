@@ -891,7 +891,8 @@ pub(super) fn tridiagonal_vectors_by_column(
     }
     let mut lu = TridiagonalLu::new(n);
     // Finished vectors, column-major (column j contiguous).
-    let mut zc = vec![0.0f64; n * count];
+    // Filled in order, vector by vector (not zeroed first).
+    let mut zc: Vec<f64> = Vec::with_capacity(n * count);
     let mut x = vec![[0.0f64; LANES]; n];
     let mut lane = vec![vec![0.0f64; n]; LANES];
     for j0 in (0..count).step_by(LANES) {
@@ -939,7 +940,8 @@ pub(super) fn tridiagonal_vectors_by_column(
             if l > 0 && j == js[l - 1] {
                 continue;
             }
-            zc[j * n..(j + 1) * n].copy_from_slice(&lane[l]);
+            debug_assert_eq!(zc.len(), j * n);
+            zc.extend_from_slice(&lane[l]);
         }
     }
     zc

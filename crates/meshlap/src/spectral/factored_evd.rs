@@ -56,6 +56,30 @@ impl FactoredEvd {
         Self::batch(&[(a, count)]).pop().flatten()
     }
 
+    /// [`FactoredEvd::batch`] of matrices given by value: each `(n, a, count)` with
+    /// `a` the n×n column-major entries (`a[i + j·n]`), of which only the lower
+    /// triangle is read (the buffer becomes the working matrix: no copy). The same
+    /// bits as [`FactoredEvd::new`]; `None` for an entry whose length is not n².
+    pub fn batch_dense(items: Vec<(usize, Vec<f64>, usize)>) -> Vec<Option<Self>> {
+        let mut out: Vec<Option<Self>> = Vec::with_capacity(items.len());
+        let mut work = Vec::new();
+        for (idx, (n, a, count)) in items.into_iter().enumerate() {
+            out.push(None);
+            if a.len() != n * n {
+                continue;
+            }
+            match prepare_owned(n, a, count) {
+                Prepared::Done(f) => out[idx] = f,
+                Prepared::Scaled(s) => work.push((idx, s)),
+            }
+        }
+        let results = decompose_batch(&mut work);
+        for ((idx, s), r) in work.into_iter().zip(results) {
+            out[idx] = r.and_then(|r| s.finish(r));
+        }
+        out
+    }
+
     /// [`FactoredEvd::new`] of each `(a, count)`, with the same bits: the QL
     /// iterations of four matrices at a time run interleaved (their chains of
     /// dependent divisions overlap), which makes a batch faster than as many calls.
@@ -284,6 +308,40 @@ fn prepare(a: faer::MatRef<'_, f64>, count: usize) -> Prepared {
     })
 }
 
+/// [`prepare`] of the column-major n×n `a` (`a.len() = n²`), scaled in place; its
+/// upper triangle is overwritten with the lower one.
+fn prepare_owned(n: usize, mut a: Vec<f64>, count: usize) -> Prepared {
+    if n == 0 {
+        return prepare(faer::Mat::<f64>::zeros(0, 0).as_ref(), count);
+    }
+    let mut amax = 0.0f64;
+    for j in 0..n {
+        for &x in &a[j * n + j..(j + 1) * n] {
+            if !x.is_finite() {
+                return Prepared::Done(None);
+            }
+            amax = amax.max(x.abs());
+        }
+    }
+    if amax == 0.0 {
+        return prepare(faer::Mat::<f64>::zeros(n, n).as_ref(), count);
+    }
+    let (scale, unscale) = power_of_two_scaling(amax);
+    for j in 0..n {
+        for i in j..n {
+            let x = a[i + j * n] * scale;
+            a[i + j * n] = x;
+            a[j + i * n] = x;
+        }
+    }
+    Prepared::Scaled(Scaled {
+        n,
+        count: count.min(n),
+        w: a,
+        unscale,
+    })
+}
+
 impl Scaled {
     /// The decomposition from [`decompose_batch`]'s result: eigenvalues unscaled (by a
     /// power of two: exactly), reflectors packed.
@@ -502,6 +560,43 @@ mod tests {
             }
         }
         assert!(batch[10].is_none());
+    }
+
+    #[test]
+    fn matrices_by_value_give_the_same_bits() {
+        let mats: Vec<Mat<f64>> = vec![
+            random_symmetric(33, 41),
+            Mat::<f64>::zeros(3, 3),
+            random_symmetric(1, 42),
+            random_symmetric(70, 43),
+        ];
+        let by_ref: Vec<_> = mats.iter().map(|a| (a.as_ref(), 20)).collect();
+        let by_value: Vec<_> = mats
+            .iter()
+            .map(|a| {
+                let n = a.nrows();
+                // Garbage in the upper triangle: only the lower one is read.
+                let v = (0..n * n)
+                    .map(|x| {
+                        if x % n >= x / n {
+                            a[(x % n, x / n)]
+                        } else {
+                            7.0
+                        }
+                    })
+                    .collect();
+                (n, v, 20)
+            })
+            .chain(std::iter::once((4, vec![1.0; 15], 2)))
+            .collect();
+        let a = FactoredEvd::batch(&by_ref);
+        let b = FactoredEvd::batch_dense(by_value);
+        assert!(b[4].is_none(), "a buffer of the wrong length is refused");
+        for (a, b) in a.iter().zip(&b) {
+            let (a, b) = (a.as_ref().unwrap(), b.as_ref().unwrap());
+            assert_eq!(a.eigenvalues, b.eigenvalues);
+            assert_eq!((&a.z, &a.refl, &a.tau), (&b.z, &b.refl, &b.tau));
+        }
     }
 
     #[test]

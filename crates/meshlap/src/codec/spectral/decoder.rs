@@ -4,7 +4,7 @@
 use super::coefficients::Models;
 use super::header::Header;
 use super::patches::{
-    bases_of, border_and_loose, chunks, layout, predictor_owners, stream, Arithmetic, Recipe,
+    bases_then, border_and_loose, chunks, layout, predictor_owners, stream, Arithmetic, Recipe,
     CHUNK_BYTES,
 };
 use super::residuals::Residuals;
@@ -12,7 +12,6 @@ use crate::codec::container::ByteReader;
 use crate::codec::entropy::RangeDecoder;
 use crate::codec::CodecError;
 use crate::mesh::topology::Topology;
-use rayon::prelude::*;
 
 /// Decodes a spectral geometry stream (header and payload, after the mode byte) of
 /// an `.mlz` file of format `version` for the decoded connectivity `topo`: the
@@ -72,31 +71,30 @@ pub(super) fn decode_chunked(
     // next chunk computed while the predictions of the current one are added.
     let owner = predictor_owners(n, &params, &layout);
     let compute = |r: std::ops::Range<usize>| {
-        let bases = bases_of(
+        // Each basis is used once, for its synthesis, right after it is computed.
+        let done = bases_then(
             topo,
             &params,
             recipe,
             &layout,
             owner.as_deref(),
-            r.clone(),
+            r,
             |p| need[p],
-        )?;
-        let synth = bases
-            .par_iter()
-            .zip(r)
-            .map(|(b, p)| {
+            |p, mut b| {
                 let q = &coefs[p];
-                if need[p] < q.nrows() {
-                    b.synthesize(&q.subrows(0, need[p]).to_owned())
+                let x = if need[p] < q.nrows() {
+                    b.synthesize(&q.subrows(0, need[p]).to_owned())?
                 } else {
-                    b.synthesize(q)
-                }
-            })
-            .collect::<Result<Vec<_>, _>>()?;
-        Ok((bases, synth))
+                    b.synthesize(q)?
+                };
+                b.basis = None;
+                Ok((b, x))
+            },
+        )?;
+        Ok(done)
     };
-    stream(&chunks(&layout, chunk), compute, |_, (bases, synth)| {
-        for (b, x) in bases.iter().zip(&synth) {
+    stream(&chunks(&layout, chunk), compute, |_, done| {
+        for (b, x) in &done {
             let xhat = b.pred.as_ref().map(|pr| pr.predict(&rec));
             b.place(xhat.as_ref(), x, &mut rec);
         }

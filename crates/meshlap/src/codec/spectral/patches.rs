@@ -362,11 +362,19 @@ fn patch_bases(
         let mut at = Vec::new();
         for (i, (l, &need)) in layouts.iter().zip(needs).enumerate() {
             if need > 0 && !l.verts.is_empty() {
-                dense.push((kirchhoff_dense(l), need.min(l.m)));
+                dense.push((l.verts.len(), kirchhoff_dense(l), need.min(l.m)));
                 at.push(i);
             }
         }
-        return factored_bases(layouts.len(), &dense, at);
+        let mut out: Vec<Option<Basis>> = (0..layouts.len()).map(|_| None).collect();
+        for (i, f) in at.into_iter().zip(FactoredEvd::batch_dense(dense)) {
+            out[i] = Some(Basis::Factored(f.ok_or(CodecError::PatchBasis(
+                SpectralError::NoConvergence {
+                    path: "symmetric (factored reproducible solver)",
+                },
+            ))?));
+        }
+        return Ok(out);
     }
     let mut ops = Vec::with_capacity(layouts.len());
     for (l, &need) in layouts.iter().zip(needs) {
@@ -429,25 +437,25 @@ fn factored_bases(
 }
 
 /// The Kirchhoff operator `K = D − A` (PSD sign convention) of a patch's submesh,
-/// dense n_p×n_p: −1 for each edge of its faces, the vertex degrees on the diagonal.
-pub(super) fn kirchhoff_dense(layout: &PatchLayout) -> Mat<f64> {
+/// dense n_p×n_p column-major (`k[i + j·n_p]`): −1 for each edge of its faces, the
+/// vertex degrees on the diagonal.
+pub(super) fn kirchhoff_dense(layout: &PatchLayout) -> Vec<f64> {
     let np = layout.verts.len();
-    let mut k = Mat::<f64>::zeros(np, np);
+    let mut k = vec![0.0f64; np * np];
+    let mut deg = vec![0u32; np];
     for f in &layout.faces {
         for (a, b) in [(f[0], f[1]), (f[1], f[2]), (f[2], f[0])] {
             let (a, b) = (a as usize, b as usize);
-            k[(a, b)] = -1.0;
-            k[(b, a)] = -1.0;
-        }
-    }
-    for i in 0..np {
-        let mut deg = 0.0;
-        for j in 0..np {
-            if k[(i, j)] != 0.0 {
-                deg += 1.0;
+            if k[a + b * np] == 0.0 {
+                k[a + b * np] = -1.0;
+                k[b + a * np] = -1.0;
+                deg[a] += 1;
+                deg[b] += 1;
             }
         }
-        k[(i, i)] = deg;
+    }
+    for (i, &d) in deg.iter().enumerate() {
+        k[i + i * np] = f64::from(d);
     }
     k
 }
@@ -513,6 +521,26 @@ pub(super) fn bases_of(
     range: std::ops::Range<usize>,
     need: impl Fn(usize) -> usize + Sync,
 ) -> Result<Vec<PatchBasis>, CodecError> {
+    bases_then(topo, params, recipe, layout, owner, range, need, |_, b| {
+        Ok(b)
+    })
+}
+
+/// [`bases_of`], handing each patch's basis (with its index) to `then` as soon as
+/// its group is computed, in the same task: a decoder that synthesizes there and
+/// drops the basis keeps a few bases alive at a time instead of a chunk's, so their
+/// memory is reused while still in cache.
+#[allow(clippy::too_many_arguments)] // bases_of's arguments and the hook
+pub(super) fn bases_then<T: Send>(
+    topo: &Topology,
+    params: &SpectralParams,
+    recipe: Recipe,
+    layout: &[PatchLayout],
+    owner: Option<&[u32]>,
+    range: std::ops::Range<usize>,
+    need: impl Fn(usize) -> usize + Sync,
+    then: impl Fn(usize, PatchBasis) -> Result<T, CodecError> + Sync,
+) -> Result<Vec<T>, CodecError> {
     // Four patches per task: their factored decompositions run together
     // ([`FactoredEvd::batch`]).
     const GROUP: usize = 4;
@@ -524,8 +552,7 @@ pub(super) fn bases_of(
             let p0 = start + g * GROUP;
             let needs: Vec<usize> = (p0..p0 + ls.len()).map(&need).collect();
             let bases = patch_bases(ls, &needs, params.operator, recipe)?;
-            Ok(ls
-                .iter()
+            ls.iter()
                 .zip(bases)
                 .enumerate()
                 .map(|(i, (l, basis))| {
@@ -540,15 +567,18 @@ pub(super) fn bases_of(
                         ),
                         _ => None,
                     };
-                    PatchBasis {
-                        verts: l.verts.clone(),
-                        basis,
-                        m: l.m,
-                        pred,
-                        arith: recipe.arith,
-                    }
+                    then(
+                        p0 + i,
+                        PatchBasis {
+                            verts: l.verts.clone(),
+                            basis,
+                            m: l.m,
+                            pred,
+                            arith: recipe.arith,
+                        },
+                    )
                 })
-                .collect::<Vec<_>>())
+                .collect::<Result<Vec<_>, CodecError>>()
         })
         .collect::<Result<Vec<_>, CodecError>>()?;
     Ok(groups.into_iter().flatten().collect())
