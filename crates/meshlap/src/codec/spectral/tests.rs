@@ -234,8 +234,9 @@ fn interleaved_cholesky_gives_the_reference_bits() {
     }
 }
 
-/// Format 7's factored predictor, `x̂ = −M⁻¹(L_Uᵀ(L_S y))`, predicts what the formed
-/// `G` of formats 4–6 does (up to rounding), for every predicted patch of a torus.
+/// Format 7's factored predictor, `x̂ = −M⁻¹(L_Uᵀ(L_S y))`, and format 8's banded one
+/// predict what the formed `G` of formats 4–6 does (up to rounding), for every
+/// predicted patch of a torus.
 #[test]
 fn factored_prediction_matches_the_formed_matrix() {
     use super::patches::{layout, predictor_owners, Arithmetic};
@@ -252,15 +253,21 @@ fn factored_prediction_matches_the_formed_matrix() {
     for (p, l) in lay.iter().enumerate() {
         let make =
             |form| patch_prediction(&topo, &owner, &l.verts, p as u32, Arithmetic::Fixed, form);
-        match (make(PredictorForm::Matrix), make(PredictorForm::Factored)) {
-            (Some(a), Some(b)) => {
+        match (
+            make(PredictorForm::Matrix),
+            make(PredictorForm::Factored),
+            make(PredictorForm::Banded),
+        ) {
+            (Some(a), Some(b), Some(c)) => {
                 let (xa, xb) = (a.predict(&mesh.positions), b.predict(&mesh.positions));
+                let xc = c.predict(&mesh.positions);
                 let scale = xa.norm_max().max(1.0);
                 assert!((&xa - &xb).norm_max() <= 1e-9 * scale, "patch {p}");
+                assert!((&xa - &xc).norm_max() <= 1e-9 * scale, "patch {p} (banded)");
                 compared += 1;
             }
-            (None, None) => {}
-            _ => panic!("patch {p}: one form predicts, the other does not"),
+            (None, None, None) => {}
+            _ => panic!("patch {p}: one form predicts, another does not"),
         }
     }
     assert!(compared >= lay.len() / 2, "{compared} of {}", lay.len());
@@ -523,4 +530,78 @@ fn factored_bases_match_the_explicit_ones() {
             assert!((&back - &x).norm_max() <= 1e-12 * scale, "{kind}");
         }
     }
+}
+
+/// Reverse Cuthill–McKee gives a permutation that narrows a grid's band, and the band
+/// Cholesky solves as a dense solve does.
+#[test]
+fn band_cholesky_solves_an_rcm_ordered_grid() {
+    use super::prediction::{band_cholesky, band_solve, rcm_order};
+    // A 9×7 grid graph numbered column-major with a shuffle, plus an isolated vertex.
+    let (w, h) = (9usize, 7usize);
+    let n = w * h + 1;
+    let mut rng = crate::rng::SplitMix64::new(3);
+    let mut label: Vec<usize> = (0..w * h).collect();
+    for i in (1..label.len()).rev() {
+        let j = (rng.next_u64() % (i as u64 + 1)) as usize;
+        label.swap(i, j);
+    }
+    let mut adj: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for x in 0..w {
+        for y in 0..h {
+            let v = label[x * h + y];
+            for (dx, dy) in [(1usize, 0usize), (0, 1)] {
+                if x + dx < w && y + dy < h {
+                    let u = label[(x + dx) * h + y + dy];
+                    adj[v].push(u as u32);
+                    adj[u].push(v as u32);
+                }
+            }
+        }
+    }
+    adj.iter_mut().for_each(|a| a.sort_unstable());
+    let mut at = vec![0usize];
+    let mut flat = Vec::new();
+    for a in &adj {
+        flat.extend_from_slice(a);
+        at.push(flat.len());
+    }
+    let perm = rcm_order(&at, &flat);
+    let mut sorted = perm.clone();
+    sorted.sort_unstable();
+    assert_eq!(sorted, (0..n as u32).collect::<Vec<_>>());
+    let b = (0..n)
+        .flat_map(|a| adj[a].iter().map(move |&c| (a, c as usize)))
+        .map(|(a, c)| (perm[a] as usize).abs_diff(perm[c] as usize))
+        .max()
+        .unwrap();
+    assert!(b <= 2 * h, "band {b} (grid side {h})");
+    // M = 5I − A (diagonally dominant), in the new numbering.
+    let mut dense = faer::Mat::<f64>::zeros(n, n);
+    for a in 0..n {
+        dense[(perm[a] as usize, perm[a] as usize)] = 5.0;
+        for &c in &adj[a] {
+            dense[(perm[a] as usize, perm[c as usize] as usize)] = -1.0;
+        }
+    }
+    let mut band = vec![0.0f64; n * (b + 1)];
+    for i in 0..n {
+        for j in i.saturating_sub(b)..=i {
+            band[i * (b + 1) + j + b - i] = dense[(i, j)];
+        }
+    }
+    band_cholesky(&mut band, n, b).unwrap();
+    let rhs: Vec<f64> = (0..n).map(|i| (i as f64 * 0.7).cos()).collect();
+    let mut x = rhs.clone();
+    band_solve(&band, n, b, &mut x);
+    let r = &dense * faer::Mat::from_fn(n, 1, |i, _| x[i]);
+    for i in 0..n {
+        assert!((r[(i, 0)] - rhs[i]).abs() < 1e-12, "row {i}");
+    }
+    // Not positive definite: refused.
+    let mut bad = vec![0.0f64; 2 * (b + 1)];
+    bad[b] = 1.0;
+    bad[(b + 1) + b - 1] = 2.0;
+    bad[(b + 1) + b] = 1.0;
+    assert!(band_cholesky(&mut bad, 2, b).is_none());
 }
