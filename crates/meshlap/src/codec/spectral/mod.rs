@@ -83,7 +83,9 @@
 //! plain loops in index order (no fused operations); since version 7 the predictor
 //! keeps its Cholesky factor and solves three right-hand sides per patch,
 //! `x̂ = −M⁻¹(L_Uᵀ(L_S y))`, instead of forming `G` with one solve per known
-//! neighbour (`prediction::PredictorForm`; the same prediction up to rounding), so a file encodes to the same
+//! neighbour, and since version 8 that factor is a band one, after a reverse
+//! Cuthill–McKee numbering of `M` (`prediction::PredictorForm`; the same prediction
+//! up to rounding), so a file encodes to the same
 //! bytes and decodes to the same coordinates on every CPU, whatever its SIMD width
 //! and whatever `MESHLAP_PORTABLE` says (tested in `meshlap-cli`'s
 //! `tests/portable.rs`, and under an emulated CPU without AVX2/FMA, RELIABILITY.md).

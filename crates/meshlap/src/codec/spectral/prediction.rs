@@ -291,14 +291,17 @@ pub(super) fn band_cholesky(m: &mut [f64], n: usize, b: usize) -> Option<()> {
 pub(super) fn band_solve(l: &[f64], n: usize, b: usize, x: &mut [f64]) {
     for i in 0..n {
         let lo = i.saturating_sub(b);
-        x[i] = (x[i] - dot4(&l[band_at(i, lo, b)..band_at(i, i, b)], &x[lo..i]))
-            / l[band_at(i, i, b)];
+        x[i] =
+            (x[i] - dot4(&l[band_at(i, lo, b)..band_at(i, i, b)], &x[lo..i])) / l[band_at(i, i, b)];
     }
     for i in (0..n).rev() {
         let lo = i.saturating_sub(b);
         let xi = x[i] / l[band_at(i, i, b)];
         x[i] = xi;
-        for (xk, &lik) in x[lo..i].iter_mut().zip(&l[band_at(i, lo, b)..band_at(i, i, b)]) {
+        for (xk, &lik) in x[lo..i]
+            .iter_mut()
+            .zip(&l[band_at(i, lo, b)..band_at(i, i, b)])
+        {
             *xk -= lik * xi;
         }
     }
@@ -314,7 +317,8 @@ pub(super) fn band_solve(l: &[f64], n: usize, b: usize, x: &mut [f64]) {
 /// rows touch). The prediction is the smoothest continuation of the decoded
 /// neighbourhood into the patch, the minimizer of the discrete thin-plate energy
 /// `‖L_U x_U + L_S y‖²` (affine continuations cost nearly nothing):
-/// `x̂_U = G y` with `G = −(L_UᵀL_U)⁻¹ L_UᵀL_S` (n_p × |S|), a dense Cholesky
+/// `x̂_U = G y` with `G = −(L_UᵀL_U)⁻¹ L_UᵀL_S` (n_p × |S|), a dense Cholesky (a band
+/// one from format 8, [`PredictorForm::Banded`])
 /// (sequential, so encoder and decoder get the same `G` bit for bit; with
 /// [`Arithmetic::Fixed`] the same on every CPU too, [`cholesky_solve_fixed`]).
 pub(super) fn patch_prediction(
@@ -448,7 +452,11 @@ fn banded_prediction(
     let mut nbrs = Vec::with_capacity(lu_at[np]);
     at.push(0);
     for a in 0..np {
-        nbrs.extend(lu[lu_at[a] + 1..lu_at[a + 1]].iter().map(|&(c, _)| c as u32));
+        nbrs.extend(
+            lu[lu_at[a] + 1..lu_at[a + 1]]
+                .iter()
+                .map(|&(c, _)| c as u32),
+        );
         at.push(nbrs.len());
     }
     let perm = rcm_order(&at, &nbrs);
@@ -481,7 +489,9 @@ fn banded_prediction(
         }
     }
     // The ridge, relative to the mean diagonal (summed in the original order).
-    let tr = (0..np).map(|a| m[band_at(perm[a] as usize, perm[a] as usize, b)]).sum::<f64>()
+    let tr = (0..np)
+        .map(|a| m[band_at(perm[a] as usize, perm[a] as usize, b)])
+        .sum::<f64>()
         / np as f64;
     for i in 0..np {
         m[band_at(i, i, b)] += 1e-10 * tr;
