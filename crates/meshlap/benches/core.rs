@@ -94,6 +94,25 @@ fn patch_bases_reproducible(bencher: divan::Bencher, p: usize) {
     patch_bases(bencher, p, DenseSolver::Reproducible);
 }
 
+/// The codec's factored bases (`.mlz` format 8): every vector of each cow patch's
+/// Kirchhoff matrix (PSD, `F = D − W`), four patches per batch (their QL iterations
+/// interleaved), as `patch_bases_reproducible` computes them explicitly.
+#[divan::bench(args = [100, 150])]
+fn patch_bases_factored(bencher: divan::Bencher, p: usize) {
+    let dense: Vec<_> = cow_patch_operators(p)
+        .iter()
+        .map(|op| op.matrix.to_dense())
+        .collect();
+    bencher
+        .counter(divan::counter::ItemsCount::new(dense.len()))
+        .bench(|| {
+            for group in dense.chunks(4) {
+                let items: Vec<_> = group.iter().map(|a| (a.as_ref(), a.nrows())).collect();
+                divan::black_box(meshlap::spectral::FactoredEvd::batch(&items));
+            }
+        });
+}
+
 /// The tridiagonal form (diagonal n, off-diagonal n − 1) of the Kirchhoff matrix
 /// `F = D − W` (PSD) of a breadth-first patch of about `size` vertices of icosphere:5
 /// ([`bfs_patch`] from vertex 0), reduced by faer's `tridiag_in_place`.
