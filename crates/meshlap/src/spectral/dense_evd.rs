@@ -1031,6 +1031,7 @@ fn back_transform_reference(z: &mut [f64], n: usize, count: usize, a: &[f64], ta
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::spectral::test_util::random_symmetric;
     use faer::Mat;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
@@ -1056,19 +1057,6 @@ mod tests {
             }
         }
         (res, orth)
-    }
-
-    fn random_symmetric(n: usize, seed: u64) -> Mat<f64> {
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let mut a = Mat::<f64>::zeros(n, n);
-        for j in 0..n {
-            for i in j..n {
-                let x: f64 = rng.gen_range(-1.0..1.0);
-                a[(i, j)] = x;
-                a[(j, i)] = x;
-            }
-        }
-        a
     }
 
     fn faer_values(a: &Mat<f64>) -> Vec<f64> {

@@ -427,22 +427,10 @@ fn decompose_batch(work: &mut [(usize, Scaled)]) -> Vec<Option<Decomposed>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::spectral::test_util::random_symmetric;
     use faer::Mat;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
-
-    fn random_symmetric(n: usize, seed: u64) -> Mat<f64> {
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let mut a = Mat::<f64>::zeros(n, n);
-        for j in 0..n {
-            for i in j..n {
-                let x: f64 = rng.gen_range(-1.0..1.0);
-                a[(i, j)] = x;
-                a[(j, i)] = x;
-            }
-        }
-        a
-    }
 
     /// The explicit basis E = QZ, column by column, through `synthesize` of unit
     /// coefficients.

@@ -277,6 +277,21 @@ pub(crate) mod test_util {
         OperatorKind::Cotan,
     ];
 
+    /// A dense symmetric n×n matrix with entries uniform in [−1, 1) (seeded).
+    pub fn random_symmetric(n: usize, seed: u64) -> faer::Mat<f64> {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let mut a = faer::Mat::<f64>::zeros(n, n);
+        for j in 0..n {
+            for i in j..n {
+                let x: f64 = rng.gen_range(-1.0..1.0);
+                a[(i, j)] = x;
+                a[(j, i)] = x;
+            }
+        }
+        a
+    }
+
     /// An icosphere with three faces removed far apart: irregular valences, three
     /// holes and no symmetry left, so its combinatorial spectra are simple.
     pub fn irregular() -> TriMesh {
