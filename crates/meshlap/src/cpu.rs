@@ -56,7 +56,10 @@ pub(crate) trait Kernel {
     type Output;
     /// The kernel for the baseline target; [`dispatch`] also calls it, inlined into a
     /// function compiled with AVX2 + FMA, when [`Kernel::avx2_fma`] is not
-    /// overridden. Implementations mark it `#[inline(always)]`.
+    /// overridden. Implementations mark it `#[inline(always)]`, and keep the
+    /// arithmetic out of closures (`Option::map`, an array's `map`): a closure is
+    /// compiled without the caller's target features, so its `mul_add` becomes a
+    /// C-library `fma` call, an order of magnitude slower (same bits).
     fn portable(self) -> Self::Output;
     /// The kernel written for AVX2 + FMA (intrinsics); defaults to the portable
     /// code, compiled with those features. Only called when [`avx2_fma`] is true.
