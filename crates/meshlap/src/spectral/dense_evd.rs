@@ -79,32 +79,23 @@ pub fn symmetric_evd_lowest_by(
     if n == 0 {
         return Some((Vec::new(), faer::Mat::zeros(0, 0)));
     }
-    let mut amax = 0.0f64;
-    for j in 0..n {
-        for i in j..n {
-            let x = a[(i, j)];
-            if !x.is_finite() {
-                return None;
-            }
-            amax = amax.max(x.abs());
-        }
-    }
-    if amax == 0.0 {
-        let count = count(&vec![0.0; n]).min(n);
-        return Some((
-            vec![0.0; n],
-            faer::Mat::from_fn(n, count, |i, j| f64::from(u8::from(i == j))),
-        ));
-    }
-    let (scale, unscale) = power_of_two_scaling(amax);
     let mut w = vec![0.0f64; n * n];
     for j in 0..n {
         for i in j..n {
-            let x = a[(i, j)] * scale;
-            w[i + j * n] = x;
-            w[j + i * n] = x;
+            w[i + j * n] = a[(i, j)];
         }
     }
+    let unscale = match scale_lower(&mut w, n) {
+        Scaling::NonFinite => return None,
+        Scaling::Zero => {
+            let count = count(&vec![0.0; n]).min(n);
+            return Some((
+                vec![0.0; n],
+                faer::Mat::from_fn(n, count, |i, j| f64::from(u8::from(i == j))),
+            ));
+        }
+        Scaling::By(unscale) => unscale,
+    };
     // The count sees the eigenvalues as returned: unscaled (exactly: a power of two).
     let unscaled_count = |lam: &[f64]| {
         let lam: Vec<f64> = lam.iter().map(|x| x * unscale).collect();
@@ -250,6 +241,44 @@ fn lowest_by_bisection(d: &[f64], e: &[f64], count: usize) -> Vec<f64> {
         }
     }
     lam
+}
+
+/// What [`scale_lower`] found.
+pub(super) enum Scaling {
+    /// An entry of the lower triangle is not finite.
+    NonFinite,
+    /// Every entry is zero (nothing scaled).
+    Zero,
+    /// Scaled; multiply the eigenvalues by this (a power of two) to undo it.
+    By(f64),
+}
+
+/// Step 1 of the method on the column-major n×n `w` (`w[i + j·n]`): checks that its
+/// lower triangle is finite, scales it by the exact power of two that brings
+/// `max |w_ij|` into `[1, 2)` ([`power_of_two_scaling`]) and mirrors it into the
+/// upper triangle (whose entries are not read).
+pub(super) fn scale_lower(w: &mut [f64], n: usize) -> Scaling {
+    let mut amax = 0.0f64;
+    for j in 0..n {
+        for &x in &w[j * n + j..(j + 1) * n] {
+            if !x.is_finite() {
+                return Scaling::NonFinite;
+            }
+            amax = amax.max(x.abs());
+        }
+    }
+    if amax == 0.0 {
+        return Scaling::Zero;
+    }
+    let (scale, unscale) = power_of_two_scaling(amax);
+    for j in 0..n {
+        for i in j..n {
+            let x = w[i + j * n] * scale;
+            w[i + j * n] = x;
+            w[j + i * n] = x;
+        }
+    }
+    Scaling::By(unscale)
 }
 
 /// The exact scaling `(2^−e, 2^e)`, with e the binary exponent of `amax` clamped to

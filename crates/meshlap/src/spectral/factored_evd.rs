@@ -21,8 +21,8 @@
 //! `F = D − W`.
 
 use super::dense_evd::{
-    axpy, power_of_two_scaling, ql_eigenvalues, ql_eigenvalues_many, tridiagonal_vectors_by_column,
-    tridiagonalize,
+    axpy, ql_eigenvalues, ql_eigenvalues_many, scale_lower, tridiagonal_vectors_by_column,
+    tridiagonalize, Scaling,
 };
 
 /// `A = Q Z Λ Zᵀ Qᵀ` with Q kept as reflectors and the first `count` eigenvectors of
@@ -250,13 +250,25 @@ struct Scaled {
 /// `count` eigenvectors of T (column-major) and τ; the reflectors are left in `w`.
 type Decomposed = (Vec<f64>, Vec<f64>, Vec<f64>);
 
-/// Checks `a` (square, finite lower triangle) and scales it, or decomposes it
-/// directly when it is empty or zero.
+/// Checks `a` (square, finite lower triangle) and scales a copy of it, or decomposes
+/// it directly when it is empty or zero.
 fn prepare(a: faer::MatRef<'_, f64>, count: usize) -> Prepared {
     let n = a.nrows();
     if a.ncols() != n {
         return Prepared::Done(None);
     }
+    let mut w = vec![0.0f64; n * n];
+    for j in 0..n {
+        for i in j..n {
+            w[i + j * n] = a[(i, j)];
+        }
+    }
+    prepare_owned(n, w, count)
+}
+
+/// [`prepare`] of the column-major n×n `a` (`a.len() = n²`), scaled in place; its
+/// upper triangle is overwritten with the lower one.
+fn prepare_owned(n: usize, mut a: Vec<f64>, count: usize) -> Prepared {
     let count = count.min(n);
     if n == 0 {
         return Prepared::Done(Some(FactoredEvd {
@@ -268,19 +280,10 @@ fn prepare(a: faer::MatRef<'_, f64>, count: usize) -> Prepared {
             tau: Vec::new(),
         }));
     }
-    let mut amax = 0.0f64;
-    for j in 0..n {
-        for i in j..n {
-            let x = a[(i, j)];
-            if !x.is_finite() {
-                return Prepared::Done(None);
-            }
-            amax = amax.max(x.abs());
-        }
-    }
-    if amax == 0.0 {
+    match scale_lower(&mut a, n) {
+        Scaling::NonFinite => Prepared::Done(None),
         // Zero matrix: T = 0, Q = I, Z = I.
-        return Prepared::Done(Some(FactoredEvd {
+        Scaling::Zero => Prepared::Done(Some(FactoredEvd {
             n,
             eigenvalues: vec![0.0; n],
             count,
@@ -289,57 +292,14 @@ fn prepare(a: faer::MatRef<'_, f64>, count: usize) -> Prepared {
                 .collect(),
             refl: vec![0.0; offset(n, n - 1)],
             tau: vec![0.0; n - 1],
-        }));
+        })),
+        Scaling::By(unscale) => Prepared::Scaled(Scaled {
+            n,
+            count,
+            w: a,
+            unscale,
+        }),
     }
-    let (scale, unscale) = power_of_two_scaling(amax);
-    let mut w = vec![0.0f64; n * n];
-    for j in 0..n {
-        for i in j..n {
-            let x = a[(i, j)] * scale;
-            w[i + j * n] = x;
-            w[j + i * n] = x;
-        }
-    }
-    Prepared::Scaled(Scaled {
-        n,
-        count,
-        w,
-        unscale,
-    })
-}
-
-/// [`prepare`] of the column-major n×n `a` (`a.len() = n²`), scaled in place; its
-/// upper triangle is overwritten with the lower one.
-fn prepare_owned(n: usize, mut a: Vec<f64>, count: usize) -> Prepared {
-    if n == 0 {
-        return prepare(faer::Mat::<f64>::zeros(0, 0).as_ref(), count);
-    }
-    let mut amax = 0.0f64;
-    for j in 0..n {
-        for &x in &a[j * n + j..(j + 1) * n] {
-            if !x.is_finite() {
-                return Prepared::Done(None);
-            }
-            amax = amax.max(x.abs());
-        }
-    }
-    if amax == 0.0 {
-        return prepare(faer::Mat::<f64>::zeros(n, n).as_ref(), count);
-    }
-    let (scale, unscale) = power_of_two_scaling(amax);
-    for j in 0..n {
-        for i in j..n {
-            let x = a[i + j * n] * scale;
-            a[i + j * n] = x;
-            a[j + i * n] = x;
-        }
-    }
-    Prepared::Scaled(Scaled {
-        n,
-        count: count.min(n),
-        w: a,
-        unscale,
-    })
 }
 
 impl Scaled {
@@ -427,6 +387,7 @@ fn decompose_batch(work: &mut [(usize, Scaled)]) -> Vec<Option<Decomposed>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::spectral::dense_evd::power_of_two_scaling;
     use crate::spectral::test_util::random_symmetric;
     use faer::Mat;
     use rand::{Rng, SeedableRng};

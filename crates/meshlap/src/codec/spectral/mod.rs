@@ -71,7 +71,7 @@
 //! canonicalised (the decoder runs the same arithmetic, so it needs no sign or
 //! cluster rule), and a decoder computes exactly the vectors up to a patch's last
 //! non-zero coefficient. Four patches are decomposed together
-//! ([`crate::spectral::FactoredEvd::batch`]: their QL iterations interleaved, the
+//! ([`crate::spectral::FactoredEvd::batch_dense`]: their QL iterations interleaved, the
 //! same bits as one at a time), and the Kirchhoff operator is built straight from a
 //! patch's faces. The Tutte operator, not symmetric, keeps the explicit basis
 //! ([`crate::spectral::EigenBasis`] with [`crate::spectral::DenseSolver::Reproducible`]

@@ -344,7 +344,7 @@ pub(super) fn patch_operator(
 
 /// The bases of a few patches (`layouts`, needing `needs` vectors each: all for
 /// `usize::MAX`, none for 0) of the operator `kind`, kept as `recipe` says: factored
-/// ([`FactoredEvd::batch`], the first `min(need, m)` tridiagonal eigenvectors) for the
+/// ([`FactoredEvd::batch_dense`], the first `min(need, m)` tridiagonal eigenvectors) for the
 /// symmetric operators from format 8, else explicit ([`EigenBasis::compute_lowest`]:
 /// canonical vectors, at least the first `need`). `None` for a patch without faces
 /// or needing none.
@@ -354,48 +354,21 @@ fn patch_bases(
     kind: OperatorKind,
     recipe: Recipe,
 ) -> Result<Vec<Option<Basis>>, CodecError> {
-    let factored = recipe.basis == BasisForm::Factored && kind.is_symmetric();
-    if factored && kind == OperatorKind::Kirchhoff {
-        // K = D − A straight from the faces: the values `Operator::assemble` gives
-        // (small integers, exact), without building the patch's topology.
-        let mut dense = Vec::new();
-        let mut at = Vec::new();
-        for (i, (l, &need)) in layouts.iter().zip(needs).enumerate() {
-            if need > 0 && !l.verts.is_empty() {
-                dense.push((l.verts.len(), kirchhoff_dense(l), need.min(l.m)));
-                at.push(i);
-            }
-        }
-        let mut out: Vec<Option<Basis>> = (0..layouts.len()).map(|_| None).collect();
-        for (i, f) in at.into_iter().zip(FactoredEvd::batch_dense(dense)) {
-            out[i] = Some(Basis::Factored(f.ok_or(CodecError::PatchBasis(
-                SpectralError::NoConvergence {
-                    path: "symmetric (factored reproducible solver)",
-                },
-            ))?));
-        }
-        return Ok(out);
-    }
-    let mut ops = Vec::with_capacity(layouts.len());
-    for (l, &need) in layouts.iter().zip(needs) {
-        ops.push(if need > 0 {
-            patch_operator(l, kind)?
-        } else {
-            None
-        });
-    }
-    if !factored {
+    if !(recipe.basis == BasisForm::Factored && kind.is_symmetric()) {
         let opts = BasisOptions {
             dense_solver: DenseSolver::Reproducible,
             ..Default::default()
         };
-        return ops
+        return layouts
             .iter()
             .zip(needs)
-            .map(|(op, &need)| {
-                op.as_ref()
+            .map(|(l, &need)| {
+                if need == 0 {
+                    return Ok(None);
+                }
+                patch_operator(l, kind)?
                     .map(|op| {
-                        EigenBasis::compute_lowest(op, &opts, need)
+                        EigenBasis::compute_lowest(&op, &opts, need)
                             .map(Basis::Explicit)
                             .map_err(CodecError::PatchBasis)
                     })
@@ -403,31 +376,34 @@ fn patch_bases(
             })
             .collect();
     }
+    // Every patch's dense operator, decomposed in one batch.
     let mut dense = Vec::new();
     let mut at = Vec::new();
-    for (i, op) in ops.iter().enumerate() {
-        if let Some(op) = op {
+    for (i, (l, &need)) in layouts.iter().zip(needs).enumerate() {
+        let np = l.verts.len();
+        if need == 0 || np == 0 {
+            continue;
+        }
+        let a = if kind == OperatorKind::Kirchhoff {
+            // K = D − A straight from the faces: the values `Operator::assemble`
+            // gives (small integers, exact), without building the patch's topology.
+            kirchhoff_dense(l)
+        } else {
+            let op = patch_operator(l, kind)?.ok_or(CodecError::Internal(
+                "a patch with vertices and no operator",
+            ))?;
             if op.mass.is_some() {
                 return Err(CodecError::Internal("a combinatorial operator with a mass"));
             }
-            // The coefficients past the kept ones are never used.
-            dense.push((op.matrix.to_dense(), needs[i].min(layouts[i].m)));
-            at.push(i);
-        }
+            let d = op.matrix.to_dense();
+            (0..np * np).map(|x| d[(x % np, x / np)]).collect()
+        };
+        // The coefficients past the kept ones are never used.
+        dense.push((np, a, need.min(l.m)));
+        at.push(i);
     }
-    factored_bases(layouts.len(), &dense, at)
-}
-
-/// The factored bases ([`FactoredEvd::batch`]) of the dense operators `dense`
-/// (`(matrix, vectors kept)`) of patches `at` among `count`; `None` for the others.
-fn factored_bases(
-    count: usize,
-    dense: &[(Mat<f64>, usize)],
-    at: Vec<usize>,
-) -> Result<Vec<Option<Basis>>, CodecError> {
-    let items: Vec<_> = dense.iter().map(|(a, c)| (a.as_ref(), *c)).collect();
-    let mut out: Vec<Option<Basis>> = (0..count).map(|_| None).collect();
-    for (i, f) in at.into_iter().zip(FactoredEvd::batch(&items)) {
+    let mut out: Vec<Option<Basis>> = (0..layouts.len()).map(|_| None).collect();
+    for (i, f) in at.into_iter().zip(FactoredEvd::batch_dense(dense)) {
         let f = f.ok_or(CodecError::PatchBasis(SpectralError::NoConvergence {
             path: "symmetric (factored reproducible solver)",
         }))?;
@@ -542,7 +518,7 @@ pub(super) fn bases_then<T: Send>(
     then: impl Fn(usize, PatchBasis) -> Result<T, CodecError> + Sync,
 ) -> Result<Vec<T>, CodecError> {
     // Four patches per task: their factored decompositions run together
-    // ([`FactoredEvd::batch`]).
+    // ([`FactoredEvd::batch_dense`]).
     const GROUP: usize = 4;
     let start = range.start;
     let groups = layout[range]

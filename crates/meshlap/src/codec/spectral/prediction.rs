@@ -57,15 +57,8 @@ enum How {
     /// `G` (n_p×n_src), formed.
     Matrix(Mat<f64>),
     /// `G = −M⁻¹ L_UᵀL_S` kept factored: `L` of `M = LLᵀ` (row-major, n_p×n_p) and
-    /// the sparse rows of `L_U` and `L_S` (row `r` in `lu[lu_at[r]..lu_at[r + 1]]`).
-    Factored {
-        np: usize,
-        l: Vec<f64>,
-        lu: Vec<(usize, f64)>,
-        lu_at: Vec<usize>,
-        ls: Vec<(usize, f64)>,
-        ls_at: Vec<usize>,
-    },
+    /// the sparse rows of `L_U` and `L_S`.
+    Factored { np: usize, l: Vec<f64>, rows: Rows },
     /// As `Factored`, with `M` renumbered (`perm[a]`: new index of patch vertex a)
     /// and its factor `L` kept as a band of half-width `b` ([`band_cholesky`]).
     Banded {
@@ -73,34 +66,69 @@ enum How {
         b: usize,
         l: Vec<f64>,
         perm: Vec<u32>,
-        lu: Vec<(usize, f64)>,
-        lu_at: Vec<usize>,
-        ls: Vec<(usize, f64)>,
-        ls_at: Vec<usize>,
+        rows: Rows,
     },
+}
+
+/// The sparse rows of `L_U` (unknown columns, patch-local indices) and `L_S` (known
+/// columns, indices into the prediction's sources): row `r` of `L_U` is
+/// `lu[lu_at[r]..lu_at[r + 1]]`, of `L_S` likewise. Flat, as the many small per-row
+/// vectors cost more in the allocator than the rest of the set-up.
+struct Rows {
+    lu: Vec<(usize, f64)>,
+    lu_at: Vec<usize>,
+    ls: Vec<(usize, f64)>,
+    ls_at: Vec<usize>,
+}
+
+impl Rows {
+    fn with_capacity(rows: usize) -> Self {
+        let mut r = Self {
+            lu: Vec::with_capacity(8 * rows),
+            lu_at: Vec::with_capacity(rows + 1),
+            ls: Vec::with_capacity(4 * rows),
+            ls_at: Vec::with_capacity(rows + 1),
+        };
+        r.lu_at.push(0);
+        r.ls_at.push(0);
+        r
+    }
+
+    /// Closes the row being filled.
+    fn end_row(&mut self) {
+        self.lu_at.push(self.lu.len());
+        self.ls_at.push(self.ls.len());
+    }
+
+    /// Number of rows.
+    fn len(&self) -> usize {
+        self.lu_at.len() - 1
+    }
+
+    /// Row `r` of `L_U`.
+    fn u(&self, r: usize) -> &[(usize, f64)] {
+        &self.lu[self.lu_at[r]..self.lu_at[r + 1]]
+    }
+
+    /// Row `r` of `L_S`.
+    fn s(&self, r: usize) -> &[(usize, f64)] {
+        &self.ls[self.ls_at[r]..self.ls_at[r + 1]]
+    }
 }
 
 /// `b = −L_Uᵀ (L_S y)` (three columns of n_p): each row's `L_S y` summed in entry
 /// order, then scattered into b row by row, entry by entry.
-fn right_hand_sides(
-    np: usize,
-    src: &[u32],
-    rec: &[[f64; 3]],
-    lu: &[(usize, f64)],
-    lu_at: &[usize],
-    ls: &[(usize, f64)],
-    ls_at: &[usize],
-) -> [Vec<f64>; 3] {
+fn right_hand_sides(np: usize, src: &[u32], rec: &[[f64; 3]], rows: &Rows) -> [Vec<f64>; 3] {
     let mut b = [vec![0.0f64; np], vec![0.0f64; np], vec![0.0f64; np]];
-    for r in 0..lu_at.len() - 1 {
+    for r in 0..rows.len() {
         let mut t = [0.0f64; 3];
-        for &(c, w) in &ls[ls_at[r]..ls_at[r + 1]] {
+        for &(c, w) in rows.s(r) {
             let y = rec[src[c] as usize];
             for k in 0..3 {
                 t[k] += w * y[k];
             }
         }
-        for &(a, w) in &lu[lu_at[r]..lu_at[r + 1]] {
+        for &(a, w) in rows.u(r) {
             for k in 0..3 {
                 b[k][a] -= w * t[k];
             }
@@ -126,16 +154,9 @@ impl Prediction {
                 }
                 out
             }
-            How::Factored {
-                np,
-                l,
-                lu,
-                lu_at,
-                ls,
-                ls_at,
-            } => {
+            How::Factored { np, l, rows } => {
                 let np = *np;
-                let mut b = right_hand_sides(np, &self.src, rec, lu, lu_at, ls, ls_at);
+                let mut b = right_hand_sides(np, &self.src, rec, rows);
                 let mut out = Mat::<f64>::zeros(np, 3);
                 for (k, bk) in b.iter_mut().enumerate() {
                     solve_in_place(l, np, bk);
@@ -150,13 +171,10 @@ impl Prediction {
                 b,
                 l,
                 perm,
-                lu,
-                lu_at,
-                ls,
-                ls_at,
+                rows,
             } => {
                 let np = *np;
-                let rhs = right_hand_sides(np, &self.src, rec, lu, lu_at, ls, ls_at);
+                let rhs = right_hand_sides(np, &self.src, rec, rows);
                 let mut out = Mat::<f64>::zeros(np, 3);
                 let mut x = vec![0.0f64; np];
                 for (k, r) in rhs.iter().enumerate() {
@@ -347,14 +365,7 @@ pub(super) fn patch_prediction(
     }
     let mut src_index = std::collections::HashMap::new();
     let mut src: Vec<u32> = Vec::new();
-    // Sparse rows of L_U and L_S, row r in `lu[lu_at[r]..lu_at[r + 1]]` (and `ls`):
-    // flat, as the many small per-row vectors cost more in the allocator than the
-    // rest of the set-up.
-    let rows = np + k1.len();
-    let (mut lu, mut ls) = (Vec::with_capacity(8 * rows), Vec::with_capacity(4 * rows));
-    let (mut lu_at, mut ls_at) = (Vec::with_capacity(rows + 1), Vec::with_capacity(rows + 1));
-    lu_at.push(0);
-    ls_at.push(0);
+    let mut rows = Rows::with_capacity(np + k1.len());
     let mut nb: Vec<u32> = Vec::new();
     for &i in verts.iter().chain(k1.iter()) {
         nb.clear();
@@ -371,27 +382,26 @@ pub(super) fn patch_prediction(
         };
         for (w, wt) in std::iter::once((i, 1.0)).chain(nb.iter().map(|&w| (w, -inv))) {
             if let Some(&li) = local.get(&w) {
-                lu.push((li, wt));
+                rows.lu.push((li, wt));
             } else {
                 let t = *src_index.entry(w).or_insert_with(|| {
                     src.push(w);
                     src.len() - 1
                 });
-                ls.push((t, wt));
+                rows.ls.push((t, wt));
             }
         }
-        lu_at.push(lu.len());
-        ls_at.push(ls.len());
+        rows.end_row();
     }
     if form == PredictorForm::Banded {
-        return banded_prediction(np, src, lu, lu_at, ls, ls_at);
+        return banded_prediction(np, src, rows);
     }
     // M = L_UᵀL_U + ridge, G = −L_UᵀL_S.
     let mut m = Mat::<f64>::zeros(np, np);
     let factored = form == PredictorForm::Factored;
     let mut g = Mat::<f64>::zeros(np, if factored { 0 } else { src.len() });
-    for r in 0..rows {
-        let (ru, rs) = (&lu[lu_at[r]..lu_at[r + 1]], &ls[ls_at[r]..ls_at[r + 1]]);
+    for r in 0..rows.len() {
+        let (ru, rs) = (rows.u(r), rows.s(r));
         for &(a, wa) in ru {
             for &(c, wc) in ru {
                 m[(a, c)] += wa * wc;
@@ -412,14 +422,7 @@ pub(super) fn patch_prediction(
         let l = cholesky_fixed(&m)?;
         return Some(Prediction {
             src,
-            how: How::Factored {
-                np,
-                l,
-                lu,
-                lu_at,
-                ls,
-                ls_at,
-            },
+            how: How::Factored { np, l, rows },
         });
     }
     match arith {
@@ -437,34 +440,22 @@ pub(super) fn patch_prediction(
 
 /// The [`PredictorForm::Banded`] predictor from the sparse rows of `L_U` and `L_S`:
 /// `M = L_UᵀL_U + ridge` renumbered by [`rcm_order`] and factored in its band.
-fn banded_prediction(
-    np: usize,
-    src: Vec<u32>,
-    lu: Vec<(usize, f64)>,
-    lu_at: Vec<usize>,
-    ls: Vec<(usize, f64)>,
-    ls_at: Vec<usize>,
-) -> Option<Prediction> {
-    let rows = lu_at.len() - 1;
+fn banded_prediction(np: usize, src: Vec<u32>, rows: Rows) -> Option<Prediction> {
     // Numbered by the patch's own graph: row a < n_p of L_U is vertex a (its first
     // entry) and its neighbours in the patch.
     let mut at = Vec::with_capacity(np + 1);
-    let mut nbrs = Vec::with_capacity(lu_at[np]);
+    let mut nbrs = Vec::with_capacity(rows.lu_at[np]);
     at.push(0);
     for a in 0..np {
-        nbrs.extend(
-            lu[lu_at[a] + 1..lu_at[a + 1]]
-                .iter()
-                .map(|&(c, _)| c as u32),
-        );
+        nbrs.extend(rows.u(a)[1..].iter().map(|&(c, _)| c as u32));
         at.push(nbrs.len());
     }
     let perm = rcm_order(&at, &nbrs);
     // The half-width of M = L_UᵀL_U: the widest spread of the new indices within a
     // row of L_U (every pair in a row is an entry of M).
     let mut b = 0;
-    for r in 0..rows {
-        let ru = &lu[lu_at[r]..lu_at[r + 1]];
+    for r in 0..rows.len() {
+        let ru = rows.u(r);
         let (mut lo, mut hi) = (u32::MAX, 0u32);
         for &(a, _) in ru {
             lo = lo.min(perm[a]);
@@ -477,8 +468,8 @@ fn banded_prediction(
     // The lower band of M in the new numbering, summed row by row, entry by entry
     // (as the dense form sums it).
     let mut m = vec![0.0f64; np * (b + 1)];
-    for r in 0..rows {
-        let ru = &lu[lu_at[r]..lu_at[r + 1]];
+    for r in 0..rows.len() {
+        let ru = rows.u(r);
         for &(a, wa) in ru {
             for &(c, wc) in ru {
                 let (i, j) = (perm[a] as usize, perm[c] as usize);
@@ -504,10 +495,7 @@ fn banded_prediction(
             b,
             l: m,
             perm,
-            lu,
-            lu_at,
-            ls,
-            ls_at,
+            rows,
         },
     })
 }
