@@ -32,6 +32,7 @@
 //! thread count).
 
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
 
 /// A cell stops growing at this percentage of the mean cell size `n / seeds` while
 /// a neighbouring cell can take the vertex.
@@ -41,8 +42,6 @@ const CAP_PERCENT: usize = 125;
 const NONE: u32 = u32::MAX;
 /// A vertex reached at the level being decided.
 const PENDING: u32 = u32::MAX - 1;
-/// A vertex whose earlier neighbours are in several cells.
-const CONTESTED: u32 = u32::MAX - 2;
 
 /// Parts of the graph with adjacency `adj[off[v]..off[v + 1]]` (symmetric, no self
 /// loops) from about `k` seeds after `iterations` Lloyd steps; returns each vertex's
@@ -87,7 +86,6 @@ struct Scratch {
     front: Vec<u32>,
     next: Vec<u32>,
     pick: Vec<u32>,
-    cand: Vec<u32>,
     dist: Vec<u32>,
 }
 
@@ -97,7 +95,6 @@ impl Scratch {
             front: Vec::new(),
             next: Vec::new(),
             pick: Vec::new(),
-            cand: vec![NONE; n],
             dist: vec![0; n],
         }
     }
@@ -151,43 +148,26 @@ fn grow(nbrs: &Graph<'_>, seeds: &[u32], lab: &mut [u32], s: &mut Scratch, cap: 
     }
     let mut deferred: Vec<u32> = Vec::new();
     let mut relax = false;
-    // The cell of every vertex of the level being decided, when its earlier
-    // neighbours name just one (full cells not counted unless relaxing); NONE when
-    // they name none, CONTESTED when several: those count their neighbours again.
-    let cand = &mut s.cand;
     loop {
-        s.next.clear();
-        for &v in &s.front {
-            let l = lab[v as usize];
-            let open = relax || size[l as usize] < cap;
-            for &w in nbrs.of(v) {
-                let w = w as usize;
-                if lab[w] == NONE {
-                    lab[w] = PENDING;
-                    s.next.push(w as u32);
-                    cand[w] = if open { l } else { NONE };
-                } else if lab[w] == PENDING && open && cand[w] != l {
-                    cand[w] = if cand[w] == NONE { l } else { CONTESTED };
-                }
-            }
-        }
-        // Deferred vertices (every assigned neighbour's cell was full) try again.
-        for &w in &deferred {
-            cand[w as usize] = CONTESTED;
-        }
+        // The next level: the front's unreached neighbours, each once, then the
+        // deferred vertices (every assigned neighbour's cell was full) again.
+        discover(nbrs, &s.front, lab, &mut s.next);
         s.next.append(&mut deferred);
         if s.next.is_empty() {
             break;
         }
-        // Each decision reads the labels of earlier levels only: in parallel.
-        let decide = |w: &u32| match cand[*w as usize] {
-            CONTESTED => majority(
+        // A vertex first reached now has all its assigned neighbours in the front
+        // (one assigned earlier would have reached it earlier), and a deferred one
+        // counts every assigned neighbour: either way it joins the open cell most of
+        // its assigned neighbours belong to. Each decision reads the labels of earlier
+        // levels only (this level's vertices are PENDING): in parallel.
+        let decide = |w: &u32| {
+            majority(
                 nbrs.of(*w)
                     .iter()
                     .map(|&u| lab[u as usize])
                     .filter(|&l| l < PENDING && (relax || size[l as usize] < cap)),
-            ),
-            c => c,
+            )
         };
         s.pick.clear();
         if s.next.len() >= PAR_LEVEL {
@@ -211,6 +191,53 @@ fn grow(nbrs: &Graph<'_>, seeds: &[u32], lab: &mut [u32], s: &mut Scratch, cap: 
             relax = true;
         }
     }
+}
+
+/// The vertices of `lab` still [`NONE`] next to a vertex of `front`, each once, into
+/// `next`, marked [`PENDING`]. A wide front is searched in parallel (each vertex
+/// claimed by an atomic exchange): the set is the same, the order may not be, and
+/// nothing downstream depends on the order.
+fn discover(nbrs: &Graph<'_>, front: &[u32], lab: &mut [u32], next: &mut Vec<u32>) {
+    next.clear();
+    if front.len() < PAR_LEVEL {
+        for &v in front {
+            for &w in nbrs.of(v) {
+                if lab[w as usize] == NONE {
+                    lab[w as usize] = PENDING;
+                    next.push(w);
+                }
+            }
+        }
+        return;
+    }
+    let lab = atomic(lab);
+    let found: Vec<Vec<u32>> = front
+        .par_chunks(PAR_LEVEL / 4)
+        .map(|part| {
+            let mut out = Vec::with_capacity(part.len() * 2);
+            for &v in part {
+                for &w in nbrs.of(v) {
+                    let x = &lab[w as usize];
+                    if x.load(Relaxed) == NONE
+                        && x.compare_exchange(NONE, PENDING, Relaxed, Relaxed).is_ok()
+                    {
+                        out.push(w);
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    for f in &found {
+        next.extend_from_slice(f);
+    }
+}
+
+/// `x` seen as atomics, for the claims of a parallel search.
+fn atomic(x: &mut [u32]) -> &[AtomicU32] {
+    // SAFETY: `AtomicU32` has the size, alignment and bit validity of `u32`, and the
+    // exclusive borrow keeps every non-atomic access out while the view lives.
+    unsafe { &*(x as *mut [u32] as *const [AtomicU32]) }
 }
 
 /// Levels of at least this many vertices are decided in parallel.
@@ -276,32 +303,94 @@ fn centres(nbrs: &Graph<'_>, lab: &[u32], seeds: &mut [u32], s: &mut Scratch) {
         .extend((0..n as u32).filter(|&v| dist[v as usize] == 0));
     let mut d = 0;
     while !s.front.is_empty() {
-        s.next.clear();
-        for &v in &s.front {
-            let l = lab[v as usize];
-            for &w in nbrs.of(v) {
-                if dist[w as usize] == NONE && lab[w as usize] == l {
-                    dist[w as usize] = d + 1;
-                    s.next.push(w);
-                }
-            }
-        }
+        inward(nbrs, lab, &s.front, dist, d + 1, &mut s.next);
         std::mem::swap(&mut s.front, &mut s.next);
         d += 1;
     }
-    // Deepest vertex per cell, ties to the lowest index (vertices in ascending order,
-    // so only a strictly deeper one replaces the best).
+    // Deepest vertex per cell, ties to the lowest index: per block of vertices in
+    // ascending order (only a strictly deeper one replaces the best), then the
+    // blocks in order, on the same rule.
+    let dist = &*dist;
+    let deepest = |range: std::ops::Range<usize>| {
+        let mut best: Vec<u32> = vec![NONE; seeds.len()];
+        for v in range {
+            let (l, dv) = (lab[v] as usize, dist[v]);
+            if dv != NONE && (best[l] == NONE || dv > dist[best[l] as usize]) {
+                best[l] = v as u32;
+            }
+        }
+        best
+    };
+    let blocks: Vec<_> = (0..n)
+        .step_by(PAR_BLOCK)
+        .map(|a| a..(a + PAR_BLOCK).min(n))
+        .collect();
+    let per_block: Vec<Vec<u32>> = blocks.into_par_iter().map(deepest).collect();
     let mut best: Vec<u32> = vec![NONE; seeds.len()];
-    for v in 0..n {
-        let (l, dv) = (lab[v] as usize, dist[v]);
-        if dv != NONE && (best[l] == NONE || dv > dist[best[l] as usize]) {
-            best[l] = v as u32;
+    for block in per_block {
+        for (b, c) in best.iter_mut().zip(block) {
+            if c != NONE && (*b == NONE || dist[c as usize] > dist[*b as usize]) {
+                *b = c;
+            }
         }
     }
     for (seed, b) in seeds.iter_mut().zip(best) {
         if b != NONE {
             *seed = b;
         }
+    }
+}
+
+/// Blocks of vertices for the parallel passes over all of them.
+const PAR_BLOCK: usize = 1 << 15;
+
+/// One level of the search inward from the cells' borders: the vertices of the
+/// front's cells next to a front vertex and not yet reached get distance `d`, into
+/// `next`. A wide front in parallel, as in [`discover`]: the distances do not depend
+/// on the order.
+fn inward(
+    nbrs: &Graph<'_>,
+    lab: &[u32],
+    front: &[u32],
+    dist: &mut [u32],
+    d: u32,
+    next: &mut Vec<u32>,
+) {
+    next.clear();
+    if front.len() < PAR_LEVEL {
+        for &v in front {
+            let l = lab[v as usize];
+            for &w in nbrs.of(v) {
+                if dist[w as usize] == NONE && lab[w as usize] == l {
+                    dist[w as usize] = d;
+                    next.push(w);
+                }
+            }
+        }
+        return;
+    }
+    let dist = atomic(dist);
+    let found: Vec<Vec<u32>> = front
+        .par_chunks(PAR_LEVEL / 4)
+        .map(|part| {
+            let mut out = Vec::with_capacity(part.len());
+            for &v in part {
+                let l = lab[v as usize];
+                for &w in nbrs.of(v) {
+                    let x = &dist[w as usize];
+                    if lab[w as usize] == l
+                        && x.load(Relaxed) == NONE
+                        && x.compare_exchange(NONE, d, Relaxed, Relaxed).is_ok()
+                    {
+                        out.push(w);
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    for f in &found {
+        next.extend_from_slice(f);
     }
 }
 
