@@ -29,13 +29,23 @@ fn partition_patches(bencher: divan::Bencher, method: &str) {
         method: method.parse::<PartitionMethod>().unwrap(),
         ..PartitionOptions::new(100)
     };
-    bencher.bench(|| partition(divan::black_box(&t), &opts).unwrap());
+    bencher.bench(|| partition(divan::black_box(t.graph()), &opts).unwrap());
 }
 
 #[divan::bench(args = [5, 7, 8])]
 fn topology(bencher: divan::Bencher, level: usize) {
     let m = builtin::icosphere(level).unwrap();
     bencher.bench(|| Topology::new(divan::black_box(&m)).unwrap());
+}
+
+/// The faces and adjacency alone (what the `.mlz` decoder builds).
+#[divan::bench(args = [5, 7, 8])]
+fn vertex_graph(bencher: divan::Bencher, level: usize) {
+    let m = builtin::icosphere(level).unwrap();
+    bencher.bench(|| {
+        meshlap::mesh::graph::VertexGraph::from_faces(m.n_vertices(), divan::black_box(&m.faces))
+            .unwrap()
+    });
 }
 
 #[divan::bench(args = [7])]
@@ -59,7 +69,7 @@ fn cow_patch_operators(p: usize) -> Vec<Operator> {
         .unwrap()
         .mesh;
     let t = Topology::new(&m).unwrap();
-    let part = partition(&t, &PartitionOptions::new(p)).unwrap();
+    let part = partition(t.graph(), &PartitionOptions::new(p)).unwrap();
     (0..part.n_patches())
         .map(|i| {
             let sub = part.submesh(&m, i).mesh;

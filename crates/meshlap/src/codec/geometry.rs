@@ -5,6 +5,7 @@
 use super::spatial::{self, SpatialParams};
 use super::spectral::{self, SpectralEncoder, SpectralParams, SpectralStats, CACHE_BYTES};
 use super::{CodecError, GeometryMode};
+use crate::mesh::graph::VertexGraph;
 use crate::mesh::topology::Topology;
 
 const MODE_SPECTRAL: u8 = 0;
@@ -55,7 +56,12 @@ impl<'a> Coders<'a> {
                             Some(_) => 0,
                             None => CACHE_BYTES,
                         };
-                        SpectralEncoder::with_cache_budget(topo, positions, spectral_params, budget)
+                        SpectralEncoder::with_cache_budget(
+                            topo.graph(),
+                            positions,
+                            spectral_params,
+                            budget,
+                        )
                     })
                     .transpose()
             },
@@ -142,16 +148,25 @@ fn spatial_section(
 }
 
 /// Decodes a geometry section of a file of format `version` for the decoded
-/// connectivity `topo`.
+/// connectivity (`n` vertices, `faces`), building what its mode reads: the vertex
+/// graph for the spectral coder, the half-edges for the spatial one. Faces the
+/// connectivity checks refuse give [`CodecError::CorruptFaces`].
 pub(super) fn decode(
-    topo: &Topology,
+    n: usize,
+    faces: &[[u32; 3]],
     section: &[u8],
     version: u16,
 ) -> Result<Vec<[f64; 3]>, CodecError> {
     match section.split_first() {
         None => Err(CodecError::Truncated("geometry header")),
-        Some((&MODE_SPECTRAL, rest)) => spectral::decode(topo, rest, version),
-        Some((&MODE_SPATIAL, rest)) => spatial::decode(topo, rest),
+        Some((&MODE_SPECTRAL, rest)) => {
+            let graph = VertexGraph::from_faces(n, faces).map_err(CodecError::CorruptFaces)?;
+            spectral::decode(&graph, rest, version)
+        }
+        Some((&MODE_SPATIAL, rest)) => {
+            let topo = Topology::from_faces(n, faces).map_err(CodecError::CorruptFaces)?;
+            spatial::decode(&topo, rest)
+        }
         Some(_) => Err(CodecError::Corrupt("unknown geometry mode")),
     }
 }

@@ -492,8 +492,7 @@ pub fn decompress(bytes: &[u8]) -> Result<TriMesh, CodecError> {
             faces
         }
     };
-    let topo = Topology::from_faces(n, &faces).map_err(CodecError::CorruptFaces)?;
-    let pos = geometry::decode(&topo, need(SectionKind::Geometry)?, version)?;
+    let pos = geometry::decode(n, &faces, need(SectionKind::Geometry)?, version)?;
     match container::section(&secs, SectionKind::Permutation) {
         None => Ok(TriMesh::new(pos, faces)),
         Some(p) => Ok(permutation::apply(

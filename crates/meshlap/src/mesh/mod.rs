@@ -6,6 +6,7 @@
 pub mod builtin;
 pub mod clean;
 pub mod edit;
+pub mod graph;
 pub mod nonmanifold;
 pub mod topology;
 

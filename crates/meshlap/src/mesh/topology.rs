@@ -14,6 +14,7 @@
 //! and is listed by [`Topology::non_manifold_edges`]; a vertex whose faces do not form a
 //! single fan is flagged by [`Topology::is_manifold_vertex`].
 
+use super::graph::VertexGraph;
 use super::{EdgeId, FaceId, MeshError, TriMesh, VertexId};
 use crate::mem::Scatter;
 use rayon::prelude::*;
@@ -30,15 +31,12 @@ const HALF_EDGE: u64 = REVERSED - 1;
 /// Half-edge connectivity; see the module documentation.
 #[derive(Clone, Debug)]
 pub struct Topology {
-    n_vertices: usize,
-    faces: Vec<[u32; 3]>,
+    graph: VertexGraph,
     twin: Vec<u32>,
     he_edge: Vec<u32>,
     edges: Vec<[u32; 2]>,
     edge_he: Vec<u32>,
     edge_faces: Vec<u32>,
-    adj_offsets: Vec<u32>,
-    adj: Vec<u32>,
     adj_edge: Vec<u32>,
     vertex_out: Vec<u32>,
     vertex_manifold: Vec<bool>,
@@ -60,29 +58,7 @@ impl Topology {
     /// lexicographic order, and twins, edge ids and the vertex adjacency are scattered
     /// from there. At most `(2³¹ − 1) / 3` faces ([`MeshError::TooManyFaces`]).
     pub fn from_faces(n: usize, faces: &[[u32; 3]]) -> Result<Self, MeshError> {
-        if faces.len() > MAX_FACES {
-            return Err(MeshError::TooManyFaces {
-                faces: faces.len(),
-                max: MAX_FACES,
-            });
-        }
-        super::check_face_indices(faces, n)?;
-        if let Some(face) = faces
-            .par_iter()
-            .with_min_len(1 << 14)
-            .position_first(|t| t[0] == t[1] || t[1] == t[2] || t[0] == t[2])
-        {
-            let t = faces[face];
-            let vertex = if t[0] == t[1] || t[0] == t[2] {
-                t[0]
-            } else {
-                t[1]
-            };
-            return Err(MeshError::RepeatedCorner {
-                face,
-                vertex: vertex as usize,
-            });
-        }
+        super::graph::check_faces(n, faces)?;
         let nh = faces.len() * 3;
         // Counting sort of half-edges by their smaller endpoint. Each entry packs
         // `hi << 32 | reversed << 31 | h`, where `reversed` says h runs hi → lo; sorting
@@ -299,15 +275,17 @@ impl Topology {
             })
             .collect();
         let mut topo = Topology {
-            n_vertices: n,
-            faces: faces.to_vec(),
+            graph: VertexGraph {
+                n,
+                faces: faces.to_vec(),
+                offsets: adj_offsets,
+                adj,
+            },
             twin,
             he_edge,
             edges,
             edge_he,
             edge_faces,
-            adj_offsets,
-            adj,
             adj_edge,
             vertex_out,
             vertex_manifold: Vec::new(),
@@ -323,14 +301,14 @@ impl Topology {
     /// ignores orientation, so an inconsistently oriented neighbour (reported
     /// separately) does not make a vertex non-manifold.
     fn compute_manifold_vertices(&self) -> Vec<bool> {
-        (0..self.n_vertices)
+        (0..self.graph.n)
             .into_par_iter()
             .map(|v| {
                 if self.vertex_out[v] == INVALID {
                     return true; // isolated vertex: nothing non-manifold about it
                 }
                 let mut incident2 = 0u32;
-                for p in self.adj_offsets[v]..self.adj_offsets[v + 1] {
+                for p in self.graph.offsets[v]..self.graph.offsets[v + 1] {
                     let c = self.edge_faces[self.adj_edge[p as usize] as usize];
                     if c > 2 {
                         return false;
@@ -371,7 +349,7 @@ impl Topology {
         let start_face = h / 3;
         let mut exit = Some(self.other_at(h, v));
         let mut steps = 0usize;
-        let limit = self.faces.len() + 1;
+        let limit = self.graph.faces.len() + 1;
         std::iter::from_fn(move || {
             let e = exit?;
             steps += 1;
@@ -396,7 +374,7 @@ impl Topology {
             // Consistent orientation: rotate by twin(prev(·)) from the outgoing
             // (boundary, if any) half-edge, touching only `twin`.
             let (mut cur, mut count) = (h, 0usize);
-            let limit = self.faces.len() + 1;
+            let limit = self.graph.faces.len() + 1;
             loop {
                 count += 1;
                 let t = self.twin[self.prev(cur) as usize];
@@ -426,11 +404,11 @@ impl Topology {
 
     /// Number of vertices.
     pub fn n_vertices(&self) -> usize {
-        self.n_vertices
+        self.graph.n
     }
     /// Number of faces.
     pub fn n_faces(&self) -> usize {
-        self.faces.len()
+        self.graph.faces.len()
     }
     /// Number of undirected edges.
     pub fn n_edges(&self) -> usize {
@@ -438,7 +416,11 @@ impl Topology {
     }
     /// The faces this connectivity was built from.
     pub fn faces(&self) -> &[[u32; 3]] {
-        &self.faces
+        &self.graph.faces
+    }
+    /// The faces and the vertex adjacency alone ([`VertexGraph`]).
+    pub fn graph(&self) -> &VertexGraph {
+        &self.graph
     }
     /// Undirected edges as `[a, b]` with `a < b`, sorted lexicographically.
     pub fn edges(&self) -> &[[u32; 2]] {
@@ -459,17 +441,17 @@ impl Topology {
     /// Source vertex of half-edge `h`.
     #[inline]
     pub fn from(&self, h: u32) -> u32 {
-        self.faces[h as usize / 3][h as usize % 3]
+        self.graph.faces[h as usize / 3][h as usize % 3]
     }
     /// Target vertex of half-edge `h`.
     #[inline]
     pub fn to(&self, h: u32) -> u32 {
-        self.faces[h as usize / 3][(h as usize + 1) % 3]
+        self.graph.faces[h as usize / 3][(h as usize + 1) % 3]
     }
     /// The vertex of `h`'s face opposite to `h`.
     #[inline]
     pub fn opposite_vertex(&self, h: u32) -> u32 {
-        self.faces[h as usize / 3][(h as usize + 2) % 3]
+        self.graph.faces[h as usize / 3][(h as usize + 2) % 3]
     }
     /// Next half-edge in the same face.
     #[inline]
@@ -529,33 +511,35 @@ impl Topology {
     /// Degree (number of distinct neighbours) of vertex `v`.
     #[inline]
     pub fn degree(&self, v: VertexId) -> usize {
-        (self.adj_offsets[v.idx() + 1] - self.adj_offsets[v.idx()]) as usize
+        (self.graph.offsets[v.idx() + 1] - self.graph.offsets[v.idx()]) as usize
     }
 
     /// All vertex degrees.
     pub fn degrees(&self) -> Vec<u32> {
-        self.adj_offsets.windows(2).map(|w| w[1] - w[0]).collect()
+        self.graph.offsets.windows(2).map(|w| w[1] - w[0]).collect()
     }
 
     /// Neighbours of `v`, ascending by index.
     #[inline]
     pub fn neighbors(&self, v: VertexId) -> &[u32] {
-        &self.adj[self.adj_offsets[v.idx()] as usize..self.adj_offsets[v.idx() + 1] as usize]
+        &self.graph.adj
+            [self.graph.offsets[v.idx()] as usize..self.graph.offsets[v.idx() + 1] as usize]
     }
 
     /// Edges incident to `v`, in the order of [`Topology::neighbors`].
     #[inline]
     pub fn neighbor_edges(&self, v: VertexId) -> &[u32] {
-        &self.adj_edge[self.adj_offsets[v.idx()] as usize..self.adj_offsets[v.idx() + 1] as usize]
+        &self.adj_edge
+            [self.graph.offsets[v.idx()] as usize..self.graph.offsets[v.idx() + 1] as usize]
     }
 
     /// CSR offsets of the adjacency (`n + 1` entries).
     pub fn adjacency_offsets(&self) -> &[u32] {
-        &self.adj_offsets
+        &self.graph.offsets
     }
     /// CSR column indices of the adjacency (each row ascending).
     pub fn adjacency(&self) -> &[u32] {
-        &self.adj
+        &self.graph.adj
     }
 
     /// The edge joining `a` and `b`, if any (binary search in `a`'s sorted row).
@@ -605,7 +589,7 @@ impl Topology {
 
     /// Vertices that are not [manifold](Topology::is_manifold_vertex).
     pub fn non_manifold_vertices(&self) -> impl Iterator<Item = VertexId> + '_ {
-        (0..self.n_vertices)
+        (0..self.graph.n)
             .filter(|&v| !self.vertex_manifold[v])
             .map(|v| VertexId(v as u32))
     }
@@ -631,15 +615,15 @@ impl Topology {
     /// Number of boundary loops: connected components of the graph formed by the
     /// boundary edges (robust to inconsistent orientation and non-manifold vertices).
     pub fn boundary_loop_count(&self) -> usize {
-        let mut uf = UnionFind::new(self.n_vertices);
-        let mut on_boundary = vec![false; self.n_vertices];
+        let mut uf = UnionFind::new(self.graph.n);
+        let mut on_boundary = vec![false; self.graph.n];
         for e in self.boundary_edges() {
             let [a, b] = self.edges[e.idx()];
             uf.union(a as usize, b as usize);
             on_boundary[a as usize] = true;
             on_boundary[b as usize] = true;
         }
-        (0..self.n_vertices)
+        (0..self.graph.n)
             .filter(|&v| on_boundary[v] && uf.find(v) == v)
             .count()
     }
@@ -650,14 +634,14 @@ impl Topology {
     pub fn boundary_loops(&self) -> Vec<Vec<u32>> {
         // Outgoing boundary half-edge per vertex (CSR, since a non-manifold vertex can
         // have several).
-        let bhe: Vec<u32> = (0..self.faces.len() as u32 * 3)
+        let bhe: Vec<u32> = (0..self.graph.faces.len() as u32 * 3)
             .filter(|&h| self.edge_faces[self.he_edge[h as usize] as usize] == 1)
             .collect();
-        let mut out_off = vec![0usize; self.n_vertices + 1];
+        let mut out_off = vec![0usize; self.graph.n + 1];
         for &h in &bhe {
             out_off[self.from(h) as usize + 1] += 1;
         }
-        for i in 0..self.n_vertices {
+        for i in 0..self.graph.n {
             out_off[i + 1] += out_off[i];
         }
         let mut fill = out_off.clone();
@@ -672,7 +656,7 @@ impl Topology {
             (off[v]..off[v + 1]).find(|&k| out[k] == h)
         };
         let mut loops = Vec::new();
-        for v in 0..self.n_vertices {
+        for v in 0..self.graph.n {
             for k in out_off[v]..out_off[v + 1] {
                 if used[k] {
                     continue;
@@ -702,12 +686,12 @@ impl Topology {
     /// Connected components: a label per vertex (`0..count`, in order of first vertex)
     /// and the count. Isolated vertices form their own components.
     pub fn components(&self) -> (Vec<u32>, usize) {
-        let mut uf = UnionFind::new(self.n_vertices);
+        let mut uf = UnionFind::new(self.graph.n);
         for &[a, b] in &self.edges {
             uf.union(a as usize, b as usize);
         }
-        let mut label = vec![u32::MAX; self.n_vertices];
-        let mut root_label = vec![u32::MAX; self.n_vertices];
+        let mut label = vec![u32::MAX; self.graph.n];
+        let mut root_label = vec![u32::MAX; self.graph.n];
         let mut count = 0u32;
         for (v, l) in label.iter_mut().enumerate() {
             let r = uf.find(v);

@@ -57,6 +57,7 @@
 
 mod lloyd;
 
+use crate::mesh::graph::VertexGraph;
 use crate::mesh::topology::{Topology, UnionFind};
 use crate::mesh::TriMesh;
 use serde::Serialize;
@@ -298,9 +299,9 @@ impl Incidence {
     }
 }
 
-/// Splits the mesh with connectivity `topo` into connected patches of about
+/// Splits the mesh with vertex graph `topo` ([`Topology::graph`]) into connected patches of about
 /// `opts.patch_size` vertices; see the module documentation for the method.
-pub fn partition(topo: &Topology, opts: &PartitionOptions) -> Result<Partition, PartitionError> {
+pub fn partition(topo: &VertexGraph, opts: &PartitionOptions) -> Result<Partition, PartitionError> {
     let p_size = opts.patch_size;
     if p_size < 3 {
         return Err(PartitionError::PatchSizeTooSmall(p_size));
@@ -324,11 +325,7 @@ pub fn partition(topo: &Topology, opts: &PartitionOptions) -> Result<Partition, 
                 nparts,
                 PartitionMethod::LLOYD_ITERATIONS,
             );
-            let cut = topo
-                .edges()
-                .iter()
-                .filter(|&&[a, b]| part[a as usize] != part[b as usize])
-                .count();
+            let cut = topo.cut(&part);
             (part, cut, parts)
         }
     };
@@ -353,7 +350,7 @@ const METIS_OPTION_NIPARTS: usize = metis_sys::moptions_et_METIS_OPTION_NIPARTS 
 /// METIS k-way partition of the vertex graph; returns the part of every vertex and
 /// METIS's edge cut.
 fn metis_parts(
-    topo: &Topology,
+    topo: &VertexGraph,
     nparts: usize,
     seed: i32,
 ) -> Result<(Vec<u32>, usize), PartitionError> {
@@ -590,7 +587,7 @@ fn merge_fragments(
 fn finish(
     part: Vec<u32>,
     faces: &[[u32; 3]],
-    topo: &Topology,
+    topo: &VertexGraph,
     method: PartitionMethod,
     metis_cut: usize,
     metis_parts: usize,
@@ -620,11 +617,7 @@ fn finish(
             straddling += 1;
         }
     }
-    let edge_cut = topo
-        .edges()
-        .iter()
-        .filter(|&&[a, b]| patch_of[a as usize] != patch_of[b as usize])
-        .count();
+    let edge_cut = topo.cut(&patch_of);
     let sizes = patches.iter().map(Vec::len);
     let stats = PartitionStats {
         patches: patches.len(),
@@ -661,7 +654,7 @@ pub fn partition_mesh(
             topology: topo.n_vertices(),
         });
     }
-    partition(topo, opts)
+    partition(topo.graph(), opts)
 }
 
 #[cfg(test)]
@@ -727,7 +720,7 @@ mod tests {
         let topo = Topology::new(&mesh).unwrap();
         let side = 7; // 49 patches of about 7×7 vertices
         let p = mesh.n_vertices().div_ceil(side * side);
-        let part = partition(&topo, &PartitionOptions::new(p)).unwrap();
+        let part = partition(topo.graph(), &PartitionOptions::new(p)).unwrap();
         check_invariants(&mesh, &topo, &part);
         let s = part.stats();
         assert!(s.min_size >= p / 4 && s.max_size <= p + p / 2, "{s:?}");
@@ -750,8 +743,8 @@ mod tests {
     fn deterministic_for_a_seed() {
         let mesh = builtin::icosphere(3).unwrap();
         let topo = Topology::new(&mesh).unwrap();
-        let a = partition(&topo, &PartitionOptions::new(60)).unwrap();
-        let b = partition(&topo, &PartitionOptions::new(60)).unwrap();
+        let a = partition(topo.graph(), &PartitionOptions::new(60)).unwrap();
+        let b = partition(topo.graph(), &PartitionOptions::new(60)).unwrap();
         assert_eq!(a.patch_of(), b.patch_of());
         check_invariants(&mesh, &topo, &a);
     }
@@ -771,7 +764,7 @@ mod tests {
     fn closed_and_boundary_meshes_at_several_sizes() {
         for (mesh, p) in closed_and_boundary_cases() {
             let topo = Topology::new(&mesh).unwrap();
-            let part = partition(&topo, &PartitionOptions::new(p)).unwrap();
+            let part = partition(topo.graph(), &PartitionOptions::new(p)).unwrap();
             check_invariants(&mesh, &topo, &part);
         }
     }
@@ -792,14 +785,14 @@ mod tests {
                 method,
                 ..PartitionOptions::new(p)
             };
-            let part = partition(&topo, &opts(50)).unwrap();
+            let part = partition(topo.graph(), &opts(50)).unwrap();
             check_invariants(&mesh, &topo, &part);
             for p in 0..part.n_patches() {
                 let vs = part.patch_vertices(p);
                 assert!(vs.iter().all(|&v| (v < off) == (vs[0] < off)), "{method}");
             }
             // A patch size above each component's size gives one patch per component.
-            let whole = partition(&topo, &opts(10_000)).unwrap();
+            let whole = partition(topo.graph(), &opts(10_000)).unwrap();
             assert_eq!(whole.n_patches(), 2, "{method}");
             assert_eq!(whole.stats().edge_cut, 0, "{method}");
         }
@@ -834,12 +827,12 @@ mod tests {
         cases.push((builtin::icosphere(4).unwrap(), 60));
         for (mesh, p) in cases {
             let topo = Topology::new(&mesh).unwrap();
-            let part = partition(&topo, &lloyd(p)).unwrap();
+            let part = partition(topo.graph(), &lloyd(p)).unwrap();
             check_invariants(&mesh, &topo, &part);
             assert_eq!(part.stats().method, PartitionMethod::Lloyd);
-            let again = partition(&topo, &lloyd(p)).unwrap();
+            let again = partition(topo.graph(), &lloyd(p)).unwrap();
             assert_eq!(part.patch_of(), again.patch_of());
-            let metis = partition(&topo, &PartitionOptions::new(p)).unwrap();
+            let metis = partition(topo.graph(), &PartitionOptions::new(p)).unwrap();
             let (cut, reference) = (part.stats().edge_cut, metis.stats().edge_cut);
             assert!(
                 cut * 10 <= reference * 11 || cut <= reference + 4,
@@ -855,12 +848,12 @@ mod tests {
         let mesh = builtin::icosahedron();
         let topo = Topology::new(&mesh).unwrap();
         assert!(matches!(
-            partition(&topo, &PartitionOptions::new(2)),
+            partition(topo.graph(), &PartitionOptions::new(2)),
             Err(PartitionError::PatchSizeTooSmall(2))
         ));
         let topo = Topology::from_faces(13, &mesh.faces).unwrap();
         assert!(matches!(
-            partition(&topo, &PartitionOptions::new(5)),
+            partition(topo.graph(), &PartitionOptions::new(5)),
             Err(PartitionError::IsolatedVertex { vertex: 12 })
         ));
         assert!(matches!(
@@ -873,7 +866,7 @@ mod tests {
     fn submesh_keeps_positions_and_orientation() {
         let mesh = builtin::icosphere(2).unwrap();
         let topo = Topology::new(&mesh).unwrap();
-        let part = partition(&topo, &PartitionOptions::new(40)).unwrap();
+        let part = partition(topo.graph(), &PartitionOptions::new(40)).unwrap();
         for p in 0..part.n_patches() {
             let sub = part.submesh(&mesh, p);
             for (l, &g) in sub.vertices.iter().enumerate() {

@@ -1267,7 +1267,7 @@ mod tests {
             .unwrap()
             .mesh;
         let t = Topology::new(&m).unwrap();
-        let part = partition(&t, &PartitionOptions::new(100)).unwrap();
+        let part = partition(t.graph(), &PartitionOptions::new(100)).unwrap();
         for p in (0..part.n_patches()).step_by(3) {
             let sub = part.submesh(&m, p).mesh;
             let st = Topology::new(&sub).unwrap();

@@ -325,7 +325,7 @@ mod tests {
             ("grid", builtin::grid(30).unwrap(), 200),
         ] {
             let topo = Topology::new(&mesh).unwrap();
-            let part = partition(&topo, &PartitionOptions::new(p)).unwrap();
+            let part = partition(topo.graph(), &PartitionOptions::new(p)).unwrap();
             let scale = mesh.bbox_diagonal();
             for kind in [OperatorKind::Sql, OperatorKind::Tutte, OperatorKind::Graph] {
                 for keep in [1e-9, 0.05, 0.1, 0.37, 0.9, 1.0] {
@@ -355,7 +355,7 @@ mod tests {
         use crate::operator::OperatorKind;
         let mesh = builtin::step(14).unwrap();
         let topo = Topology::new(&mesh).unwrap();
-        let part = partition(&topo, &PartitionOptions::new(40)).unwrap();
+        let part = partition(topo.graph(), &PartitionOptions::new(40)).unwrap();
         for kind in [
             OperatorKind::Sql,
             OperatorKind::Tutte,

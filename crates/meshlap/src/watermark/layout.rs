@@ -253,7 +253,7 @@ fn bases(
     params: &LayoutParams,
 ) -> Result<Vec<PatchBasis>, WatermarkError> {
     let size = params.patch_size_for(mesh.n_vertices());
-    let part = partition(topo, &PartitionOptions::new(size))?;
+    let part = partition(topo.graph(), &PartitionOptions::new(size))?;
     let mut patches = (0..part.n_patches())
         .into_par_iter()
         .map(|p| {

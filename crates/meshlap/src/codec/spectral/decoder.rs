@@ -11,21 +11,21 @@ use super::residuals::Residuals;
 use crate::codec::container::ByteReader;
 use crate::codec::entropy::RangeDecoder;
 use crate::codec::CodecError;
-use crate::mesh::topology::Topology;
+use crate::mesh::graph::VertexGraph;
 
 /// Decodes a spectral geometry stream (header and payload, after the mode byte) of
-/// an `.mlz` file of format `version` for the decoded connectivity `topo`: the
+/// an `.mlz` file of format `version` for the vertex graph `topo` of the decoded connectivity: the
 /// positions (n×3) in the decoded vertex order. Version 6 on, the coefficient
 /// products and the predictor are computed in fixed-order arithmetic (the same bits
 /// on every CPU); versions 4 and 5 with faer's, as they were written.
-pub fn decode(topo: &Topology, data: &[u8], version: u16) -> Result<Vec<[f64; 3]>, CodecError> {
+pub fn decode(topo: &VertexGraph, data: &[u8], version: u16) -> Result<Vec<[f64; 3]>, CodecError> {
     decode_chunked(topo, data, version, CHUNK_BYTES)
 }
 
 /// [`decode`] computing the bases in chunks of about `chunk` bytes
 /// ([`CHUNK_BYTES`]; the result does not depend on it).
 pub(super) fn decode_chunked(
-    topo: &Topology,
+    topo: &VertexGraph,
     data: &[u8],
     version: u16,
     chunk: usize,

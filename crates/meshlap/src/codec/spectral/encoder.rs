@@ -12,7 +12,7 @@ use super::residuals::Residuals;
 use crate::codec::entropy::RangeEncoder;
 use crate::codec::quantize::{dead_zone, nearest};
 use crate::codec::{CodecError, ParameterError};
-use crate::mesh::topology::Topology;
+use crate::mesh::graph::VertexGraph;
 use faer::Mat;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -48,7 +48,7 @@ fn patch_coordinates(b: &PatchBasis, positions: &[[f64; 3]]) -> Mat<f64> {
 /// `owner` is given) and the unquantized coefficients (m×3) of the positions (n×3) on
 /// them, in parallel.
 fn bases_and_coefficients(
-    topo: &Topology,
+    topo: &VertexGraph,
     params: &SpectralParams,
     layout: &[PatchLayout],
     owner: Option<&[u32]>,
@@ -104,7 +104,7 @@ enum Bases {
 /// [`CACHE_BYTES`] (or the budget given to [`SpectralEncoder::with_cache_budget`]),
 /// the bases that rate control reuses.
 pub struct SpectralEncoder<'a> {
-    topo: &'a Topology,
+    topo: &'a VertexGraph,
     params: SpectralParams,
     layout: Vec<PatchLayout>,
     bases: Bases,
@@ -127,7 +127,7 @@ impl<'a> SpectralEncoder<'a> {
     /// connectivity. The bases are kept for later encodes when they fit
     /// [`CACHE_BYTES`].
     pub fn new(
-        topo: &'a Topology,
+        topo: &'a VertexGraph,
         positions: &'a [[f64; 3]],
         params: SpectralParams,
     ) -> Result<Self, CodecError> {
@@ -139,7 +139,7 @@ impl<'a> SpectralEncoder<'a> {
     /// at a time, so the memory stays bounded at any mesh size. A single encode (a
     /// fixed step) costs the same either way, and the stream is the same bytes.
     pub fn with_cache_budget(
-        topo: &'a Topology,
+        topo: &'a VertexGraph,
         positions: &'a [[f64; 3]],
         params: SpectralParams,
         budget: usize,
@@ -149,7 +149,7 @@ impl<'a> SpectralEncoder<'a> {
 
     /// [`Self::with_cache_budget`] streaming in chunks of about `chunk` bytes.
     pub(super) fn with_budgets(
-        topo: &'a Topology,
+        topo: &'a VertexGraph,
         positions: &'a [[f64; 3]],
         params: SpectralParams,
         budget: usize,

@@ -10,7 +10,7 @@
 use super::params::{Keep, SpectralParams};
 use super::prediction::{patch_prediction, Prediction, PredictorForm};
 use crate::codec::CodecError;
-use crate::mesh::topology::Topology;
+use crate::mesh::graph::VertexGraph;
 use crate::mesh::TriMesh;
 use crate::operator::{Operator, OperatorKind, OperatorOptions};
 use crate::spectral::{
@@ -175,16 +175,17 @@ pub(super) fn partition_method(version: u16) -> crate::partition::PartitionMetho
 /// own patch). Deterministic for a given connectivity, so the decoder, which has the
 /// same connectivity in the same order, gets the same patches. Each vertex belongs to
 /// exactly one patch.
-fn partition(topo: &Topology, p: usize, version: u16) -> Result<Vec<Vec<u32>>, CodecError> {
+fn partition(
+    topo: &VertexGraph,
+    p: usize,
+    version: u16,
+) -> Result<crate::partition::Partition, CodecError> {
     use crate::partition::{partition as make_patches, PartitionOptions};
     let opts = PartitionOptions {
         method: partition_method(version),
         ..PartitionOptions::new(p.max(3))
     };
-    let part = make_patches(topo, &opts).map_err(CodecError::Partition)?;
-    Ok((0..part.n_patches())
-        .map(|i| part.patch_vertices(i).to_vec())
-        .collect())
+    make_patches(topo, &opts).map_err(CodecError::Partition)
 }
 
 /// A patch's basis ([`crate::spectral::EigenBasis`]: canonical, deterministic
@@ -288,16 +289,10 @@ impl PatchLayout {
     }
 }
 
-/// The layout of one patch (vertices `patch`, global; `faces` its faces, global):
-/// vertices on no face of the patch are left out (coded as loose vertices).
-fn patch_layout(patch: &[u32], faces: &[[u32; 3]], keep: Keep) -> PatchLayout {
-    let mut local = std::collections::HashMap::with_capacity(patch.len());
-    for (i, &v) in patch.iter().enumerate() {
-        local.insert(v, i as u32);
-    }
-    // The faces in the patch's local numbering (valid: the connectivity's faces
-    // were checked when it was built, and a face's corners are in its patch).
-    let pfaces: Vec<[u32; 3]> = faces.iter().map(|f| f.map(|v| local[&v])).collect();
+/// The layout of one patch (vertices `patch`, global; `pfaces` its faces, in the
+/// patch's numbering: index into `patch`): vertices on no face of the patch are left
+/// out (coded as loose vertices).
+fn patch_layout(patch: &[u32], pfaces: Vec<[u32; 3]>, keep: Keep) -> PatchLayout {
     let mut on_face = vec![false; patch.len()];
     for f in &pfaces {
         for &x in f {
@@ -336,7 +331,7 @@ pub(super) fn patch_operator(
         return Ok(None);
     }
     let sub = TriMesh::new(vec![[0.0; 3]; np], layout.faces.clone());
-    let st = Topology::new(&sub).map_err(CodecError::PatchTopology)?;
+    let st = crate::mesh::topology::Topology::new(&sub).map_err(CodecError::PatchTopology)?;
     Operator::assemble(kind, &sub, &st, &OperatorOptions::default())
         .map(Some)
         .map_err(CodecError::PatchOperator)
@@ -439,31 +434,30 @@ pub(super) fn kirchhoff_dense(layout: &PatchLayout) -> Vec<f64> {
 /// The partition into patches (by the method of format `version`) and each patch's
 /// layout, in coding order (in parallel). Depends on the connectivity only.
 pub(super) fn layout(
-    topo: &Topology,
+    topo: &VertexGraph,
     params: &SpectralParams,
     version: u16,
 ) -> Result<Vec<PatchLayout>, CodecError> {
-    let patches = partition(topo, params.patch_size, version)?;
-    let n = topo.n_vertices();
-    let mut patch_of = vec![0u32; n];
-    for (p, patch) in patches.iter().enumerate() {
-        for &v in patch {
-            patch_of[v as usize] = p as u32;
+    let part = partition(topo, params.patch_size, version)?;
+    // Each vertex's index in its patch (a patch lists its vertices ascending).
+    let mut local = vec![0u32; topo.n_vertices()];
+    for p in 0..part.n_patches() {
+        for (i, &v) in part.patch_vertices(p).iter().enumerate() {
+            local[v as usize] = i as u32;
         }
     }
-    // Faces per patch: a face belongs to the patch of its first corner if all three
-    // corners share it.
-    let mut pfaces: Vec<Vec<[u32; 3]>> = vec![Vec::new(); patches.len()];
-    for f in topo.faces() {
-        let p = patch_of[f[0] as usize];
-        if patch_of[f[1] as usize] == p && patch_of[f[2] as usize] == p {
-            pfaces[p as usize].push(*f);
-        }
-    }
-    Ok(patches
-        .par_iter()
-        .zip(pfaces.par_iter())
-        .map(|(patch, faces)| patch_layout(patch, faces, params.keep))
+    // A patch's faces are those with all three corners in it, ascending.
+    let faces = topo.faces();
+    Ok((0..part.n_patches())
+        .into_par_iter()
+        .map(|p| {
+            let pfaces = part
+                .patch_faces(p)
+                .iter()
+                .map(|&f| faces[f as usize].map(|v| local[v as usize]))
+                .collect();
+            patch_layout(part.patch_vertices(p), pfaces, params.keep)
+        })
         .collect())
 }
 
@@ -489,7 +483,7 @@ pub(super) fn predictor_owners(
 /// non-zero coefficient only. Bases and predictors are computed together (they are
 /// independent: the predictors need the vertex sets only).
 pub(super) fn bases_of(
-    topo: &Topology,
+    topo: &VertexGraph,
     params: &SpectralParams,
     recipe: Recipe,
     layout: &[PatchLayout],
@@ -508,7 +502,7 @@ pub(super) fn bases_of(
 /// memory is reused while still in cache.
 #[allow(clippy::too_many_arguments)] // bases_of's arguments and the hook
 pub(super) fn bases_then<T: Send>(
-    topo: &Topology,
+    topo: &VertexGraph,
     params: &SpectralParams,
     recipe: Recipe,
     layout: &[PatchLayout],
@@ -626,7 +620,10 @@ fn owners<'v>(n: usize, patches: impl Iterator<Item = &'v [u32]>) -> Vec<u32> {
 
 /// Vertices adjacent to a vertex of another patch (`border[v]`), and the vertices in
 /// no patch basis (loose, ascending).
-pub(super) fn border_and_loose(topo: &Topology, layout: &[PatchLayout]) -> (Vec<bool>, Vec<u32>) {
+pub(super) fn border_and_loose(
+    topo: &VertexGraph,
+    layout: &[PatchLayout],
+) -> (Vec<bool>, Vec<u32>) {
     let n = topo.n_vertices();
     let owner = owners(n, layout.iter().map(|l| l.verts.as_slice()));
     let mut border = vec![false; n];

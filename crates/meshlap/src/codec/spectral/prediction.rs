@@ -12,7 +12,7 @@
 //! (figures in BENCHMARKS.md, Compression).
 
 use super::patches::Arithmetic;
-use crate::mesh::topology::Topology;
+use crate::mesh::graph::VertexGraph;
 use faer::Mat;
 
 /// How a format version computes the prediction `x̂ = G y` ([`patch_prediction`]).
@@ -340,7 +340,7 @@ pub(super) fn band_solve(l: &[f64], n: usize, b: usize, x: &mut [f64]) {
 /// (sequential, so encoder and decoder get the same `G` bit for bit; with
 /// [`Arithmetic::Fixed`] the same on every CPU too, [`cholesky_solve_fixed`]).
 pub(super) fn patch_prediction(
-    topo: &Topology,
+    topo: &VertexGraph,
     owner: &[u32],
     verts: &[u32],
     p: u32,

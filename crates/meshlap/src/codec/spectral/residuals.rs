@@ -12,7 +12,7 @@
 
 use crate::codec::entropy::IntModel;
 use crate::codec::CodecError;
-use crate::mesh::topology::Topology;
+use crate::mesh::graph::VertexGraph;
 use glam::DVec3;
 
 /// The residual-coded vertices and how to predict them.
@@ -48,7 +48,7 @@ impl Residuals {
 
     /// Prediction of a residual-coded vertex: its own spectral reconstruction, or for
     /// a loose vertex the mean of its decoded non-loose neighbours (origin if none).
-    fn prediction(&self, topo: &Topology, v: u32, rec: &[[f64; 3]]) -> DVec3 {
+    fn prediction(&self, topo: &VertexGraph, v: u32, rec: &[[f64; 3]]) -> DVec3 {
         if !self.loose[v as usize] {
             return DVec3::from(rec[v as usize]);
         }
@@ -72,7 +72,7 @@ impl Residuals {
     /// `prediction + q·step`, as the decoder will have it.
     pub fn code(
         &self,
-        topo: &Topology,
+        topo: &VertexGraph,
         rec: &mut [[f64; 3]],
         step: f64,
         models: &mut [IntModel],

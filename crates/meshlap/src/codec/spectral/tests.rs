@@ -29,14 +29,14 @@ fn decoder_reproduces_encoder_exactly_with_repeated_eigenvalues() {
                 predicted,
                 dead_zone: 0.4,
             };
-            let enc = SpectralEncoder::new(&topo, &m.positions, params).unwrap();
+            let enc = SpectralEncoder::new(topo.graph(), &m.positions, params).unwrap();
             let step = m.bbox_diagonal() / 1024.0;
             let EncodedSpectral {
                 bytes: data,
                 decoded: rec,
                 ..
             } = enc.encode(step).unwrap();
-            let dec = decode(&topo, &data, crate::codec::container::VERSION).unwrap();
+            let dec = decode(topo.graph(), &data, crate::codec::container::VERSION).unwrap();
             assert_eq!(dec, rec, "{spec} {op}");
         }
     }
@@ -65,10 +65,10 @@ fn decoder_with_partial_bases_reproduces_encoder_exactly() {
                 patch_size: 80,
                 ..Default::default()
             };
-            let enc = SpectralEncoder::new(&topo, &m.positions, params).unwrap();
+            let enc = SpectralEncoder::new(topo.graph(), &m.positions, params).unwrap();
             for div in [4.0, 64.0, 1024.0, 65536.0] {
                 let e = enc.encode(m.bbox_diagonal() / div).unwrap();
-                let dec = decode(&topo, &e.bytes, crate::codec::container::VERSION).unwrap();
+                let dec = decode(topo.graph(), &e.bytes, crate::codec::container::VERSION).unwrap();
                 assert!(
                     dec.iter()
                         .flatten()
@@ -95,7 +95,7 @@ fn full_basis_is_lossless_up_to_quantization() {
             predicted: false,
             dead_zone: 0.5,
         };
-        let enc = SpectralEncoder::new(&topo, &m.positions, params).unwrap();
+        let enc = SpectralEncoder::new(topo.graph(), &m.positions, params).unwrap();
         let step = 1e-6;
         let rec = enc.encode(step).unwrap().decoded;
         // One patch, orthonormal (or D^{1/2}-scaled) basis: error of order the step.
@@ -126,7 +126,7 @@ fn fewer_coefficients_more_error_and_border_coding_helps() {
             decoded: rec,
             stats: st,
             ..
-        } = SpectralEncoder::new(&topo, &m.positions, params)
+        } = SpectralEncoder::new(topo.graph(), &m.positions, params)
             .unwrap()
             .encode(step)
             .unwrap();
@@ -143,7 +143,7 @@ fn fewer_coefficients_more_error_and_border_coding_helps() {
         operator: OperatorKind::Sstl,
         ..Default::default()
     };
-    let rec = SpectralEncoder::new(&topo, &m.positions, params)
+    let rec = SpectralEncoder::new(topo.graph(), &m.positions, params)
         .unwrap()
         .encode(step)
         .unwrap()
@@ -163,14 +163,14 @@ fn prediction_shrinks_the_stream_and_keeps_the_error() {
             band_slope: 0.0,
             ..Default::default()
         };
-        let enc = SpectralEncoder::new(&topo, &m.positions, params).unwrap();
+        let enc = SpectralEncoder::new(topo.graph(), &m.positions, params).unwrap();
         let EncodedSpectral {
             bytes: data,
             decoded: rec,
             stats: st,
         } = enc.encode(step).unwrap();
         assert_eq!(
-            decode(&topo, &data, crate::codec::container::VERSION).unwrap(),
+            decode(topo.graph(), &data, crate::codec::container::VERSION).unwrap(),
             rec
         );
         assert!(st.patches >= 8);
@@ -191,7 +191,7 @@ fn corrupt_geometry_never_panics() {
     use rand::SeedableRng;
     let m = builtin::from_spec("builtin:icosphere:2").unwrap();
     let topo = Topology::new(&m).unwrap();
-    let data = SpectralEncoder::new(&topo, &m.positions, SpectralParams::default())
+    let data = SpectralEncoder::new(topo.graph(), &m.positions, SpectralParams::default())
         .unwrap()
         .encode(0.01)
         .unwrap()
@@ -199,7 +199,7 @@ fn corrupt_geometry_never_panics() {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
     for _ in 0..200 {
         let _ = decode(
-            &topo,
+            topo.graph(),
             &corrupt(&data, &mut rng),
             crate::codec::container::VERSION,
         );
@@ -247,12 +247,20 @@ fn factored_prediction_matches_the_formed_matrix() {
         patch_size: 40,
         ..Default::default()
     };
-    let lay = layout(&topo, &params, crate::codec::container::VERSION).unwrap();
+    let lay = layout(topo.graph(), &params, crate::codec::container::VERSION).unwrap();
     let owner = predictor_owners(topo.n_vertices(), &params, &lay).unwrap();
     let mut compared = 0;
     for (p, l) in lay.iter().enumerate() {
-        let make =
-            |form| patch_prediction(&topo, &owner, &l.verts, p as u32, Arithmetic::Fixed, form);
+        let make = |form| {
+            patch_prediction(
+                topo.graph(),
+                &owner,
+                &l.verts,
+                p as u32,
+                Arithmetic::Fixed,
+                form,
+            )
+        };
         match (
             make(PredictorForm::Matrix),
             make(PredictorForm::Factored),
@@ -314,14 +322,15 @@ fn streamed_bases_give_the_same_stream_and_decoding() {
             patch_size: 60,
             ..Default::default()
         };
-        let kept = SpectralEncoder::new(&topo, &m.positions, params).unwrap();
+        let kept = SpectralEncoder::new(topo.graph(), &m.positions, params).unwrap();
         assert!(!kept.streams());
         for div in [64.0, 4096.0] {
             let step = m.bbox_diagonal() / div;
             let want = kept.encode(step).unwrap();
             for chunk in [1, 200_000, usize::MAX] {
                 let streamed =
-                    SpectralEncoder::with_budgets(&topo, &m.positions, params, 0, chunk).unwrap();
+                    SpectralEncoder::with_budgets(topo.graph(), &m.positions, params, 0, chunk)
+                        .unwrap();
                 assert!(streamed.streams());
                 let got = streamed.encode(step).unwrap();
                 assert_eq!(got.bytes, want.bytes, "{spec} diag/{div} chunk {chunk}");
@@ -337,7 +346,7 @@ fn streamed_bases_give_the_same_stream_and_decoding() {
                 assert_eq!(got.stats.coefficients, want.stats.coefficients);
                 assert_eq!(got.stats.octave_bpv, want.stats.octave_bpv);
                 let dec = super::decoder::decode_chunked(
-                    &topo,
+                    topo.graph(),
                     &want.bytes,
                     crate::codec::container::VERSION,
                     chunk,
@@ -363,7 +372,8 @@ fn chunks_cover_every_patch_in_order_within_the_budget() {
         patch_size: 50,
         ..Default::default()
     };
-    let layout = super::patches::layout(&topo, &params, crate::codec::container::VERSION).unwrap();
+    let layout =
+        super::patches::layout(topo.graph(), &params, crate::codec::container::VERSION).unwrap();
     let bytes = |r: &std::ops::Range<usize>| -> usize {
         layout[r.clone()]
             .iter()
@@ -416,7 +426,7 @@ fn direct_kirchhoff_matches_the_assembled_operator() {
             patch_size: 40,
             ..Default::default()
         };
-        let lay = layout(&topo, &params, crate::codec::container::VERSION).unwrap();
+        let lay = layout(topo.graph(), &params, crate::codec::container::VERSION).unwrap();
         assert!(lay.len() > 2);
         for l in &lay {
             let op = patch_operator(l, OperatorKind::Kirchhoff).unwrap().unwrap();
@@ -450,10 +460,10 @@ fn factored_bases_match_the_explicit_ones() {
             predicted: false,
             ..Default::default()
         };
-        let lay = layout(&topo, &params, 8).unwrap();
+        let lay = layout(topo.graph(), &params, 8).unwrap();
         let n = lay.len();
         let old = bases_of(
-            &topo,
+            topo.graph(),
             &params,
             Recipe::for_version(7),
             &lay,
@@ -463,7 +473,7 @@ fn factored_bases_match_the_explicit_ones() {
         )
         .unwrap();
         let new = bases_of(
-            &topo,
+            topo.graph(),
             &params,
             Recipe::for_version(8),
             &lay,
