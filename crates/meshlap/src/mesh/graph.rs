@@ -8,8 +8,8 @@
 //! ([`VertexGraph::from_faces`]), at about a third of the cost of the half-edges.
 //!
 //! Construction: each face gives each corner its two other corners; the entries are
-//! bucketed by vertex (counting sort, a histogram and a scatter per thread over its
-//! range of faces), each bucket is sorted and deduplicated in parallel, and the buckets are
+//! bucketed by vertex ([`crate::mem::bucket_sort`]: a histogram and a scatter per
+//! thread over its range of faces), each bucket is sorted and deduplicated in parallel, and the buckets are
 //! packed. The result does not depend on the thread count.
 
 use super::{MeshError, VertexId};
@@ -34,53 +34,11 @@ impl VertexGraph {
     /// [`neighbors`](super::topology::Topology::neighbors) are the same lists.
     pub fn from_faces(n: usize, faces: &[[u32; 3]]) -> Result<Self, MeshError> {
         check_faces(n, faces)?;
-        // Each corner's two other corners, bucketed by corner: a counting sort over
-        // contiguous ranges of faces, one histogram per range (no atomics), bucket v
-        // holding range 0's entries, then range 1's, ….
-        let ranges = face_ranges(faces.len());
-        let mut hist: Vec<Vec<u32>> = ranges
-            .par_iter()
-            .map(|r| {
-                let mut h = vec![0u32; n];
-                for t in &faces[r.clone()] {
-                    for &v in t {
-                        h[v as usize] += 2;
-                    }
-                }
-                h
-            })
-            .collect();
-        // Bucket starts, and each range's first slot per bucket (in `hist`).
-        let mut start = vec![0u32; n + 1];
-        let mut at = 0u32;
-        for v in 0..n {
-            start[v] = at;
-            for h in hist.iter_mut() {
-                let c = h[v];
-                h[v] = at;
-                at += c;
-            }
-        }
-        start[n] = at;
-        let mut raw = crate::mem::zeroed_vec(0u32, 6 * faces.len());
-        {
-            let out = Scatter::new(&mut raw);
-            ranges.into_par_iter().zip(&mut hist).for_each(|(r, fill)| {
-                for t in &faces[r] {
-                    for c in 0..3 {
-                        let v = t[c] as usize;
-                        let p = fill[v] as usize;
-                        fill[v] += 2;
-                        // SAFETY: every (corner, face) pair gets its own two slots.
-                        unsafe {
-                            out.write(p, t[(c + 1) % 3]);
-                            out.write(p + 1, t[(c + 2) % 3]);
-                        }
-                    }
-                }
-            });
-        }
-        drop(hist);
+        // Each corner's two other corners, bucketed by corner.
+        let (start, mut raw) = crate::mem::bucket_sort(n, faces.len(), 0u32, |f| {
+            let [a, b, c] = faces[f];
+            [(a, b), (a, c), (b, c), (b, a), (c, a), (c, b)]
+        });
         // Sort and deduplicate each bucket in place, over blocks of vertices.
         let block = (n / (8 * rayon::current_num_threads().max(1))).clamp(1, 4096);
         let mut blocks: Vec<(usize, &mut [u32])> = Vec::new();
@@ -184,14 +142,6 @@ impl VertexGraph {
             })
             .sum()
     }
-}
-
-/// Contiguous ranges of `f` faces, one per thread (at least 2^15 faces each).
-fn face_ranges(f: usize) -> Vec<std::ops::Range<usize>> {
-    let parts = rayon::current_num_threads().clamp(1, f.div_ceil(1 << 15).max(1));
-    (0..parts)
-        .map(|i| i * f / parts..(i + 1) * f / parts)
-        .collect()
 }
 
 /// The face checks shared with [`Topology::from_faces`](super::topology::Topology::from_faces).

@@ -5,8 +5,9 @@
 //! implicit, and the structure stores only the twin of each half-edge, the undirected
 //! edge it belongs to and, per vertex, one outgoing half-edge plus a sorted neighbour
 //! list (CSR). Construction is O(n) (counting sort by the smaller endpoint, tiny
-//! per-vertex sorts; every pass in parallel, histograms and scatters with atomic
-//! counters, and the result independent of the thread count), with no hashing, so a 1M-vertex mesh builds in a
+//! per-vertex sorts; every pass in parallel, the counting sorts with a histogram per
+//! thread ([`crate::mem::bucket_sort`]), and the result independent of the thread
+//! count), with no hashing, so a 1M-vertex mesh builds in a
 //! fraction of a second (`meshlap-bench topology builtin:icosphere:9`; BENCHMARKS.md).
 //!
 //! Non-manifold input is represented, not rejected: an edge with more than two faces
@@ -18,7 +19,7 @@ use super::graph::VertexGraph;
 use super::{EdgeId, FaceId, MeshError, TriMesh, VertexId};
 use crate::mem::Scatter;
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Marker for "no half-edge" (boundary or non-manifold edge).
 pub const INVALID: u32 = u32::MAX;
@@ -63,38 +64,17 @@ impl Topology {
         // Counting sort of half-edges by their smaller endpoint. Each entry packs
         // `hi << 32 | reversed << 31 | h`, where `reversed` says h runs hi → lo; sorting
         // a bucket then groups it by `hi`, and orientation needs no lookup in `faces`.
-        // Histogram and scatter run in parallel with atomic counters; the order in
-        // which a bucket fills does not matter, as every bucket is sorted below.
-        let counts: Vec<AtomicU32> = (0..=n).into_par_iter().map(|_| AtomicU32::new(0)).collect();
-        faces.par_iter().with_min_len(1 << 12).for_each(|t| {
-            for c in 0..3 {
+        let (count, mut bucket) = crate::mem::bucket_sort::<3, u64>(n, faces.len(), 0u64, |f| {
+            let t = faces[f];
+            std::array::from_fn(|c| {
                 let (a, b) = (t[c], t[(c + 1) % 3]);
-                counts[a.min(b) as usize + 1].fetch_add(1, Ordering::Relaxed);
-            }
+                let reversed = u64::from(a > b) << 31;
+                (
+                    a.min(b),
+                    (u64::from(a.max(b)) << 32) | reversed | (3 * f + c) as u64,
+                )
+            })
         });
-        let mut count: Vec<u32> = counts.into_par_iter().map(AtomicU32::into_inner).collect();
-        for i in 0..n {
-            count[i + 1] += count[i];
-        }
-        let mut bucket = crate::mem::zeroed_vec(0u64, nh);
-        {
-            let fill: Vec<AtomicU32> = count[..n].par_iter().map(|&c| AtomicU32::new(c)).collect();
-            let out = Scatter::new(&mut bucket);
-            faces
-                .par_iter()
-                .enumerate()
-                .with_min_len(1 << 12)
-                .for_each(|(f, t)| {
-                    for c in 0..3 {
-                        let (a, b) = (t[c], t[(c + 1) % 3]);
-                        let pos = fill[a.min(b) as usize].fetch_add(1, Ordering::Relaxed);
-                        let reversed = u64::from(a > b) << 31;
-                        let entry = (u64::from(a.max(b)) << 32) | reversed | (3 * f + c) as u64;
-                        // SAFETY: every half-edge gets its own slot from the counter.
-                        unsafe { out.write(pos as usize, entry) };
-                    }
-                });
-        }
         // Group each bucket by the larger endpoint into undirected edges, in parallel
         // over contiguous ranges of `lo` (disjoint slices of `bucket`).
         let chunk_vertices = (n / (8 * rayon::current_num_threads().max(1))).max(4096);
@@ -199,36 +179,13 @@ impl Topology {
         // row x receives first its smaller neighbours (as `hi` of earlier edges, in
         // ascending order) and then its larger ones (as `lo`, ascending): every row
         // comes out sorted without a sort.
-        let degs: Vec<AtomicU32> = (0..=n).into_par_iter().map(|_| AtomicU32::new(0)).collect();
-        edges.par_iter().with_min_len(1 << 12).for_each(|&[a, b]| {
-            degs[a as usize + 1].fetch_add(1, Ordering::Relaxed);
-            degs[b as usize + 1].fetch_add(1, Ordering::Relaxed);
+        let (adj_offsets, mut packed) = crate::mem::bucket_sort(n, edges.len(), 0u64, |e| {
+            let [a, b] = edges[e];
+            [
+                (a, (u64::from(b) << 32) | e as u64),
+                (b, (u64::from(a) << 32) | e as u64),
+            ]
         });
-        let mut adj_offsets: Vec<u32> = degs.into_par_iter().map(AtomicU32::into_inner).collect();
-        for i in 0..n {
-            adj_offsets[i + 1] += adj_offsets[i];
-        }
-        // (neighbour, edge) packed, scattered in any order, then each row sorted by
-        // neighbour (a row has each neighbour once), so the result is deterministic.
-        let mut packed = crate::mem::zeroed_vec(0u64, 2 * edges.len());
-        {
-            let fill: Vec<AtomicU32> = adj_offsets[..n]
-                .par_iter()
-                .map(|&c| AtomicU32::new(c))
-                .collect();
-            let out = Scatter::new(&mut packed);
-            edges
-                .par_iter()
-                .enumerate()
-                .with_min_len(1 << 12)
-                .for_each(|(e, &[a, b])| {
-                    for (x, y) in [(a, b), (b, a)] {
-                        let p = fill[x as usize].fetch_add(1, Ordering::Relaxed);
-                        // SAFETY: every (row, edge) pair gets its own slot.
-                        unsafe { out.write(p as usize, (u64::from(y) << 32) | e as u64) };
-                    }
-                });
-        }
         let mut rows: Vec<&mut [u64]> = Vec::with_capacity(n);
         {
             let mut rest: &mut [u64] = &mut packed;
