@@ -27,9 +27,10 @@
 //! count, which is what lets a decoder recompute them ([`crate::codec`], format 7).
 //! Written by hand because no crate offers a deterministic graph k-means; METIS
 //! (the other method) keeps its random generator in process-global state and runs
-//! on one thread. Cost: `O(iterations · (n + edges))`; each level's decisions run in
-//! parallel (they read earlier levels only, so the result does not depend on the
-//! thread count).
+//! on one thread. Cost: `O(iterations · (n + edges))`; each wide level's search and
+//! decisions run in parallel, and so does each level of step 3's search (a level is
+//! a set, and a decision reads earlier levels only, so the result does not depend on
+//! the thread count or on the order in which a level is listed).
 
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
@@ -151,7 +152,7 @@ fn grow(nbrs: &Graph<'_>, seeds: &[u32], lab: &mut [u32], s: &mut Scratch, cap: 
     loop {
         // The next level: the front's unreached neighbours, each once, then the
         // deferred vertices (every assigned neighbour's cell was full) again.
-        discover(nbrs, &s.front, lab, &mut s.next);
+        claim(nbrs, &s.front, lab, PENDING, |_, _| true, &mut s.next);
         s.next.append(&mut deferred);
         if s.next.is_empty() {
             break;
@@ -193,33 +194,42 @@ fn grow(nbrs: &Graph<'_>, seeds: &[u32], lab: &mut [u32], s: &mut Scratch, cap: 
     }
 }
 
-/// The vertices of `lab` still [`NONE`] next to a vertex of `front`, each once, into
-/// `next`, marked [`PENDING`]. A wide front is searched in parallel (each vertex
-/// claimed by an atomic exchange): the set is the same, the order may not be, and
-/// nothing downstream depends on the order.
-fn discover(nbrs: &Graph<'_>, front: &[u32], lab: &mut [u32], next: &mut Vec<u32>) {
+/// One level of a breadth-first search: the neighbours `w` of the vertices `v` of
+/// `front` with `marks[w]` still [`NONE`] and `admit(v, w)`, each once, into `next`,
+/// marked `mark`. A wide front is searched in parallel (each vertex claimed by an
+/// atomic exchange): the set is the same, the order may not be, and nothing
+/// downstream depends on the order.
+fn claim(
+    nbrs: &Graph<'_>,
+    front: &[u32],
+    marks: &mut [u32],
+    mark: u32,
+    admit: impl Fn(u32, u32) -> bool + Sync,
+    next: &mut Vec<u32>,
+) {
     next.clear();
     if front.len() < PAR_LEVEL {
         for &v in front {
             for &w in nbrs.of(v) {
-                if lab[w as usize] == NONE {
-                    lab[w as usize] = PENDING;
+                if marks[w as usize] == NONE && admit(v, w) {
+                    marks[w as usize] = mark;
                     next.push(w);
                 }
             }
         }
         return;
     }
-    let lab = atomic(lab);
+    let marks = atomic(marks);
     let found: Vec<Vec<u32>> = front
         .par_chunks(PAR_LEVEL / 4)
         .map(|part| {
             let mut out = Vec::with_capacity(part.len() * 2);
             for &v in part {
                 for &w in nbrs.of(v) {
-                    let x = &lab[w as usize];
+                    let x = &marks[w as usize];
                     if x.load(Relaxed) == NONE
-                        && x.compare_exchange(NONE, PENDING, Relaxed, Relaxed).is_ok()
+                        && admit(v, w)
+                        && x.compare_exchange(NONE, mark, Relaxed, Relaxed).is_ok()
                     {
                         out.push(w);
                     }
@@ -303,7 +313,15 @@ fn centres(nbrs: &Graph<'_>, lab: &[u32], seeds: &mut [u32], s: &mut Scratch) {
         .extend((0..n as u32).filter(|&v| dist[v as usize] == 0));
     let mut d = 0;
     while !s.front.is_empty() {
-        inward(nbrs, lab, &s.front, dist, d + 1, &mut s.next);
+        // Inward from the borders, within each cell.
+        claim(
+            nbrs,
+            &s.front,
+            dist,
+            d + 1,
+            |v, w| lab[v as usize] == lab[w as usize],
+            &mut s.next,
+        );
         std::mem::swap(&mut s.front, &mut s.next);
         d += 1;
     }
@@ -343,56 +361,6 @@ fn centres(nbrs: &Graph<'_>, lab: &[u32], seeds: &mut [u32], s: &mut Scratch) {
 
 /// Blocks of vertices for the parallel passes over all of them.
 const PAR_BLOCK: usize = 1 << 15;
-
-/// One level of the search inward from the cells' borders: the vertices of the
-/// front's cells next to a front vertex and not yet reached get distance `d`, into
-/// `next`. A wide front in parallel, as in [`discover`]: the distances do not depend
-/// on the order.
-fn inward(
-    nbrs: &Graph<'_>,
-    lab: &[u32],
-    front: &[u32],
-    dist: &mut [u32],
-    d: u32,
-    next: &mut Vec<u32>,
-) {
-    next.clear();
-    if front.len() < PAR_LEVEL {
-        for &v in front {
-            let l = lab[v as usize];
-            for &w in nbrs.of(v) {
-                if dist[w as usize] == NONE && lab[w as usize] == l {
-                    dist[w as usize] = d;
-                    next.push(w);
-                }
-            }
-        }
-        return;
-    }
-    let dist = atomic(dist);
-    let found: Vec<Vec<u32>> = front
-        .par_chunks(PAR_LEVEL / 4)
-        .map(|part| {
-            let mut out = Vec::with_capacity(part.len());
-            for &v in part {
-                let l = lab[v as usize];
-                for &w in nbrs.of(v) {
-                    let x = &dist[w as usize];
-                    if lab[w as usize] == l
-                        && x.load(Relaxed) == NONE
-                        && x.compare_exchange(NONE, d, Relaxed, Relaxed).is_ok()
-                    {
-                        out.push(w);
-                    }
-                }
-            }
-            out
-        })
-        .collect();
-    for f in &found {
-        next.extend_from_slice(f);
-    }
-}
 
 #[cfg(test)]
 mod tests {
