@@ -179,27 +179,14 @@ impl Topology {
         // row x receives first its smaller neighbours (as `hi` of earlier edges, in
         // ascending order) and then its larger ones (as `lo`, ascending): every row
         // comes out sorted without a sort.
-        let (adj_offsets, mut packed) = crate::mem::bucket_sort(n, edges.len(), 0u64, |e| {
+        // (neighbour, edge) packed; the bucket sort keeps the edge order in a row.
+        let (adj_offsets, packed) = crate::mem::bucket_sort(n, edges.len(), 0u64, |e| {
             let [a, b] = edges[e];
             [
                 (a, (u64::from(b) << 32) | e as u64),
                 (b, (u64::from(a) << 32) | e as u64),
             ]
         });
-        let mut rows: Vec<&mut [u64]> = Vec::with_capacity(n);
-        {
-            let mut rest: &mut [u64] = &mut packed;
-            for v in 0..n {
-                let (head, tail) =
-                    rest.split_at_mut((adj_offsets[v + 1] - adj_offsets[v]) as usize);
-                rows.push(head);
-                rest = tail;
-            }
-        }
-        rows.par_iter_mut()
-            .with_min_len(1 << 12)
-            .for_each(|r| r.sort_unstable());
-        drop(rows);
         let adj: Vec<u32> = packed.par_iter().map(|&x| (x >> 32) as u32).collect();
         let adj_edge: Vec<u32> = packed.par_iter().map(|&x| x as u32).collect();
         drop(packed);

@@ -339,9 +339,11 @@ fn centres(nbrs: &Graph<'_>, lab: &[u32], seeds: &mut [u32], s: &mut Scratch) {
         }
         best
     };
+    // A few blocks per thread: each keeps a best vertex per cell.
+    let block = PAR_BLOCK.max(n.div_ceil(4 * rayon::current_num_threads().max(1)));
     let blocks: Vec<_> = (0..n)
-        .step_by(PAR_BLOCK)
-        .map(|a| a..(a + PAR_BLOCK).min(n))
+        .step_by(block)
+        .map(|a| a..(a + block).min(n))
         .collect();
     let per_block: Vec<Vec<u32>> = blocks.into_par_iter().map(deepest).collect();
     let mut best: Vec<u32> = vec![NONE; seeds.len()];
@@ -359,7 +361,8 @@ fn centres(nbrs: &Graph<'_>, lab: &[u32], seeds: &mut [u32], s: &mut Scratch) {
     }
 }
 
-/// Blocks of vertices for the parallel passes over all of them.
+/// The smallest block of vertices of the parallel search for each cell's deepest
+/// vertex.
 const PAR_BLOCK: usize = 1 << 15;
 
 #[cfg(test)]
