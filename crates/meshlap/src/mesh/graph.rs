@@ -9,8 +9,9 @@
 //!
 //! Construction: each face gives each corner its two other corners; the entries are
 //! bucketed by vertex ([`crate::mem::bucket_sort`]: a histogram and a scatter per
-//! thread over its range of faces), each bucket is sorted and deduplicated in parallel, and the buckets are
-//! packed. The result does not depend on the thread count.
+//! thread over its range of faces), each bucket is sorted and deduplicated in
+//! parallel, and the buckets are packed. The result does not depend on the thread
+//! count.
 
 use super::{MeshError, VertexId};
 use crate::mem::Scatter;

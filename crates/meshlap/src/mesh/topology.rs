@@ -348,7 +348,7 @@ impl Topology {
 
     /// Number of vertices.
     pub fn n_vertices(&self) -> usize {
-        self.graph.n
+        self.graph.n_vertices()
     }
     /// Number of faces.
     pub fn n_faces(&self) -> usize {
@@ -360,7 +360,7 @@ impl Topology {
     }
     /// The faces this connectivity was built from.
     pub fn faces(&self) -> &[[u32; 3]] {
-        &self.graph.faces
+        self.graph.faces()
     }
     /// The faces and the vertex adjacency alone ([`VertexGraph`]).
     pub fn graph(&self) -> &VertexGraph {
@@ -455,7 +455,7 @@ impl Topology {
     /// Degree (number of distinct neighbours) of vertex `v`.
     #[inline]
     pub fn degree(&self, v: VertexId) -> usize {
-        (self.graph.offsets[v.idx() + 1] - self.graph.offsets[v.idx()]) as usize
+        self.graph.degree(v)
     }
 
     /// All vertex degrees.
@@ -466,8 +466,7 @@ impl Topology {
     /// Neighbours of `v`, ascending by index.
     #[inline]
     pub fn neighbors(&self, v: VertexId) -> &[u32] {
-        &self.graph.adj
-            [self.graph.offsets[v.idx()] as usize..self.graph.offsets[v.idx() + 1] as usize]
+        self.graph.neighbors(v)
     }
 
     /// Edges incident to `v`, in the order of [`Topology::neighbors`].
@@ -479,11 +478,11 @@ impl Topology {
 
     /// CSR offsets of the adjacency (`n + 1` entries).
     pub fn adjacency_offsets(&self) -> &[u32] {
-        &self.graph.offsets
+        self.graph.adjacency_offsets()
     }
     /// CSR column indices of the adjacency (each row ascending).
     pub fn adjacency(&self) -> &[u32] {
-        &self.graph.adj
+        self.graph.adjacency()
     }
 
     /// The edge joining `a` and `b`, if any (binary search in `a`'s sorted row).
