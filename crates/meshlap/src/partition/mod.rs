@@ -60,6 +60,7 @@ mod lloyd;
 use crate::mesh::graph::VertexGraph;
 use crate::mesh::topology::{Topology, UnionFind};
 use crate::mesh::TriMesh;
+use rayon::prelude::*;
 use serde::Serialize;
 
 /// Errors of mesh partitioning.
@@ -271,28 +272,12 @@ struct Incidence {
 }
 
 impl Incidence {
+    /// Each vertex's faces, ascending ([`crate::mem::bucket_sort`], in parallel).
     fn new(n: usize, faces: &[[u32; 3]]) -> Self {
-        let mut offsets = vec![0u32; n + 1];
-        for t in faces {
-            for &v in t {
-                offsets[v as usize + 1] += 1;
-            }
-        }
-        for i in 0..n {
-            offsets[i + 1] += offsets[i];
-        }
-        let mut fill = offsets.clone();
-        let mut out = vec![0u32; faces.len() * 3];
-        for (f, t) in faces.iter().enumerate() {
-            for &v in t {
-                out[fill[v as usize] as usize] = f as u32;
-                fill[v as usize] += 1;
-            }
-        }
-        Incidence {
-            offsets,
-            faces: out,
-        }
+        let (offsets, faces) = crate::mem::bucket_sort::<3, u32>(n, faces.len(), 0, |f| {
+            faces[f].map(|v| (v, f as u32))
+        });
+        Incidence { offsets, faces }
     }
     fn of(&self, v: usize) -> &[u32] {
         &self.faces[self.offsets[v] as usize..self.offsets[v + 1] as usize]
@@ -412,13 +397,20 @@ fn make_every_vertex_interior(
     let patches = part.iter().map(|&p| p as usize + 1).max().unwrap_or(0);
     let mut pair_budget = if pair_moves { patches } else { 0 };
     loop {
+        // Vertex by vertex (in parallel): whether one of its faces is interior.
         let mut has_interior = vec![false; n];
-        for t in faces {
-            if interior(part, t) {
-                for &v in t {
-                    has_interior[v as usize] = true;
-                }
-            }
+        {
+            let part: &[u32] = part;
+            has_interior
+                .par_iter_mut()
+                .with_min_len(1 << 12)
+                .enumerate()
+                .for_each(|(v, h)| {
+                    *h = inc
+                        .of(v)
+                        .iter()
+                        .any(|&f| interior(part, &faces[f as usize]));
+                });
         }
         let dangling: Vec<usize> = (0..n).filter(|&v| !has_interior[v]).collect();
         if dangling.is_empty() {

@@ -349,10 +349,15 @@ pub(super) fn patch_prediction(
 ) -> Option<Prediction> {
     let np = verts.len();
     let known = |w: u32| owner[w as usize] < p;
-    let mut local = std::collections::HashMap::with_capacity(np);
-    for (i, &v) in verts.iter().enumerate() {
-        local.insert(v, i);
-    }
+    // (vertex, index in `verts`), by vertex: looked up by binary search.
+    let mut local: Vec<(u32, usize)> = verts.iter().enumerate().map(|(i, &v)| (v, i)).collect();
+    local.sort_unstable();
+    let local_of = |w: u32| {
+        local
+            .binary_search_by_key(&w, |e| e.0)
+            .ok()
+            .map(|k| local[k].1)
+    };
     let mut k1: Vec<u32> = verts
         .iter()
         .flat_map(|&v| topo.neighbors(crate::mesh::VertexId(v)).iter().copied())
@@ -363,8 +368,6 @@ pub(super) fn patch_prediction(
     if k1.is_empty() {
         return None;
     }
-    let mut src_index = std::collections::HashMap::new();
-    let mut src: Vec<u32> = Vec::new();
     let mut rows = Rows::with_capacity(np + k1.len());
     let mut nb: Vec<u32> = Vec::new();
     for &i in verts.iter().chain(k1.iter()) {
@@ -381,17 +384,30 @@ pub(super) fn patch_prediction(
             1.0 / nb.len() as f64
         };
         for (w, wt) in std::iter::once((i, 1.0)).chain(nb.iter().map(|&w| (w, -inv))) {
-            if let Some(&li) = local.get(&w) {
-                rows.lu.push((li, wt));
-            } else {
-                let t = *src_index.entry(w).or_insert_with(|| {
-                    src.push(w);
-                    src.len() - 1
-                });
-                rows.ls.push((t, wt));
+            match local_of(w) {
+                Some(li) => rows.lu.push((li, wt)),
+                // The vertex for now; its index among the sources below.
+                None => rows.ls.push((w as usize, wt)),
             }
         }
         rows.end_row();
+    }
+    // The sources are the known vertices in order of first appearance in the rows;
+    // each entry of L_S then gets its vertex's index among them.
+    let mut first: Vec<(u32, u32)> = (rows.ls.iter().enumerate())
+        .map(|(at, &(w, _))| (w as u32, at as u32))
+        .collect();
+    first.sort_unstable();
+    first.dedup_by_key(|e| e.0);
+    first.sort_unstable_by_key(|e| e.1);
+    let src: Vec<u32> = first.iter().map(|e| e.0).collect();
+    let mut index: Vec<(u32, usize)> = src.iter().enumerate().map(|(t, &w)| (w, t)).collect();
+    index.sort_unstable();
+    for e in rows.ls.iter_mut() {
+        let k = index
+            .binary_search_by_key(&(e.0 as u32), |x| x.0)
+            .expect("every source was listed");
+        e.0 = index[k].1;
     }
     if form == PredictorForm::Banded {
         return banded_prediction(np, src, rows);
