@@ -258,24 +258,46 @@ pub(super) enum Scaling {
 /// `max |w_ij|` into `[1, 2)` ([`power_of_two_scaling`]) and mirrors it into the
 /// upper triangle (whose entries are not read).
 pub(super) fn scale_lower(w: &mut [f64], n: usize) -> Scaling {
-    let mut amax = 0.0f64;
+    // Branch-free over four lanes (so that it vectorises): `x·0` is ±0 for a finite
+    // x and NaN otherwise, so the lanes' sums stay zero exactly when all are finite.
+    let (mut amax, mut bad) = ([0.0f64; 4], [0.0f64; 4]);
     for j in 0..n {
-        for &x in &w[j * n + j..(j + 1) * n] {
-            if !x.is_finite() {
-                return Scaling::NonFinite;
+        let col = &w[j * n + j..(j + 1) * n];
+        let mut quads = col.chunks_exact(4);
+        for q in &mut quads {
+            for l in 0..4 {
+                amax[l] = amax[l].max(q[l].abs());
+                bad[l] += q[l] * 0.0;
             }
-            amax = amax.max(x.abs());
+        }
+        for (l, &x) in quads.remainder().iter().enumerate() {
+            amax[l] = amax[l].max(x.abs());
+            bad[l] += x * 0.0;
         }
     }
+    if bad.iter().any(|&b| b != 0.0) {
+        return Scaling::NonFinite;
+    }
+    let amax = amax.iter().fold(0.0f64, |m, &x| m.max(x));
     if amax == 0.0 {
         return Scaling::Zero;
     }
     let (scale, unscale) = power_of_two_scaling(amax);
+    // Scaled column by column (exact: a power of two), then mirrored tile by tile
+    // so that the strided writes of a tile's rows stay in a few cache lines.
     for j in 0..n {
-        for i in j..n {
-            let x = w[i + j * n] * scale;
-            w[i + j * n] = x;
-            w[j + i * n] = x;
+        w[j * n + j..(j + 1) * n]
+            .iter_mut()
+            .for_each(|x| *x *= scale);
+    }
+    const TILE: usize = 8;
+    for jb in (0..n).step_by(TILE) {
+        for ib in (jb..n).step_by(TILE) {
+            for j in jb..(jb + TILE).min(n) {
+                for i in ib.max(j + 1)..(ib + TILE).min(n) {
+                    w[j + i * n] = w[i + j * n];
+                }
+            }
         }
     }
     Scaling::By(unscale)
