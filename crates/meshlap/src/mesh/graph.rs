@@ -3,12 +3,13 @@
 //!
 //! What the partition ([`crate::partition`]) and the spectral codec's patches,
 //! predictors and residuals read: neighbours and faces, never twins or fans. A
-//! [`Topology`](super::topology::Topology) holds one ([`Topology::graph`]
-//! (super::topology::Topology::graph)); the `.mlz` decoder builds one alone
-//! ([`VertexGraph::from_faces`]), at about a third of the cost of the half-edges.
+//! [`Topology`](super::topology::Topology) holds one
+//! ([`Topology::graph`](super::topology::Topology::graph)); the `.mlz` decoder builds
+//! one alone ([`VertexGraph::from_faces`]), at about a third of the cost of the
+//! half-edges.
 //!
 //! Construction: each face gives each corner its two other corners; the entries are
-//! bucketed by vertex ([`crate::mem::bucket_sort`]: a histogram and a scatter per
+//! bucketed by vertex (`mem::bucket_sort`: a histogram and a scatter per
 //! thread over its range of faces), each bucket is sorted and deduplicated in
 //! parallel, and the buckets are packed. The result does not depend on the thread
 //! count.

@@ -6,7 +6,7 @@
 //! edge it belongs to and, per vertex, one outgoing half-edge plus a sorted neighbour
 //! list (CSR). Construction is O(n) (counting sort by the smaller endpoint, tiny
 //! per-vertex sorts; every pass in parallel, the counting sorts with a histogram per
-//! thread ([`crate::mem::bucket_sort`]), and the result independent of the thread
+//! thread (`mem::bucket_sort`), and the result independent of the thread
 //! count), with no hashing, so a 1M-vertex mesh builds in a
 //! fraction of a second (`meshlap-bench topology builtin:icosphere:9`; BENCHMARKS.md).
 //!
