@@ -14,10 +14,10 @@ use crate::codec::CodecError;
 use crate::mesh::graph::VertexGraph;
 
 /// Decodes a spectral geometry stream (header and payload, after the mode byte) of
-/// an `.mlz` file of format `version` for the vertex graph `topo` of the decoded connectivity: the
-/// positions (n×3) in the decoded vertex order. Version 6 on, the coefficient
-/// products and the predictor are computed in fixed-order arithmetic (the same bits
-/// on every CPU); versions 4 and 5 with faer's, as they were written.
+/// an `.mlz` file of format `version` for the vertex graph `topo` of the decoded
+/// connectivity: the positions (n×3) in the decoded vertex order. Version 6 on, the
+/// coefficient products and the predictor are computed in fixed-order arithmetic (the
+/// same bits on every CPU); versions 4 and 5 with faer's, as they were written.
 pub fn decode(topo: &VertexGraph, data: &[u8], version: u16) -> Result<Vec<[f64; 3]>, CodecError> {
     decode_chunked(topo, data, version, CHUNK_BYTES)
 }

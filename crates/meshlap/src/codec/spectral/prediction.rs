@@ -325,8 +325,9 @@ pub(super) fn band_solve(l: &[f64], n: usize, b: usize, x: &mut [f64]) {
     }
 }
 
-/// The predictor of patch `p` (vertices `U` = `verts`), or `None` when no vertex of an earlier
-/// patch touches it (or the system is singular).
+/// The predictor of patch `p` (vertices `U` = `verts`, ascending, as a
+/// [`super::patches::PatchLayout`] lists them), or `None` when no vertex of an
+/// earlier patch touches it (or the system is singular).
 ///
 /// Known vertices are those of patches `< p` (decoded before `p`). With `K₁` the known
 /// vertices adjacent to `U`, take the rows `R = U ∪ K₁` of the umbrella operator of
@@ -349,15 +350,12 @@ pub(super) fn patch_prediction(
 ) -> Option<Prediction> {
     let np = verts.len();
     let known = |w: u32| owner[w as usize] < p;
-    // (vertex, index in `verts`), by vertex: looked up by binary search.
-    let mut local: Vec<(u32, usize)> = verts.iter().enumerate().map(|(i, &v)| (v, i)).collect();
-    local.sort_unstable();
-    let local_of = |w: u32| {
-        local
-            .binary_search_by_key(&w, |e| e.0)
-            .ok()
-            .map(|k| local[k].1)
-    };
+    debug_assert!(
+        verts.windows(2).all(|p| p[0] < p[1]),
+        "patch vertices ascending"
+    );
+    // A vertex's index in the patch, by binary search.
+    let local_of = |w: u32| verts.binary_search(&w).ok();
     let mut k1: Vec<u32> = verts
         .iter()
         .flat_map(|&v| topo.neighbors(crate::mesh::VertexId(v)).iter().copied())
