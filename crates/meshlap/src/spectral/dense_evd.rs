@@ -619,7 +619,7 @@ pub(super) fn ql_eigenvalues(d: &[f64], e: &[f64]) -> Option<Vec<f64>> {
     Some(d)
 }
 
-/// One tridiagonal's state in [`ql_eigenvalues_pair`]: the QL iteration of
+/// One tridiagonal's state in [`ql_eigenvalues_many`]: the QL iteration of
 /// [`ql_eigenvalues`] cut into sweeps, so that two can run interleaved.
 struct QlState {
     d: Vec<f64>,
@@ -818,20 +818,25 @@ pub(super) fn ql_eigenvalues_many<const K: usize>(
     out
 }
 
-/// Eigenvectors computed together by [`tridiagonal_vectors`]: their LU
-/// factorisations and solves run interleaved in one loop, two independent chains of
-/// dependent divisions and FMAs that the CPU overlaps.
+/// Eigenvectors computed together by [`tridiagonal_vectors`] (a *group*): their LU
+/// factorisations and solves run interleaved in one loop, independent chains of
+/// dependent divisions and FMAs that the CPU overlaps. Several groups are factored
+/// in the same loop as well ([`TridiagonalLu::factor_many`]), and two consecutive
+/// groups solved together ([`TridiagonalLu::solve_pair`]): with AVX2 a group's
+/// chains are four lanes of one vector operation, which waits on its own latency (a
+/// division and an FMA per row) without another group beside it.
 const LANES: usize = 4;
 
 /// LU factors of tridiagonal `T − λ_l I` for [`LANES`] shifts, with partial pivoting
 /// (LAPACK `dgttrf`): unit lower multipliers `dl`, reciprocal pivots `dinv`, first
-/// and second superdiagonals `du`, `du2`, row interchanges `swap`; entry `[i][l]`.
+/// and second superdiagonals `du`, `du2`, row interchanges `swap` (all bits set where
+/// rows i and i + 1 were interchanged, zero where not: a lane mask); entry `[i][l]`.
 struct TridiagonalLu {
     dl: Vec<[f64; LANES]>,
     dinv: Vec<[f64; LANES]>,
     du: Vec<[f64; LANES]>,
     du2: Vec<[f64; LANES]>,
-    swap: Vec<[bool; LANES]>,
+    swap: Vec<[u64; LANES]>,
 }
 
 impl TridiagonalLu {
@@ -841,17 +846,51 @@ impl TridiagonalLu {
             dinv: vec![[0.0; LANES]; n],
             du: vec![[0.0; LANES]; n],
             du2: vec![[0.0; LANES]; n],
-            swap: vec![[false; LANES]; n],
+            swap: vec![[0; LANES]; n],
         }
     }
 
     /// Factors `T − λ_l I` for every lane; a pivot smaller than `tiny` in magnitude
-    /// is replaced by `±tiny`.
-    #[inline(always)]
+    /// is replaced by `±tiny`. (The solver factors in batches, [`Self::factor_many`].)
+    #[cfg(test)]
     fn factor(&mut self, d0: &[f64], e: &[f64], lam: [f64; LANES], tiny: f64) {
+        Self::factor_many(&mut [self], &[lam], d0, e, tiny);
+    }
+
+    /// Factors `T − λ I` for the shifts of several groups (at most
+    /// [`FACTOR_BATCH`]), their eliminations interleaved row by row (each one's bits
+    /// are those it gets alone); a pivot smaller than `tiny` in magnitude is
+    /// replaced by `±tiny`.
+    #[inline(always)]
+    fn factor_many(lus: &mut [&mut Self], lams: &[[f64; LANES]], d0: &[f64], e: &[f64], tiny: f64) {
+        for (lu, &lam) in lus.iter_mut().zip(lams) {
+            lu.prepare(d0, e, lam);
+        }
+        let mut done = false;
+        #[cfg(target_arch = "x86_64")]
+        if crate::cpu::avx2_fma() {
+            // SAFETY: `avx2_fma()` is only true when the CPU has AVX2 and FMA.
+            unsafe { simd::eliminate_all(lus, tiny) };
+            done = true;
+        }
+        if !done {
+            for i in 0..d0.len() - 1 {
+                for lu in lus.iter_mut() {
+                    lu.eliminate(i, tiny);
+                }
+            }
+        }
+        for lu in lus.iter_mut() {
+            lu.finish(tiny);
+        }
+    }
+
+    /// The factorisation's starting point: `dinv` holds `d − λ_l` (the pivots to
+    /// come), `dl` and `du` the couplings, `du2` zero.
+    #[inline(always)]
+    fn prepare(&mut self, d0: &[f64], e: &[f64], lam: [f64; LANES]) {
         let n = d0.len();
-        let dd = &mut self.dinv;
-        for (x, &v) in dd.iter_mut().zip(d0) {
+        for (x, &v) in self.dinv.iter_mut().zip(d0) {
             for l in 0..LANES {
                 x[l] = v - lam[l];
             }
@@ -861,41 +900,54 @@ impl TridiagonalLu {
             self.du[i] = [e[i]; LANES];
             self.du2[i] = [0.0; LANES];
         }
-        // Branch-free over the lanes (selects), so that the lanes vectorise.
-        for i in 0..n - 1 {
-            let next_du = if i + 2 < n {
-                self.du[i + 1]
+    }
+
+    /// Elimination step `i` (`i < n − 1`), pivoting on rows i and i + 1; a pivot
+    /// below `tiny` is floored (the last one in [`Self::finish`]). The portable
+    /// build's step (LLVM makes four scalar chains of it); `simd::eliminate` is the
+    /// same per lane.
+    #[inline(always)]
+    fn eliminate(&mut self, i: usize, tiny: f64) {
+        let n = self.dinv.len();
+        let dd = &mut self.dinv;
+        let next_du = if i + 2 < n {
+            self.du[i + 1]
+        } else {
+            [0.0; LANES]
+        };
+        let mut du2 = [0.0; LANES];
+        let mut ndu = next_du;
+        for l in 0..LANES {
+            let (a, b, c, d1) = (dd[i][l], self.dl[i][l], self.du[i][l], dd[i + 1][l]);
+            let keep = a.abs() >= b.abs();
+            let piv = if keep { a } else { b };
+            // dlagts: a pivot below `tiny` (not only an exact zero) is floored, or
+            // tiny pivots compound into an overflow.
+            let piv = if piv.abs() < tiny {
+                tiny.copysign(piv)
             } else {
-                [0.0; LANES]
+                piv
             };
-            let mut du2 = [0.0; LANES];
-            let mut ndu = next_du;
-            for l in 0..LANES {
-                let (a, b, c, d1) = (dd[i][l], self.dl[i][l], self.du[i][l], dd[i + 1][l]);
-                let keep = a.abs() >= b.abs();
-                let piv = if keep { a } else { b };
-                // dlagts: a pivot below `tiny` (not only an exact zero) is floored, or
-                // tiny pivots compound into an overflow.
-                let piv = if piv.abs() < tiny {
-                    tiny.copysign(piv)
-                } else {
-                    piv
-                };
-                let fact = (if keep { b } else { a }) / piv;
-                dd[i][l] = piv;
-                self.dl[i][l] = fact;
-                self.du[i][l] = if keep { c } else { d1 };
-                dd[i + 1][l] =
-                    fact.mul_add(-(if keep { c } else { d1 }), if keep { d1 } else { c });
-                du2[l] = if keep { 0.0 } else { next_du[l] };
-                ndu[l] = if keep { next_du[l] } else { -fact * next_du[l] };
-                self.swap[i][l] = !keep;
-            }
-            self.du2[i] = du2;
-            if i + 2 < n {
-                self.du[i + 1] = ndu;
-            }
+            let fact = (if keep { b } else { a }) / piv;
+            dd[i][l] = piv;
+            self.dl[i][l] = fact;
+            self.du[i][l] = if keep { c } else { d1 };
+            dd[i + 1][l] = fact.mul_add(-(if keep { c } else { d1 }), if keep { d1 } else { c });
+            du2[l] = if keep { 0.0 } else { next_du[l] };
+            ndu[l] = if keep { next_du[l] } else { -fact * next_du[l] };
+            self.swap[i][l] = if keep { 0 } else { u64::MAX };
         }
+        self.du2[i] = du2;
+        if i + 2 < n {
+            self.du[i + 1] = ndu;
+        }
+    }
+
+    /// Floors the last pivot and inverts every pivot.
+    #[inline(always)]
+    fn finish(&mut self, tiny: f64) {
+        let dd = &mut self.dinv;
+        let n = dd.len();
         for l in 0..LANES {
             let p = dd[n - 1][l];
             if p.abs() < tiny {
@@ -911,14 +963,65 @@ impl TridiagonalLu {
     #[inline(always)]
     fn solve(&self, b: &mut [[f64; LANES]]) {
         let n = b.len();
-        for i in 0..n - 1 {
-            for l in 0..LANES {
-                let (b0, b1, sw) = (b[i][l], b[i + 1][l], self.swap[i][l]);
-                let p = if sw { b1 } else { b0 };
-                b[i][l] = p;
-                b[i + 1][l] = self.dl[i][l].mul_add(-p, if sw { b0 } else { b1 });
+        let mut done = false;
+        #[cfg(target_arch = "x86_64")]
+        if crate::cpu::avx2_fma() {
+            // SAFETY: `avx2_fma()` is only true when the CPU has AVX2 and FMA.
+            unsafe { simd::forward_all(self, b, None) };
+            done = true;
+        }
+        if !done {
+            for i in 0..n - 1 {
+                self.forward(b, i);
             }
         }
+        self.last_rows(b);
+        for i in (0..n.saturating_sub(2)).rev() {
+            self.backward(b, i);
+        }
+    }
+
+    /// [`Self::solve`] for two groups, row by row together: each one's bits are
+    /// those of its own `solve`.
+    #[inline(always)]
+    fn solve_pair(a: &Self, xa: &mut [[f64; LANES]], b: &Self, xb: &mut [[f64; LANES]]) {
+        let n = xa.len();
+        let mut done = false;
+        #[cfg(target_arch = "x86_64")]
+        if crate::cpu::avx2_fma() {
+            // SAFETY: `avx2_fma()` is only true when the CPU has AVX2 and FMA.
+            unsafe { simd::forward_all(a, xa, Some((b, xb))) };
+            done = true;
+        }
+        if !done {
+            for i in 0..n - 1 {
+                a.forward(xa, i);
+                b.forward(xb, i);
+            }
+        }
+        a.last_rows(xa);
+        b.last_rows(xb);
+        for i in (0..n.saturating_sub(2)).rev() {
+            a.backward(xa, i);
+            b.backward(xb, i);
+        }
+    }
+
+    /// Forward substitution, row `i + 1` (with row i's interchange).
+    #[inline(always)]
+    fn forward(&self, b: &mut [[f64; LANES]], i: usize) {
+        for l in 0..LANES {
+            let (b0, b1, sw) = (b[i][l], b[i + 1][l], self.swap[i][l] != 0);
+            let p = if sw { b1 } else { b0 };
+            b[i][l] = p;
+            b[i + 1][l] = self.dl[i][l].mul_add(-p, if sw { b0 } else { b1 });
+        }
+    }
+
+    /// Back substitution, the last two rows.
+    #[inline(always)]
+    fn last_rows(&self, b: &mut [[f64; LANES]]) {
+        let n = b.len();
         for l in 0..LANES {
             b[n - 1][l] *= self.dinv[n - 1][l];
             if n > 1 {
@@ -926,10 +1029,198 @@ impl TridiagonalLu {
                     self.du[n - 2][l].mul_add(-b[n - 1][l], b[n - 2][l]) * self.dinv[n - 2][l];
             }
         }
-        for i in (0..n.saturating_sub(2)).rev() {
-            for l in 0..LANES {
-                let r = self.du[i][l].mul_add(-b[i + 1][l], b[i][l]);
-                b[i][l] = self.du2[i][l].mul_add(-b[i + 2][l], r) * self.dinv[i][l];
+    }
+
+    /// Back substitution, row `i` (`i < n − 2`).
+    #[inline(always)]
+    fn backward(&self, b: &mut [[f64; LANES]], i: usize) {
+        for l in 0..LANES {
+            let r = self.du[i][l].mul_add(-b[i + 1][l], b[i][l]);
+            b[i][l] = self.du2[i][l].mul_add(-b[i + 2][l], r) * self.dinv[i][l];
+        }
+    }
+}
+
+/// The row steps of [`TridiagonalLu`] with AVX2 + FMA intrinsics: the four lanes
+/// of a group as one vector. LLVM leaves the portable steps' selects as four scalar
+/// chains (a scalar division each); these are the same IEEE operations per lane in
+/// the same order (compares, selects, `|x|`, sign copies, one division, one fused
+/// multiply-add, one product), so the bits are those of the portable steps (tested,
+/// and pinned by the codec's golden files on both builds).
+#[cfg(target_arch = "x86_64")]
+mod simd {
+    use super::{TridiagonalLu, LANES};
+    use std::arch::x86_64::*;
+
+    const _: () = assert!(LANES == 4);
+
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    fn load(x: &[f64; LANES]) -> __m256d {
+        // SAFETY: `x` is four readable f64.
+        unsafe { _mm256_loadu_pd(x.as_ptr()) }
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    fn store(x: &mut [f64; LANES], v: __m256d) {
+        // SAFETY: `x` is four writable f64.
+        unsafe { _mm256_storeu_pd(x.as_mut_ptr(), v) }
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    fn load_mask(x: &[u64; LANES]) -> __m256d {
+        // SAFETY: `x` is four readable u64.
+        unsafe { _mm256_castsi256_pd(_mm256_loadu_si256(x.as_ptr().cast())) }
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    fn store_mask(x: &mut [u64; LANES], v: __m256d) {
+        // SAFETY: `x` is four writable u64.
+        unsafe { _mm256_storeu_si256(x.as_mut_ptr().cast(), _mm256_castpd_si256(v)) }
+    }
+
+    /// One factorisation's arrays, borrowed apart (so that the row loop keeps their
+    /// addresses in registers and knows they do not overlap).
+    struct Rows<'a> {
+        dinv: &'a mut [[f64; LANES]],
+        dl: &'a mut [[f64; LANES]],
+        du: &'a mut [[f64; LANES]],
+        du2: &'a mut [[f64; LANES]],
+        swap: &'a mut [[u64; LANES]],
+    }
+
+    /// [`TridiagonalLu::eliminate`] of row `i`, with `a = dinv[i]` and `c = du[i]`
+    /// passed in registers (the previous row's results) instead of reloaded from
+    /// the stores just made; returns the next row's `(a, c)`.
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    fn eliminate(
+        lu: &mut Rows<'_>,
+        i: usize,
+        tiny: f64,
+        a: __m256d,
+        c: __m256d,
+    ) -> (__m256d, __m256d) {
+        let n = lu.dinv.len();
+        let sign = _mm256_set1_pd(-0.0);
+        let b = load(&lu.dl[i]);
+        let d1 = load(&lu.dinv[i + 1]);
+        let more = i + 2 < n;
+        let next_du = if more {
+            load(&lu.du[i + 1])
+        } else {
+            _mm256_setzero_pd()
+        };
+        // keep = |a| ≥ |b| (false with a NaN, as the scalar `>=`).
+        let keep =
+            _mm256_cmp_pd::<_CMP_GE_OQ>(_mm256_andnot_pd(sign, a), _mm256_andnot_pd(sign, b));
+        // blendv(x, y, m): y where m, else x.
+        let piv = _mm256_blendv_pd(b, a, keep);
+        let num = _mm256_blendv_pd(a, b, keep);
+        let up = _mm256_blendv_pd(d1, c, keep);
+        let low = _mm256_blendv_pd(c, d1, keep);
+        let du2 = _mm256_andnot_pd(keep, next_du);
+        // |piv| < tiny → tiny.copysign(piv).
+        let tiny_v = _mm256_set1_pd(tiny);
+        let small = _mm256_cmp_pd::<_CMP_LT_OQ>(_mm256_andnot_pd(sign, piv), tiny_v);
+        let floored = _mm256_or_pd(_mm256_and_pd(sign, piv), _mm256_andnot_pd(sign, tiny_v));
+        let piv = _mm256_blendv_pd(piv, floored, small);
+        let fact = _mm256_div_pd(num, piv);
+        // fact·(−up) + low, fused.
+        let next = _mm256_fmadd_pd(fact, _mm256_xor_pd(up, sign), low);
+        // keep ? next_du : (−fact)·next_du.
+        let ndu = _mm256_blendv_pd(
+            _mm256_mul_pd(_mm256_xor_pd(fact, sign), next_du),
+            next_du,
+            keep,
+        );
+        store(&mut lu.dinv[i], piv);
+        store(&mut lu.dinv[i + 1], next);
+        store(&mut lu.dl[i], fact);
+        store(&mut lu.du[i], up);
+        store(&mut lu.du2[i], du2);
+        if more {
+            store(&mut lu.du[i + 1], ndu);
+        }
+        // swap = !keep, as all-ones or zero lanes.
+        let all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
+        store_mask(&mut lu.swap[i], _mm256_xor_pd(keep, all));
+        (next, ndu)
+    }
+
+    /// Every elimination step of the `K` factorisations, interleaved row by row.
+    #[target_feature(enable = "avx2,fma")]
+    fn eliminate_k<const K: usize>(lus: &mut [&mut TridiagonalLu], tiny: f64) {
+        let n = lus[0].dinv.len();
+        let mut rows: [Option<Rows<'_>>; K] = [const { None }; K];
+        for (r, lu) in rows.iter_mut().zip(lus.iter_mut()) {
+            let lu = &mut **lu;
+            *r = Some(Rows {
+                dinv: &mut lu.dinv[..n],
+                dl: &mut lu.dl[..n],
+                du: &mut lu.du[..n],
+                du2: &mut lu.du2[..n],
+                swap: &mut lu.swap[..n],
+            });
+        }
+        let mut rows = rows.map(|r| r.expect("K factorisations"));
+        let mut a: [__m256d; K] = [_mm256_setzero_pd(); K];
+        let mut c: [__m256d; K] = [_mm256_setzero_pd(); K];
+        for k in 0..K {
+            a[k] = load(&rows[k].dinv[0]);
+            c[k] = load(&rows[k].du[0]);
+        }
+        for i in 0..n - 1 {
+            for k in 0..K {
+                (a[k], c[k]) = eliminate(&mut rows[k], i, tiny, a[k], c[k]);
+            }
+        }
+    }
+
+    /// Every elimination step of `lus` (at most [`super::FACTOR_BATCH`]), interleaved.
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) fn eliminate_all(lus: &mut [&mut TridiagonalLu], tiny: f64) {
+        match lus.len() {
+            1 => eliminate_k::<1>(lus, tiny),
+            2 => eliminate_k::<2>(lus, tiny),
+            3 => eliminate_k::<3>(lus, tiny),
+            4 => eliminate_k::<4>(lus, tiny),
+            k => unreachable!("{k} factorisations at once"),
+        }
+    }
+
+    /// [`TridiagonalLu::forward`] of row `i`.
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    fn forward(lu: &TridiagonalLu, x: &mut [[f64; LANES]], i: usize) {
+        let sign = _mm256_set1_pd(-0.0);
+        let sw = load_mask(&lu.swap[i]);
+        let b0 = load(&x[i]);
+        let b1 = load(&x[i + 1]);
+        let p = _mm256_blendv_pd(b0, b1, sw);
+        let other = _mm256_blendv_pd(b1, b0, sw);
+        store(&mut x[i], p);
+        // dl·(−p) + other, fused.
+        store(
+            &mut x[i + 1],
+            _mm256_fmadd_pd(load(&lu.dl[i]), _mm256_xor_pd(p, sign), other),
+        );
+    }
+
+    /// Every forward step of `a` on `xa` (and of `b` on `xb`, interleaved).
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) fn forward_all(
+        a: &TridiagonalLu,
+        xa: &mut [[f64; LANES]],
+        mut b: Option<(&TridiagonalLu, &mut [[f64; LANES]])>,
+    ) {
+        for i in 0..xa.len() - 1 {
+            forward(a, xa, i);
+            if let Some((b, xb)) = b.as_mut() {
+                forward(b, xb, i);
             }
         }
     }
@@ -953,6 +1244,14 @@ pub(super) fn tridiagonal_vectors(d: &[f64], e: &[f64], lam: &[f64], count: usiz
 
 /// [`tridiagonal_vectors`] column-major (`z[j·n + i]` = component i of vector j):
 /// the same bits.
+///
+/// Vectors go in groups of [`LANES`]: group g's two solves from its start, each
+/// followed by the Gram–Schmidt of every lane against the finished vectors of its
+/// cluster and the earlier lanes of the group. The groups are software-pipelined in
+/// pairs — group g's second solve runs in the same loop as group g + 1's first, and
+/// the factorisations go two groups at a time — but every step still sees what it
+/// saw group after group: group g + 1's first Gram–Schmidt comes after group g is
+/// finished. The same bits as one group at a time (tested against that order).
 #[inline(always)]
 pub(super) fn tridiagonal_vectors_by_column(
     d: &[f64],
@@ -967,96 +1266,230 @@ pub(super) fn tridiagonal_vectors_by_column(
     if n == 1 {
         return vec![1.0];
     }
-    let tnorm = infinity_norm(d, e).max(f64::MIN_POSITIVE);
-    // As dstein works per unreduced block: negligible couplings become exact zeros.
-    let e: Vec<f64> = e
-        .iter()
-        .map(|&x| {
-            if x.abs() <= f64::EPSILON * tnorm {
-                0.0
-            } else {
-                x
-            }
-        })
-        .collect();
+    let Setup {
+        e,
+        shift,
+        first,
+        tiny,
+    } = Setup::new(d, e, lam, count);
     let e = &e[..];
-    let ortol = 1e-3 * tnorm;
-    let sep = 10.0 * f64::EPSILON * tnorm;
-    let tiny = f64::EPSILON * tnorm;
-    // Shifts and clusters first: vector j is orthogonalised against the vectors
-    // first[j]..j (eigenvalues chained by gaps ≤ ortol).
-    let mut shift = vec![0.0f64; count];
-    let mut first = vec![0usize; count];
-    for j in 0..count {
-        if j == 0 || lam[j] - lam[j - 1] > ortol {
-            first[j] = j;
-            shift[j] = lam[j];
-        } else {
-            // dstein: separate (numerically) equal eigenvalues of one cluster.
-            first[j] = first[j - 1];
-            shift[j] = if lam[j] - shift[j - 1] < sep {
-                shift[j - 1] + sep
-            } else {
-                lam[j]
-            };
-        }
-    }
-    let mut lu = TridiagonalLu::new(n);
+    let groups = count.div_ceil(LANES);
+    let js = |g: usize| group_vectors(g, count);
+    // Group g's factors in `lu[g % FACTOR_SLOTS]` and its iterate in `x[g % 2]`.
+    let mut lu: [TridiagonalLu; FACTOR_SLOTS] = std::array::from_fn(|_| TridiagonalLu::new(n));
+    let mut x: [Vec<[f64; LANES]>; 2] = std::array::from_fn(|_| vec![[0.0f64; LANES]; n]);
+    let mut lane = vec![vec![0.0f64; n]; LANES];
     // Finished vectors, column-major (column j contiguous).
     // Filled in order, vector by vector (not zeroed first).
     let mut zc: Vec<f64> = Vec::with_capacity(n * count);
-    let mut x = vec![[0.0f64; LANES]; n];
-    let mut lane = vec![vec![0.0f64; n]; LANES];
-    for j0 in (0..count).step_by(LANES) {
-        // An odd last group repeats its last vector in the spare lane (discarded).
-        let js: [usize; LANES] = std::array::from_fn(|l| (j0 + l).min(count - 1));
-        lu.factor(d, e, js.map(|j| shift[j]), tiny);
-        for (l, &j) in js.iter().enumerate() {
-            // Fixed pseudo-random start in [−1, 1) (64-bit LCG seeded by j).
-            let mut state = crate::rng::mix(j as u64);
-            for xi in x.iter_mut() {
-                state = state
-                    .wrapping_mul(6_364_136_223_846_793_005)
-                    .wrapping_add(1_442_695_040_888_963_407);
-                xi[l] = (state >> 11) as f64 * (2.0 / (1u64 << 53) as f64) - 1.0;
+    let batches = BatchContext {
+        d,
+        e,
+        shift: &shift,
+        count,
+        tiny,
+    };
+    batches.factor(&mut lu, 0);
+    start(&mut x[0], js(0));
+    lu[0].solve(&mut x[0]);
+    orthonormalize(&mut x[0], js(0), &first, &zc, &mut lane);
+    for g in 0..groups {
+        let (xg, xh) = {
+            let [x0, x1] = &mut x;
+            if g % 2 == 0 {
+                (x0, x1)
+            } else {
+                (x1, x0)
             }
-        }
-        for _ in 0..2 {
-            lu.solve(&mut x);
-            for l in 0..LANES {
-                let (done, cur) = lane.split_at_mut(l);
-                let v = &mut cur[0];
-                for (vi, xi) in v.iter_mut().zip(&x) {
-                    *vi = xi[l];
-                }
-                let j = js[l];
-                for q in zc[first[j].min(j0) * n..j0 * n].chunks_exact(n) {
-                    let c = dot(q, v);
-                    axpy(v, -c, q);
-                }
-                // Earlier lanes of this group in the same cluster.
-                for (m, q) in done.iter().enumerate() {
-                    if js[m] >= first[j] && js[m] < j {
-                        let c = dot(q, v);
-                        axpy(v, -c, q);
-                    }
-                }
-                let inv = 1.0 / dot(v, v).sqrt();
-                v.iter_mut().for_each(|t| *t *= inv);
-                for (xi, &vi) in x.iter_mut().zip(v.iter()) {
-                    xi[l] = vi;
-                }
+        };
+        let h = g + 1;
+        if h < groups {
+            if h % FACTOR_BATCH == 0 {
+                batches.factor(&mut lu, h / FACTOR_BATCH);
             }
+            start(xh, js(h));
+            let (a, b) = (&lu[g % FACTOR_SLOTS], &lu[h % FACTOR_SLOTS]);
+            TridiagonalLu::solve_pair(a, xg, b, xh);
+        } else {
+            lu[g % FACTOR_SLOTS].solve(xg);
         }
-        for (l, &j) in js.iter().enumerate() {
-            if l > 0 && j == js[l - 1] {
+        orthonormalize(xg, js(g), &first, &zc, &mut lane);
+        let j = js(g);
+        for (l, v) in lane.iter().enumerate() {
+            if l > 0 && j[l] == j[l - 1] {
                 continue;
             }
-            debug_assert_eq!(zc.len(), j * n);
-            zc.extend_from_slice(&lane[l]);
+            debug_assert_eq!(zc.len(), j[l] * n);
+            zc.extend_from_slice(v);
+        }
+        if h < groups {
+            orthonormalize(xh, js(h), &first, &zc, &mut lane);
         }
     }
     zc
+}
+
+/// The vectors of group g, [`LANES`] of them: an odd last group repeats its last
+/// vector in the spare lanes (computed and discarded).
+#[inline(always)]
+fn group_vectors(g: usize, count: usize) -> [usize; LANES] {
+    std::array::from_fn(|l| (g * LANES + l).min(count - 1))
+}
+
+/// Groups factored together by [`TridiagonalLu::factor_many`] (their eliminations
+/// interleaved, so that the CPU overlaps their chains of divisions).
+const FACTOR_BATCH: usize = 4;
+
+/// Slots for the factors of [`tridiagonal_vectors_by_column`]: group g's in slot
+/// g mod (FACTOR_BATCH + 1). Batch m (groups FACTOR_BATCH·m ..) is factored at the
+/// step that first needs its first group, while the group before it is still in use.
+const FACTOR_SLOTS: usize = FACTOR_BATCH + 1;
+
+/// What [`BatchContext::factor`] reads.
+struct BatchContext<'a> {
+    d: &'a [f64],
+    e: &'a [f64],
+    shift: &'a [f64],
+    count: usize,
+    tiny: f64,
+}
+
+impl BatchContext<'_> {
+    /// Factors the groups of batch `m` (those that exist) into their slots. (A
+    /// method, not a closure: a closure is compiled without the kernel's CPU
+    /// features.)
+    #[inline(always)]
+    fn factor(&self, lu: &mut [TridiagonalLu; FACTOR_SLOTS], m: usize) {
+        let groups = self.count.div_ceil(LANES);
+        let g0 = FACTOR_BATCH * m;
+        let g1 = (g0 + FACTOR_BATCH).min(groups);
+        let mut picked: [Option<&mut TridiagonalLu>; FACTOR_SLOTS] = Default::default();
+        for (slot, l) in lu.iter_mut().enumerate() {
+            picked[slot] = Some(l);
+        }
+        let mut lus: Vec<&mut TridiagonalLu> = Vec::with_capacity(FACTOR_BATCH);
+        let mut lams = [[0.0f64; LANES]; FACTOR_BATCH];
+        for g in g0..g1 {
+            lus.push(picked[g % FACTOR_SLOTS].take().expect("distinct slots"));
+            let js = group_vectors(g, self.count);
+            for l in 0..LANES {
+                lams[g - g0][l] = self.shift[js[l]];
+            }
+        }
+        TridiagonalLu::factor_many(&mut lus, &lams[..g1 - g0], self.d, self.e, self.tiny);
+    }
+}
+
+/// What inverse iteration needs besides `d`: the couplings with negligible ones set
+/// to zero, each vector's shift and the first vector of its cluster, and the pivot
+/// floor.
+struct Setup {
+    e: Vec<f64>,
+    shift: Vec<f64>,
+    first: Vec<usize>,
+    tiny: f64,
+}
+
+impl Setup {
+    #[inline(always)]
+    fn new(d: &[f64], e: &[f64], lam: &[f64], count: usize) -> Self {
+        let tnorm = infinity_norm(d, e).max(f64::MIN_POSITIVE);
+        // As dstein works per unreduced block: negligible couplings become exact zeros.
+        let e: Vec<f64> = e
+            .iter()
+            .map(|&x| {
+                if x.abs() <= f64::EPSILON * tnorm {
+                    0.0
+                } else {
+                    x
+                }
+            })
+            .collect();
+        let ortol = 1e-3 * tnorm;
+        let sep = 10.0 * f64::EPSILON * tnorm;
+        let tiny = f64::EPSILON * tnorm;
+        // Shifts and clusters first: vector j is orthogonalised against the vectors
+        // first[j]..j (eigenvalues chained by gaps ≤ ortol).
+        let mut shift = vec![0.0f64; count];
+        let mut first = vec![0usize; count];
+        for j in 0..count {
+            if j == 0 || lam[j] - lam[j - 1] > ortol {
+                first[j] = j;
+                shift[j] = lam[j];
+            } else {
+                // dstein: separate (numerically) equal eigenvalues of one cluster.
+                first[j] = first[j - 1];
+                shift[j] = if lam[j] - shift[j - 1] < sep {
+                    shift[j - 1] + sep
+                } else {
+                    lam[j]
+                };
+            }
+        }
+        Self {
+            e,
+            shift,
+            first,
+            tiny,
+        }
+    }
+}
+
+/// The fixed pseudo-random start in [−1, 1) of each lane's vector `js[l]` (a 64-bit
+/// LCG seeded by the vector's index).
+#[inline(always)]
+fn start(x: &mut [[f64; LANES]], js: [usize; LANES]) {
+    for (l, &j) in js.iter().enumerate() {
+        let mut state = crate::rng::mix(j as u64);
+        for xi in x.iter_mut() {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            // Below 2⁵³, so the conversion through i64 is exact (and the same value
+            // as from u64, with one instruction instead of several).
+            xi[l] = ((state >> 11) as i64) as f64 * (2.0 / (1u64 << 53) as f64) - 1.0;
+        }
+    }
+}
+
+/// Gram–Schmidt of each lane l of `x` (vector `js[l]`) against the finished vectors
+/// of its cluster in `zc` (column-major, vectors below the group's first) and
+/// against the group's earlier lanes of the same cluster, then normalised; the
+/// results in `lane[l]` and back in `x`.
+#[inline(always)]
+fn orthonormalize(
+    x: &mut [[f64; LANES]],
+    js: [usize; LANES],
+    first: &[usize],
+    zc: &[f64],
+    lane: &mut [Vec<f64>],
+) {
+    let n = x.len();
+    let j0 = js[0];
+    for l in 0..LANES {
+        let (done, cur) = lane.split_at_mut(l);
+        let v = &mut cur[0];
+        for (vi, xi) in v.iter_mut().zip(x.iter()) {
+            *vi = xi[l];
+        }
+        let j = js[l];
+        for q in zc[first[j].min(j0) * n..j0 * n].chunks_exact(n) {
+            let c = dot(q, v);
+            axpy(v, -c, q);
+        }
+        // Earlier lanes of this group in the same cluster.
+        for (m, q) in done.iter().enumerate() {
+            if js[m] >= first[j] && js[m] < j {
+                let c = dot(q, v);
+                axpy(v, -c, q);
+            }
+        }
+        let inv = 1.0 / dot(v, v).sqrt();
+        v.iter_mut().for_each(|t| *t *= inv);
+        for (xi, &vi) in x.iter_mut().zip(v.iter()) {
+            xi[l] = vi;
+        }
+    }
 }
 
 /// `‖T‖∞` of the symmetric tridiagonal (`d`, off-diagonal `e`).
@@ -1521,6 +1954,170 @@ mod tests {
         assert!(tridiagonal_lowest(&[1.0, f64::NAN], &[0.5], 1).is_none());
         assert!(tridiagonal_lowest(&[1.0, 2.0], &[f64::INFINITY], 1).is_none());
         assert!(tridiagonal_lowest(&[1.0, 2.0], &[], 1).is_none());
+    }
+
+    /// Inverse iteration one group at a time, each group's two solves and
+    /// Gram–Schmidt passes before the next group starts: the order that
+    /// [`tridiagonal_vectors_by_column`] pipelines.
+    fn vectors_group_by_group(d: &[f64], e: &[f64], lam: &[f64], count: usize) -> Vec<f64> {
+        let n = d.len();
+        let Setup {
+            e,
+            shift,
+            first,
+            tiny,
+        } = Setup::new(d, e, lam, count);
+        let mut lu = TridiagonalLu::new(n);
+        let mut x = vec![[0.0f64; LANES]; n];
+        let mut lane = vec![vec![0.0f64; n]; LANES];
+        let mut zc = Vec::new();
+        for j0 in (0..count).step_by(LANES) {
+            let js: [usize; LANES] = std::array::from_fn(|l| (j0 + l).min(count - 1));
+            lu.factor(d, &e, js.map(|j| shift[j]), tiny);
+            start(&mut x, js);
+            for _ in 0..2 {
+                lu.solve(&mut x);
+                orthonormalize(&mut x, js, &first, &zc, &mut lane);
+            }
+            for (l, v) in lane.iter().enumerate() {
+                if l == 0 || js[l] != js[l - 1] {
+                    zc.extend_from_slice(v);
+                }
+            }
+        }
+        zc
+    }
+
+    /// The portable row steps, whatever the CPU: the reference for the AVX2 ones.
+    fn factor_portable(lu: &mut TridiagonalLu, d: &[f64], e: &[f64], lam: [f64; LANES], tiny: f64) {
+        lu.prepare(d, e, lam);
+        for i in 0..d.len() - 1 {
+            lu.eliminate(i, tiny);
+        }
+        lu.finish(tiny);
+    }
+
+    fn solve_portable(lu: &TridiagonalLu, b: &mut [[f64; LANES]]) {
+        let n = b.len();
+        for i in 0..n - 1 {
+            lu.forward(b, i);
+        }
+        lu.last_rows(b);
+        for i in (0..n.saturating_sub(2)).rev() {
+            lu.backward(b, i);
+        }
+    }
+
+    /// Bit-identical, or both NaN (which NaN an operation with two NaN operands
+    /// returns depends on the operand order the compiler picks; the solver rejects
+    /// non-finite input before it gets here).
+    fn same_bits(a: &[[f64; LANES]], b: &[[f64; LANES]]) -> bool {
+        a.iter()
+            .flatten()
+            .zip(b.iter().flatten())
+            .all(|(x, y)| x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan()))
+    }
+
+    /// Factorisations (one to four interleaved) and solves (alone and in pairs) give
+    /// the portable steps' bits, on the build this CPU runs — the AVX2 intrinsics
+    /// where it has them — at shifts on eigenvalues (pivots floored at `tiny`),
+    /// between them, and with a NaN shift.
+    #[test]
+    fn factor_and_solve_give_the_portable_bits() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let mut checked = 0;
+        for (d, e, name) in hard_tridiagonals() {
+            let n = d.len();
+            if n < 2 {
+                continue;
+            }
+            let lam = ql_eigenvalues(&d, &e).unwrap();
+            let tiny = f64::EPSILON * infinity_norm(&d, &e).max(f64::MIN_POSITIVE);
+            let shifts: Vec<[f64; LANES]> = vec![
+                std::array::from_fn(|l| lam[l.min(n - 1)]),
+                std::array::from_fn(|l| lam[(n - 1).saturating_sub(l)]),
+                std::array::from_fn(|_| rng.gen_range(-3.0..3.0)),
+                [0.0, lam[0], f64::NAN, lam[n / 2]],
+            ];
+            for k in 1..=FACTOR_BATCH {
+                let lams: Vec<[f64; LANES]> = (0..k).map(|q| shifts[q % shifts.len()]).collect();
+                let mut got: Vec<TridiagonalLu> = (0..k).map(|_| TridiagonalLu::new(n)).collect();
+                let mut refs: Vec<&mut TridiagonalLu> = got.iter_mut().collect();
+                TridiagonalLu::factor_many(&mut refs, &lams, &d, &e, tiny);
+                for (q, lu) in got.iter().enumerate() {
+                    let mut want = TridiagonalLu::new(n);
+                    factor_portable(&mut want, &d, &e, lams[q], tiny);
+                    assert!(
+                        same_bits(&lu.dinv, &want.dinv)
+                            && same_bits(&lu.dl, &want.dl)
+                            && same_bits(&lu.du, &want.du)
+                            && same_bits(&lu.du2, &want.du2)
+                            && lu.swap == want.swap,
+                        "{name} n={n}: factor {q} of {k}"
+                    );
+                    let rhs: Vec<[f64; LANES]> = (0..n)
+                        .map(|_| std::array::from_fn(|_| rng.gen_range(-1.0..1.0)))
+                        .collect();
+                    let mut x = rhs.clone();
+                    lu.solve(&mut x);
+                    let mut y = rhs.clone();
+                    solve_portable(&want, &mut y);
+                    assert!(same_bits(&x, &y), "{name} n={n}: solve {q} of {k}");
+                    let (mut xa, mut xb) =
+                        (rhs.clone(), rhs.iter().rev().copied().collect::<Vec<_>>());
+                    let mut yb = xb.clone();
+                    TridiagonalLu::solve_pair(lu, &mut xa, &want, &mut xb);
+                    solve_portable(&want, &mut yb);
+                    assert!(
+                        same_bits(&xa, &y) && same_bits(&xb, &yb),
+                        "{name} n={n}: pair"
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 100, "{checked}");
+    }
+
+    #[test]
+    fn pipelined_vectors_match_group_by_group() {
+        let mut cases = hard_tridiagonals();
+        // Nine identical blocks split by exact zeros: clusters of nine vectors that
+        // span three groups, so a group's first Gram–Schmidt reads the vectors the
+        // previous group has just finished.
+        let (mut d, mut e) = (Vec::new(), Vec::new());
+        for b in 0..9 {
+            if b > 0 {
+                e.push(0.0);
+            }
+            d.extend([1.0, 0.5, 0.25]);
+            e.extend([0.3, -0.7]);
+        }
+        cases.push((d, e, "nine blocks"));
+        let mut checked = 0;
+        for (d, e, name) in cases {
+            let n = d.len();
+            if n < 2 {
+                continue;
+            }
+            let lam = ql_eigenvalues(&d, &e).unwrap();
+            let mut counts: Vec<usize> = (1..=n.min(27)).collect();
+            counts.extend([n / 2, n - 1, n]);
+            for count in counts {
+                let count = count.max(1);
+                let want = vectors_group_by_group(&d, &e, &lam, count);
+                let got = tridiagonal_vectors_by_column(&d, &e, &lam, count);
+                assert_eq!(got.len(), n * count, "{name} count {count}");
+                assert!(
+                    got.iter()
+                        .zip(&want)
+                        .all(|(a, b)| a.to_bits() == b.to_bits()),
+                    "{name} n={n} count={count}: pipelined vectors differ"
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked > 100, "{checked}");
     }
 
     #[test]
