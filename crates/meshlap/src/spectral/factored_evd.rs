@@ -331,8 +331,9 @@ impl Scaled {
     }
 }
 
-/// The matrices' QL iterations run this many at a time.
-const QL_BATCH: usize = 4;
+/// The matrices' QL iterations run this many at a time (two vectors of four lanes
+/// with AVX2); a remainder of four or more runs four at a time.
+const QL_BATCH: usize = 8;
 
 /// Tridiagonalisation (in `w`, whose columns keep the reflectors), all eigenvalues
 /// (QL, [`QL_BATCH`] matrices interleaved) and the first `count` eigenvectors of T
@@ -365,7 +366,14 @@ fn decompose_batch(work: &mut [(usize, Scaled)]) -> Vec<Option<Decomposed>> {
                 }));
                 lam.extend(r);
             }
-            for t in groups.remainder() {
+            let mut fours = groups.remainder().chunks_exact(4);
+            for g in &mut fours {
+                let r = ql_eigenvalues_many::<4>(std::array::from_fn(|k| {
+                    (g[k].0.as_slice(), g[k].1.as_slice())
+                }));
+                lam.extend(r);
+            }
+            for t in fours.remainder() {
                 lam.push(ql_eigenvalues(&t.0, &t.1));
             }
             let mut out = Vec::with_capacity(tri.len());

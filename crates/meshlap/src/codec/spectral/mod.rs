@@ -70,7 +70,7 @@
 //! many flops as the tridiagonalisation) on both sides; the vectors are not
 //! canonicalised (the decoder runs the same arithmetic, so it needs no sign or
 //! cluster rule), and a decoder computes exactly the vectors up to a patch's last
-//! non-zero coefficient. Four patches are decomposed together
+//! non-zero coefficient. Eight patches are decomposed together
 //! ([`crate::spectral::FactoredEvd::batch_dense`]: their QL iterations interleaved, the
 //! same bits as one at a time), and the Kirchhoff operator is built straight from a
 //! patch's faces. The Tutte operator, not symmetric, keeps the explicit basis
