@@ -4,7 +4,9 @@
 //! Three kernels are compiled twice, once with `#[target_feature(enable =
 //! "avx2,fma")]` and once for the baseline x86-64 target (SSE2): the thin products of
 //! the Krylov–Schur eigensolver (`spectral::thin_products`), the codec's dense
-//! eigensolver (`spectral::dense_evd`, bit-identical on both builds) and the
+//! eigensolver (`spectral::dense_evd`, bit-identical on both builds; in its AVX2
+//! build the inverse iteration's and the QL iteration's row steps are intrinsics,
+//! the same IEEE operations per lane as the portable steps) and the
 //! shift-invert solves of the partial eigensolver (`spectral::partial::solve`).
 //! [`avx2_fma`] says which build runs: the CPU's features, detected once, unless the
 //! environment variable **`MESHLAP_PORTABLE`** is set to anything but `0` or the empty
