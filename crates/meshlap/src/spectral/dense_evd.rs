@@ -1415,7 +1415,7 @@ pub(super) fn tridiagonal_vectors(d: &[f64], e: &[f64], lam: &[f64], count: usiz
 /// followed by the Gram–Schmidt of every lane against the finished vectors of its
 /// cluster and the earlier lanes of the group. The groups are software-pipelined in
 /// pairs — group g's second solve runs in the same loop as group g + 1's first, and
-/// the factorisations go two groups at a time — but every step still sees what it
+/// the factorisations go [`FACTOR_BATCH`] groups at a time — but every step still sees what it
 /// saw group after group: group g + 1's first Gram–Schmidt comes after group g is
 /// finished. The same bits as one group at a time (tested against that order).
 #[inline(always)]
