@@ -831,6 +831,7 @@ pub(super) fn ql_eigenvalues_many<const K: usize>(
 /// `step`, so the same bits (tested against sweeps run one matrix at a time).
 #[cfg(target_arch = "x86_64")]
 mod simd_ql {
+    use super::simd::load;
     use super::{QlState, QlSweep};
     use std::arch::x86_64::*;
 
@@ -838,27 +839,13 @@ mod simd_ql {
     /// at least `run` rows left; `q.len()` a multiple of 4).
     #[target_feature(enable = "avx2,fma")]
     pub(super) fn steps(q: &mut [QlState], sw: &mut [Option<QlSweep>], run: usize) {
-        match q.len() / 4 {
-            1 => steps_g::<1>(q, sw, run),
-            2 => steps_g::<2>(q, sw, run),
-            g => {
-                for (q, sw) in q.chunks_mut(8).zip(sw.chunks_mut(8)) {
-                    if q.len() == 8 {
-                        steps_g::<2>(q, sw, run);
-                    } else {
-                        steps_g::<1>(q, sw, run);
-                    }
-                }
-                debug_assert!(g > 2);
+        for (q, sw) in q.chunks_mut(8).zip(sw.chunks_mut(8)) {
+            if q.len() == 8 {
+                steps_g::<2>(q, sw, run);
+            } else {
+                steps_g::<1>(q, sw, run);
             }
         }
-    }
-
-    #[inline]
-    #[target_feature(enable = "avx2,fma")]
-    fn load(x: &[f64; 4]) -> __m256d {
-        // SAFETY: four readable f64.
-        unsafe { _mm256_loadu_pd(x.as_ptr()) }
     }
 
     #[inline]
@@ -1222,7 +1209,7 @@ mod simd {
 
     #[inline]
     #[target_feature(enable = "avx2,fma")]
-    fn load(x: &[f64; LANES]) -> __m256d {
+    pub(super) fn load(x: &[f64; LANES]) -> __m256d {
         // SAFETY: `x` is four readable f64.
         unsafe { _mm256_loadu_pd(x.as_ptr()) }
     }
@@ -1441,8 +1428,11 @@ pub(super) fn tridiagonal_vectors_by_column(
     let e = &e[..];
     let groups = count.div_ceil(LANES);
     let js = |g: usize| group_vectors(g, count);
-    // Group g's factors in `lu[g % FACTOR_SLOTS]` and its iterate in `x[g % 2]`.
-    let mut lu: [TridiagonalLu; FACTOR_SLOTS] = std::array::from_fn(|_| TridiagonalLu::new(n));
+    // Group g's factors in `lu[g % FACTOR_SLOTS]` (no more slots than groups) and
+    // its iterate in `x[g % 2]`.
+    let mut lu: Vec<TridiagonalLu> = (0..groups.min(FACTOR_SLOTS))
+        .map(|_| TridiagonalLu::new(n))
+        .collect();
     let mut x: [Vec<[f64; LANES]>; 2] = std::array::from_fn(|_| vec![[0.0f64; LANES]; n]);
     let mut lane = vec![vec![0.0f64; n]; LANES];
     // Finished vectors, column-major (column j contiguous).
@@ -1525,14 +1515,11 @@ impl BatchContext<'_> {
     /// method, not a closure: a closure is compiled without the kernel's CPU
     /// features.)
     #[inline(always)]
-    fn factor(&self, lu: &mut [TridiagonalLu; FACTOR_SLOTS], m: usize) {
+    fn factor(&self, lu: &mut [TridiagonalLu], m: usize) {
         let groups = self.count.div_ceil(LANES);
         let g0 = FACTOR_BATCH * m;
         let g1 = (g0 + FACTOR_BATCH).min(groups);
-        let mut picked: [Option<&mut TridiagonalLu>; FACTOR_SLOTS] = Default::default();
-        for (slot, l) in lu.iter_mut().enumerate() {
-            picked[slot] = Some(l);
-        }
+        let mut picked: Vec<Option<&mut TridiagonalLu>> = lu.iter_mut().map(Some).collect();
         let mut lus: Vec<&mut TridiagonalLu> = Vec::with_capacity(FACTOR_BATCH);
         let mut lams = [[0.0f64; LANES]; FACTOR_BATCH];
         for g in g0..g1 {
