@@ -86,7 +86,7 @@ impl Graph<'_> {
 struct Scratch {
     front: Vec<u32>,
     next: Vec<u32>,
-    pick: Vec<u32>,
+    decided: Vec<[u32; 2]>,
     dist: Vec<u32>,
 }
 
@@ -95,7 +95,7 @@ impl Scratch {
         Self {
             front: Vec::new(),
             next: Vec::new(),
-            pick: Vec::new(),
+            decided: Vec::new(),
             dist: vec![0; n],
         }
     }
@@ -141,64 +141,118 @@ fn initial_seeds(n: usize, nbrs: &Graph<'_>, k: usize) -> Vec<u32> {
 fn grow(nbrs: &Graph<'_>, seeds: &[u32], lab: &mut [u32], s: &mut Scratch, cap: usize) {
     lab.fill(NONE);
     s.front.clear();
-    let mut size = vec![0usize; seeds.len()];
+    let k = seeds.len();
+    let mut size = vec![0usize; k];
+    // `open[l]`: cell `l` may take vertices (below the cap, or the cap lifted); one
+    // more entry, closed, for the labels NONE and PENDING (`decide` clamps to it).
+    let mut open = vec![1u8; k + 1];
+    open[k] = 0;
     for (i, &v) in seeds.iter().enumerate() {
         lab[v as usize] = i as u32;
         size[i] = 1;
+        open[i] = u8::from(size[i] < cap);
         s.front.push(v);
     }
     let mut deferred: Vec<u32> = Vec::new();
     let mut relax = false;
     loop {
-        // The next level: the front's unreached neighbours, each once, then the
-        // deferred vertices (every assigned neighbour's cell was full) again.
-        claim(nbrs, &s.front, lab, PENDING, |_, _| true, &mut s.next);
-        s.next.append(&mut deferred);
-        if s.next.is_empty() {
-            break;
-        }
-        // A vertex first reached now has all its assigned neighbours in the front
-        // (one assigned earlier would have reached it earlier), and a deferred one
-        // counts every assigned neighbour: either way it joins the open cell most of
-        // its assigned neighbours belong to. Each decision reads the labels of earlier
-        // levels only (this level's vertices are PENDING): in parallel.
-        let decide = |w: &u32| {
-            majority(
-                nbrs.of(*w)
-                    .iter()
-                    .map(|&u| lab[u as usize])
-                    .filter(|&l| l < PENDING && (relax || size[l as usize] < cap)),
-            )
-        };
-        s.pick.clear();
-        if s.next.len() >= PAR_LEVEL {
-            s.next.par_iter().map(decide).collect_into_vec(&mut s.pick);
+        // The next level: the front's unreached neighbours, each with its decision,
+        // then the deferred vertices (every assigned neighbour's cell was full) with
+        // theirs. A vertex first reached now has all its assigned neighbours in the
+        // front (one assigned earlier would have reached it earlier), and a deferred
+        // one counts every assigned neighbour: either way it joins the open cell most
+        // of its assigned neighbours belong to. Each decision reads the labels of
+        // earlier levels only (this level's vertices are PENDING or NONE, which it
+        // skips), so it is made as soon as its vertex is claimed, in parallel.
+        claim_and_decide(nbrs, &s.front, lab, &open, &mut s.decided);
+        let pick = |&w: &u32| [w, decide(nbrs.of(w), |u| lab[u as usize], &open)];
+        if deferred.len() >= PAR_LEVEL {
+            s.decided.par_extend(deferred.par_iter().map(pick));
         } else {
-            s.pick.extend(s.next.iter().map(decide));
+            s.decided.extend(deferred.iter().map(pick));
+        }
+        deferred.clear();
+        if s.decided.is_empty() {
+            break;
         }
         let mut progressed = false;
         s.front.clear();
-        for (&w, &l) in s.next.iter().zip(&s.pick) {
+        for &[w, l] in &s.decided {
             if l == NONE {
                 deferred.push(w);
-            } else {
+            } else if lab[w as usize] == PENDING {
+                // (A vertex claimed twice by a parallel search is listed twice, with
+                // the same decision: the second copy finds it assigned.)
                 lab[w as usize] = l;
                 size[l as usize] += 1;
+                if !relax && size[l as usize] >= cap {
+                    open[l as usize] = 0;
+                }
                 s.front.push(w);
                 progressed = true;
             }
         }
         if !progressed {
             relax = true;
+            open[..k].fill(1);
         }
     }
 }
 
+/// One level of step 2's search: the neighbours `w` of the vertices of `front` still
+/// [`NONE`] in `lab`, marked [`PENDING`], each with its [`decide`] into `decided`
+/// (`[w, cell]`). A wide front is searched in parallel, claiming as [`claim`] does
+/// (a vertex may be listed twice, with the same decision).
+fn claim_and_decide(
+    nbrs: &Graph<'_>,
+    front: &[u32],
+    lab: &mut [u32],
+    open: &[u8],
+    decided: &mut Vec<[u32; 2]>,
+) {
+    decided.clear();
+    if front.len() < PAR_LEVEL {
+        for &v in front {
+            for &w in nbrs.of(v) {
+                if lab[w as usize] == NONE {
+                    lab[w as usize] = PENDING;
+                    decided.push([w, decide(nbrs.of(w), |u| lab[u as usize], open)]);
+                }
+            }
+        }
+        return;
+    }
+    let lab = atomic(lab);
+    let found: Vec<Vec<[u32; 2]>> = front
+        .par_chunks(PAR_LEVEL / 4)
+        .map(|part| {
+            let mut out = Vec::with_capacity(part.len() * 2);
+            for &v in part {
+                for &w in nbrs.of(v) {
+                    let x = &lab[w as usize];
+                    if x.load(Relaxed) == NONE {
+                        x.store(PENDING, Relaxed);
+                        let l = decide(nbrs.of(w), |u| lab[u as usize].load(Relaxed), open);
+                        out.push([w, l]);
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    for f in &found {
+        decided.extend_from_slice(f);
+    }
+}
+
 /// One level of a breadth-first search: the neighbours `w` of the vertices `v` of
-/// `front` with `marks[w]` still [`NONE`] and `admit(v, w)`, each once, into `next`,
-/// marked `mark`. A wide front is searched in parallel (each vertex claimed by an
-/// atomic exchange): the set is the same, the order may not be, and nothing
-/// downstream depends on the order.
+/// `front` with `marks[w]` still [`NONE`] and `admit(v, w)` into `next`, marked
+/// `mark`. A wide front is searched in parallel: the set is the same, the order may
+/// not be, and nothing downstream depends on the order. A vertex is claimed by a
+/// plain (relaxed) load and store rather than an atomic exchange, whose full fence
+/// would stall the loads behind it: two threads reaching one vertex at the same
+/// moment both list it, so `next` may hold a vertex twice (rarely), and callers
+/// treat a repeat as a no-op.
 fn claim(
     nbrs: &Graph<'_>,
     front: &[u32],
@@ -227,10 +281,8 @@ fn claim(
             for &v in part {
                 for &w in nbrs.of(v) {
                     let x = &marks[w as usize];
-                    if x.load(Relaxed) == NONE
-                        && admit(v, w)
-                        && x.compare_exchange(NONE, mark, Relaxed, Relaxed).is_ok()
-                    {
+                    if x.load(Relaxed) == NONE && admit(v, w) {
+                        x.store(mark, Relaxed);
                         out.push(w);
                     }
                 }
@@ -253,25 +305,31 @@ fn atomic(x: &mut [u32]) -> &[AtomicU32] {
 /// Levels of at least this many vertices are decided in parallel.
 const PAR_LEVEL: usize = 4096;
 
-/// The most frequent label (ties: the lowest), `NONE` for none.
-fn majority(labels: impl Iterator<Item = u32>) -> u32 {
+/// The decision for a vertex with neighbours `nb`: the most frequent label among
+/// those of open cells (`open[l] != 0`; ties: the lowest), `NONE` for none. The
+/// neighbours' labels are gathered without a branch per neighbour (a label is
+/// written, and kept when its cell is open).
+#[inline]
+fn decide(nb: &[u32], lab: impl Fn(u32) -> u32, open: &[u8]) -> u32 {
+    let closed = (open.len() - 1) as u32;
+    let keep = |l: u32| open[l.min(closed) as usize] != 0;
     let mut buf = [0u32; 32];
-    let mut len = 0usize;
-    let mut spill: Vec<u32> = Vec::new();
-    for l in labels {
-        if len < buf.len() {
-            buf[len] = l;
-        } else {
-            spill.push(l);
-        }
-        len += 1;
+    if nb.len() > buf.len() {
+        let mut all: Vec<u32> = nb.iter().map(|&u| lab(u)).filter(|&l| keep(l)).collect();
+        return majority(&mut all);
     }
-    let all: &mut [u32] = if spill.is_empty() {
-        &mut buf[..len]
-    } else {
-        spill.extend_from_slice(&buf);
-        &mut spill[..]
-    };
+    let mut len = 0usize;
+    for &u in nb {
+        let l = lab(u);
+        // len ≤ the neighbours seen so far < 32.
+        buf[len & 31] = l;
+        len += usize::from(keep(l));
+    }
+    majority(&mut buf[..len])
+}
+
+/// The most frequent label of `all` (ties: the lowest), `NONE` for none.
+fn majority(all: &mut [u32]) -> u32 {
     let Some(&first) = all.first() else {
         return NONE;
     };
