@@ -205,6 +205,65 @@ pub(super) fn rcm_order(at: &[usize], nbrs: &[u32]) -> Vec<u32> {
     let deg = |v: usize| at[v + 1] - at[v];
     let mut order: Vec<u32> = Vec::with_capacity(n);
     let mut seen = vec![false; n];
+    let mut sweep = Sweep {
+        stamp: vec![0; n],
+        now: 0,
+        cur: Vec::with_capacity(n),
+        next: Vec::with_capacity(n),
+    };
+    let (mut last, mut l2) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    while order.len() < n {
+        let mut start = (0..n)
+            .filter(|&v| !seen[v])
+            .min_by_key(|&v| (deg(v), v))
+            .expect("an unseen vertex");
+        let mut depth = sweep.levels(start, &seen, adj, &mut last);
+        for _ in 0..5 {
+            let cand = *last
+                .iter()
+                .min_by_key(|&&v| (deg(v as usize), v))
+                .expect("a non-empty level") as usize;
+            let d2 = sweep.levels(cand, &seen, adj, &mut l2);
+            if d2 <= depth {
+                break;
+            }
+            (start, depth) = (cand, d2);
+            std::mem::swap(&mut last, &mut l2);
+        }
+        let first = order.len();
+        seen[start] = true;
+        order.push(start as u32);
+        let mut head = first;
+        let mut nb: Vec<usize> = Vec::new();
+        while head < order.len() {
+            let v = order[head] as usize;
+            head += 1;
+            nb.clear();
+            nb.extend(adj(v).iter().map(|&w| w as usize).filter(|&w| !seen[w]));
+            nb.sort_unstable_by_key(|&w| (deg(w), w));
+            for &w in &nb {
+                seen[w] = true;
+                order.push(w as u32);
+            }
+        }
+    }
+    order.reverse();
+    let mut perm = vec![0u32; n];
+    for (i, &v) in order.iter().enumerate() {
+        perm[v as usize] = i as u32;
+    }
+    perm
+}
+
+/// [`rcm_order`] as format 8 first wrote it (a fresh mark array per sweep): the
+/// reference its reused buffers are tested against.
+#[cfg(test)]
+pub(super) fn rcm_order_reference(at: &[usize], nbrs: &[u32]) -> Vec<u32> {
+    let n = at.len() - 1;
+    let adj = |v: usize| &nbrs[at[v]..at[v + 1]];
+    let deg = |v: usize| at[v + 1] - at[v];
+    let mut order: Vec<u32> = Vec::with_capacity(n);
+    let mut seen = vec![false; n];
     // Breadth-first levels from `s` over unseen vertices (not marking them): the
     // last level and the number of levels.
     let levels = |s: usize, seen: &[bool]| -> (Vec<usize>, usize) {
@@ -271,6 +330,54 @@ pub(super) fn rcm_order(at: &[usize], nbrs: &[u32]) -> Vec<u32> {
     perm
 }
 
+/// [`rcm_order`]'s breadth-first sweeps, their buffers kept from sweep to sweep (a
+/// vertex is marked by the sweep's stamp, so no array is cleared between sweeps).
+struct Sweep {
+    stamp: Vec<u32>,
+    now: u32,
+    cur: Vec<u32>,
+    next: Vec<u32>,
+}
+
+impl Sweep {
+    /// Breadth-first levels from `s` over the vertices not `seen` (not marking
+    /// them): the last level into `last` (in the order the sweep reached it), and
+    /// the number of levels.
+    fn levels<'a>(
+        &mut self,
+        s: usize,
+        seen: &[bool],
+        adj: impl Fn(usize) -> &'a [u32],
+        last: &mut Vec<u32>,
+    ) -> usize {
+        self.now += 1;
+        let now = self.now;
+        self.stamp[s] = now;
+        self.cur.clear();
+        self.cur.push(s as u32);
+        let mut depth = 1;
+        loop {
+            self.next.clear();
+            for &v in &self.cur {
+                for &w in adj(v as usize) {
+                    let w = w as usize;
+                    if !seen[w] && self.stamp[w] != now {
+                        self.stamp[w] = now;
+                        self.next.push(w as u32);
+                    }
+                }
+            }
+            if self.next.is_empty() {
+                last.clear();
+                last.extend_from_slice(&self.cur);
+                return depth;
+            }
+            std::mem::swap(&mut self.cur, &mut self.next);
+            depth += 1;
+        }
+    }
+}
+
 /// Row i of a band matrix of half-width `b`, stored row-major with `b + 1` slots per
 /// row: slot `s` holds column `i − b + s` (slots before column 0 are zero).
 #[inline(always)]
@@ -282,7 +389,136 @@ fn band_at(i: usize, c: usize, b: usize) -> usize {
 /// lower band in [`band_at`]'s layout), in place, in fixed-order arithmetic (the dot
 /// products by [`dot4`], correctly rounded `+ − × ÷ √` only: the same bits on every
 /// CPU). `None` when a pivot is not positive and finite.
+///
+/// Entry `(i, c)` is `(m_ic − Σ_{k<c} l_ik l_ck) / l_cc` over the band, `l_ii` the root
+/// of the same sum; each reads its own row's earlier entries, so along a row the
+/// entries form one chain of dependent dot products and divisions. The rows are taken
+/// [`BAND_ROWS`] at a time, and the entries of those rows left of the block are
+/// computed column by column, the rows' chains interleaved (independent: each
+/// reads rows above the block and its own earlier entries); then the block's
+/// triangle in row order. Each entry is computed from the same operands in the same
+/// order as row by row ([`band_cholesky_by_rows`]), so the bits are the same.
 pub(super) fn band_cholesky(m: &mut [f64], n: usize, b: usize) -> Option<()> {
+    struct Factor<'a>(&'a mut [f64], usize, usize);
+    impl crate::cpu::Kernel for Factor<'_> {
+        type Output = Option<()>;
+        #[inline(always)]
+        fn portable(self) -> Option<()> {
+            band_cholesky_in::<false>(self.0, self.1, self.2)
+        }
+        #[cfg(target_arch = "x86_64")]
+        #[inline(always)]
+        fn avx2_fma(self) -> Option<()> {
+            band_cholesky_in::<true>(self.0, self.1, self.2)
+        }
+    }
+    crate::cpu::dispatch(Factor(m, n, b))
+}
+
+/// [`band_cholesky`]; `AVX`: the dot products by [`band_simd::dot`] (only inside an
+/// AVX2 function).
+#[inline(always)]
+fn band_cholesky_in<const AVX: bool>(m: &mut [f64], n: usize, b: usize) -> Option<()> {
+    let mut i0 = 0;
+    while i0 < n {
+        let i1 = (i0 + BAND_ROWS).min(n);
+        for c in i0.saturating_sub(b)..i0 {
+            for i in i0..i1 {
+                let lo = i.saturating_sub(b);
+                if c >= lo {
+                    band_entry::<AVX>(m, i, c, lo, b);
+                }
+            }
+        }
+        for i in i0..i1 {
+            let lo = i.saturating_sub(b);
+            for c in lo.max(i0)..i {
+                band_entry::<AVX>(m, i, c, lo, b);
+            }
+            let s = m[band_at(i, i, b)] - band_dot::<AVX>(m, i, i, lo, b);
+            if !(s > 0.0 && s.is_finite()) {
+                return None;
+            }
+            m[band_at(i, i, b)] = s.sqrt();
+        }
+        i0 = i1;
+    }
+    Some(())
+}
+
+/// Rows of [`band_cholesky`]'s blocks.
+const BAND_ROWS: usize = 4;
+
+/// `Σ_{lo ≤ k < c} l_ik l_ck` over rows i and c of the band (entries lo..c; both
+/// inside their bands, lo ≥ c − b), as [`dot4`] sums it.
+#[inline(always)]
+fn band_dot<const AVX: bool>(m: &[f64], i: usize, c: usize, lo: usize, b: usize) -> f64 {
+    let (x, y) = (
+        &m[band_at(i, lo, b)..band_at(i, c, b)],
+        &m[band_at(c, lo, b)..band_at(c, c, b)],
+    );
+    #[cfg(target_arch = "x86_64")]
+    if AVX {
+        // SAFETY: `AVX` is only set in code that runs when `cpu::avx2_fma()` is true.
+        return unsafe { band_simd::dot(x, y) };
+    }
+    dot4(x, y)
+}
+
+/// Entry `(i, c)`, `c < i`, of [`band_cholesky`]'s factor.
+#[inline(always)]
+fn band_entry<const AVX: bool>(m: &mut [f64], i: usize, c: usize, lo: usize, b: usize) {
+    let s = m[band_at(i, c, b)] - band_dot::<AVX>(m, i, c, lo, b);
+    m[band_at(i, c, b)] = s / m[band_at(c, c, b)];
+}
+
+/// [`dot4`] as AVX2 intrinsics, without a branch for the tail.
+#[cfg(target_arch = "x86_64")]
+mod band_simd {
+    use std::arch::x86_64::*;
+
+    /// Lane masks for a tail of 0–3 entries.
+    const TAIL: [[i64; 4]; 4] = [[0, 0, 0, 0], [-1, 0, 0, 0], [-1, -1, 0, 0], [-1, -1, -1, 0]];
+
+    /// `Σ x_k y_k` summed as [`super::dot4`] sums it (lane `k mod 4`, then
+    /// `(s₀ + s₁) + (s₂ + s₃)`, separate `×` and `+`): the same bits. The tail of
+    /// `len mod 4` entries is a masked load, its other lanes zero; their products,
+    /// `+0`, change no lane (a lane starts at `+0` and so is never `−0`).
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) fn dot(x: &[f64], y: &[f64]) -> f64 {
+        let len = x.len().min(y.len());
+        let (q, r) = (len / 4, len % 4);
+        let (px, py) = (x.as_ptr(), y.as_ptr());
+        let mut s = _mm256_setzero_pd();
+        for j in 0..q {
+            // SAFETY: entries 4j..4j + 4 < len of both slices.
+            let (a, b) = unsafe {
+                (
+                    _mm256_loadu_pd(px.add(4 * j)),
+                    _mm256_loadu_pd(py.add(4 * j)),
+                )
+            };
+            s = _mm256_add_pd(s, _mm256_mul_pd(a, b));
+        }
+        // SAFETY: the mask reads entries 4q..len only (masked lanes are not accessed).
+        let (a, b) = unsafe {
+            let mask = _mm256_loadu_si256(TAIL[r].as_ptr().cast());
+            (
+                _mm256_maskload_pd(px.add(4 * q), mask),
+                _mm256_maskload_pd(py.add(4 * q), mask),
+            )
+        };
+        s = _mm256_add_pd(s, _mm256_mul_pd(a, b));
+        let pair = _mm_hadd_pd(_mm256_castpd256_pd128(s), _mm256_extractf128_pd(s, 1));
+        _mm_cvtsd_f64(_mm_hadd_pd(pair, pair))
+    }
+}
+
+/// [`band_cholesky`] entry by entry in row order: the reference its blocked order is
+/// tested against.
+#[cfg(test)]
+pub(super) fn band_cholesky_by_rows(m: &mut [f64], n: usize, b: usize) -> Option<()> {
     for i in 0..n {
         let lo = i.saturating_sub(b);
         for c in lo..=i {
@@ -349,24 +585,78 @@ pub(super) fn patch_prediction(
     form: PredictorForm,
 ) -> Option<Prediction> {
     let np = verts.len();
-    let known = |w: u32| owner[w as usize] < p;
     debug_assert!(
         verts.windows(2).all(|p| p[0] < p[1]),
         "patch vertices ascending"
     );
-    // A vertex's index in the patch, by binary search.
-    let local_of = |w: u32| verts.binary_search(&w).ok();
-    let mut k1: Vec<u32> = verts
-        .iter()
-        .flat_map(|&v| topo.neighbors(crate::mesh::VertexId(v)).iter().copied())
-        .filter(|&w| known(w))
-        .collect();
-    k1.sort_unstable();
-    k1.dedup();
-    if k1.is_empty() {
-        return None;
+    SLOTS
+        .with_borrow_mut(|slot| {
+            if slot.len() < owner.len() {
+                slot.resize(owner.len(), FREE);
+            }
+            let built = prediction_rows(topo, owner, verts, p, slot);
+            // Every slot this patch used back to FREE, for the thread's next patch.
+            for &v in verts.iter().chain(&built.k1).chain(&built.src) {
+                slot[v as usize] = FREE;
+            }
+            built
+        })
+        .finish(np, arith, form)
+}
+
+/// A slot of [`SLOTS`] no patch uses.
+const FREE: u32 = u32::MAX;
+/// A slot marking a vertex of `K₁` while it is collected.
+const IN_K1: u32 = u32::MAX - 1;
+/// The flag of a slot holding a source's index.
+const SOURCE: u32 = 1 << 31;
+
+thread_local! {
+    /// Per vertex of the mesh, what the patch whose predictor this thread is building
+    /// made of it: its index in the patch, its index among the sources (`SOURCE |
+    /// t`), `IN_K1`, or `FREE`. All `FREE` between patches (each resets the slots
+    /// it used): a lookup instead of a binary search or a sort per entry.
+    static SLOTS: std::cell::RefCell<Vec<u32>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// The rows of [`patch_prediction`]'s system, before its factorization.
+struct PredictionRows {
+    /// `K₁`, ascending.
+    k1: Vec<u32>,
+    /// The sources, in order of first appearance in the rows.
+    src: Vec<u32>,
+    rows: Rows,
+}
+
+/// [`patch_prediction`]'s rows: `L_U` with patch-local columns, `L_S` with source
+/// indices, through `slot` (all `FREE` on entry; the caller frees the slots of the
+/// patch, `k1` and `src` after).
+fn prediction_rows(
+    topo: &VertexGraph,
+    owner: &[u32],
+    verts: &[u32],
+    p: u32,
+    slot: &mut [u32],
+) -> PredictionRows {
+    let known = |w: u32| owner[w as usize] < p;
+    for (i, &v) in verts.iter().enumerate() {
+        slot[v as usize] = i as u32;
     }
-    let mut rows = Rows::with_capacity(np + k1.len());
+    let mut k1: Vec<u32> = Vec::new();
+    for &v in verts {
+        for &w in topo.neighbors(crate::mesh::VertexId(v)) {
+            if known(w) && slot[w as usize] == FREE {
+                slot[w as usize] = IN_K1;
+                k1.push(w);
+            }
+        }
+    }
+    k1.sort_unstable();
+    let mut rows = Rows::with_capacity(verts.len() + k1.len());
+    let mut src: Vec<u32> = Vec::new();
+    if k1.is_empty() {
+        return PredictionRows { k1, src, rows };
+    }
     let mut nb: Vec<u32> = Vec::new();
     for &i in verts.iter().chain(k1.iter()) {
         nb.clear();
@@ -382,31 +672,42 @@ pub(super) fn patch_prediction(
             1.0 / nb.len() as f64
         };
         for (w, wt) in std::iter::once((i, 1.0)).chain(nb.iter().map(|&w| (w, -inv))) {
-            match local_of(w) {
-                Some(li) => rows.lu.push((li, wt)),
-                // The vertex for now; its index among the sources below.
-                None => rows.ls.push((w as usize, wt)),
+            if owner[w as usize] == p {
+                rows.lu.push((slot[w as usize] as usize, wt));
+                continue;
             }
+            // A known vertex: a source, numbered at its first appearance.
+            let sw = &mut slot[w as usize];
+            if *sw == FREE || *sw == IN_K1 {
+                *sw = SOURCE | src.len() as u32;
+                src.push(w);
+            }
+            rows.ls.push(((*sw & !SOURCE) as usize, wt));
         }
         rows.end_row();
     }
-    // The sources are the known vertices in order of first appearance in the rows;
-    // each entry of L_S then gets its vertex's index among them.
-    let mut first: Vec<(u32, u32)> = (rows.ls.iter().enumerate())
-        .map(|(at, &(w, _))| (w as u32, at as u32))
-        .collect();
-    first.sort_unstable();
-    first.dedup_by_key(|e| e.0);
-    first.sort_unstable_by_key(|e| e.1);
-    let src: Vec<u32> = first.iter().map(|e| e.0).collect();
-    let mut index: Vec<(u32, usize)> = src.iter().enumerate().map(|(t, &w)| (w, t)).collect();
-    index.sort_unstable();
-    for e in rows.ls.iter_mut() {
-        let k = index
-            .binary_search_by_key(&(e.0 as u32), |x| x.0)
-            .expect("every source was listed");
-        e.0 = index[k].1;
+    PredictionRows { k1, src, rows }
+}
+
+impl PredictionRows {
+    /// The predictor from the rows (`None` without `K₁` or for a singular system).
+    fn finish(self, np: usize, arith: Arithmetic, form: PredictorForm) -> Option<Prediction> {
+        let PredictionRows { k1, src, rows } = self;
+        if k1.is_empty() {
+            return None;
+        }
+        prediction_from_rows(np, src, rows, arith, form)
     }
+}
+
+/// [`patch_prediction`] from its rows and sources.
+fn prediction_from_rows(
+    np: usize,
+    src: Vec<u32>,
+    rows: Rows,
+    arith: Arithmetic,
+    form: PredictorForm,
+) -> Option<Prediction> {
     if form == PredictorForm::Banded {
         return banded_prediction(np, src, rows);
     }
