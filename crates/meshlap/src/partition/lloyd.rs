@@ -463,6 +463,44 @@ mod tests {
         check_connected(&t, &a, parts);
     }
 
+    /// A decision is the most frequent label of the open cells among the neighbours
+    /// (ties: the lowest), NONE for none: against a direct count, for degrees up to
+    /// and past the 32 gathered without a branch.
+    #[test]
+    fn decide_is_the_open_majority() {
+        let mut rng = crate::rng::SplitMix64::new(5);
+        let k = 7u32;
+        for round in 0..2000 {
+            let deg = (rng.next_u64() % 48) as usize;
+            let lab: Vec<u32> = (0..deg)
+                .map(|_| match rng.next_u64() % 10 {
+                    0 => NONE,
+                    1 => PENDING,
+                    _ => (rng.next_u64() % u64::from(k)) as u32,
+                })
+                .collect();
+            let mut open: Vec<u8> = (0..k).map(|_| u8::from(rng.next_u64() % 4 != 0)).collect();
+            open.push(0);
+            let nb: Vec<u32> = (0..deg as u32).collect();
+            let mut count = vec![0usize; k as usize];
+            for &l in &lab {
+                if l < k && open[l as usize] != 0 {
+                    count[l as usize] += 1;
+                }
+            }
+            let best = (0..k).max_by_key(|&l| (count[l as usize], std::cmp::Reverse(l)));
+            let want = match best {
+                Some(l) if count[l as usize] > 0 => l,
+                _ => NONE,
+            };
+            assert_eq!(
+                decide(&nb, |u| lab[u as usize], &open),
+                want,
+                "round {round}"
+            );
+        }
+    }
+
     fn check_connected(t: &Topology, lab: &[u32], parts: usize) {
         let n = lab.len();
         let mut seen = vec![false; n];
