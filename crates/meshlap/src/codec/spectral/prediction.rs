@@ -397,7 +397,8 @@ fn band_at(i: usize, c: usize, b: usize) -> usize {
 /// computed column by column, the rows' chains interleaved (independent: each
 /// reads rows above the block and its own earlier entries); then the block's
 /// triangle in row order. Each entry is computed from the same operands in the same
-/// order as row by row ([`band_cholesky_by_rows`]), so the bits are the same.
+/// order as row by row (`band_cholesky_by_rows`, the tests' reference), so the bits
+/// are the same.
 pub(super) fn band_cholesky(m: &mut [f64], n: usize, b: usize) -> Option<()> {
     struct Factor<'a>(&'a mut [f64], usize, usize);
     impl crate::cpu::Kernel for Factor<'_> {
@@ -415,8 +416,8 @@ pub(super) fn band_cholesky(m: &mut [f64], n: usize, b: usize) -> Option<()> {
     crate::cpu::dispatch(Factor(m, n, b))
 }
 
-/// [`band_cholesky`]; `AVX`: the dot products by [`band_simd::dot`] (only inside an
-/// AVX2 function).
+/// [`band_cholesky`]; `AVX`: the dot products by `band_simd::dot` (x86-64, only
+/// inside an AVX2 function).
 #[inline(always)]
 fn band_cholesky_in<const AVX: bool>(m: &mut [f64], n: usize, b: usize) -> Option<()> {
     let mut i0 = 0;
