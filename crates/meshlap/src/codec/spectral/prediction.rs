@@ -230,27 +230,45 @@ pub(super) fn rcm_order(at: &[usize], nbrs: &[u32]) -> Vec<u32> {
             (start, depth) = (cand, d2);
             std::mem::swap(&mut last, &mut l2);
         }
-        let first = order.len();
-        seen[start] = true;
-        order.push(start as u32);
-        let mut head = first;
-        let mut nb: Vec<usize> = Vec::new();
-        while head < order.len() {
-            let v = order[head] as usize;
-            head += 1;
-            nb.clear();
-            nb.extend(adj(v).iter().map(|&w| w as usize).filter(|&w| !seen[w]));
-            nb.sort_unstable_by_key(|&w| (deg(w), w));
-            for &w in &nb {
-                seen[w] = true;
-                order.push(w as u32);
-            }
+        number_from(start, at, nbrs, &mut seen, &mut order);
+    }
+    reversed_permutation(&order)
+}
+
+/// [`rcm_order`]'s numbering of `start`'s component: breadth-first from `start`,
+/// each vertex's unnumbered neighbours by increasing degree (ties: lower index),
+/// appended to `order` and marked `seen`.
+fn number_from(start: usize, at: &[usize], nbrs: &[u32], seen: &mut [bool], order: &mut Vec<u32>) {
+    let deg = |v: usize| at[v + 1] - at[v];
+    let mut head = order.len();
+    seen[start] = true;
+    order.push(start as u32);
+    let mut nb: Vec<usize> = Vec::new();
+    while head < order.len() {
+        let v = order[head] as usize;
+        head += 1;
+        nb.clear();
+        nb.extend(
+            nbrs[at[v]..at[v + 1]]
+                .iter()
+                .map(|&w| w as usize)
+                .filter(|&w| !seen[w]),
+        );
+        nb.sort_unstable_by_key(|&w| (deg(w), w));
+        for &w in &nb {
+            seen[w] = true;
+            order.push(w as u32);
         }
     }
-    order.reverse();
+}
+
+/// `perm[v]`: v's position in `order` reversed (the "reverse" of reverse
+/// Cuthill–McKee).
+fn reversed_permutation(order: &[u32]) -> Vec<u32> {
+    let n = order.len();
     let mut perm = vec![0u32; n];
     for (i, &v) in order.iter().enumerate() {
-        perm[v as usize] = i as u32;
+        perm[v as usize] = (n - 1 - i) as u32;
     }
     perm
 }
@@ -305,29 +323,9 @@ pub(super) fn rcm_order_reference(at: &[usize], nbrs: &[u32]) -> Vec<u32> {
             }
             (start, last, depth) = (cand, l2, d2);
         }
-        let first = order.len();
-        seen[start] = true;
-        order.push(start as u32);
-        let mut head = first;
-        let mut nb: Vec<usize> = Vec::new();
-        while head < order.len() {
-            let v = order[head] as usize;
-            head += 1;
-            nb.clear();
-            nb.extend(adj(v).iter().map(|&w| w as usize).filter(|&w| !seen[w]));
-            nb.sort_unstable_by_key(|&w| (deg(w), w));
-            for &w in &nb {
-                seen[w] = true;
-                order.push(w as u32);
-            }
-        }
+        number_from(start, at, nbrs, &mut seen, &mut order);
     }
-    order.reverse();
-    let mut perm = vec![0u32; n];
-    for (i, &v) in order.iter().enumerate() {
-        perm[v as usize] = i as u32;
-    }
-    perm
+    reversed_permutation(&order)
 }
 
 /// [`rcm_order`]'s breadth-first sweeps, their buffers kept from sweep to sweep (a
