@@ -296,24 +296,13 @@ pub fn encode(topo: &Topology) -> Result<EncodedConnectivity, CodecError> {
     }
     let n = topo.n_vertices();
     let n_real_faces = topo.n_faces();
-    // Close every boundary loop by a fan around a dummy vertex.
-    let loops = topo.boundary_loops();
-    let mut faces = topo.faces().to_vec();
-    for (i, lp) in loops.iter().enumerate() {
-        let d = (n + i) as u32;
-        for k in 0..lp.len() {
-            faces.push([d, lp[(k + 1) % lp.len()], lp[k]]);
-        }
-    }
-    let nt = n + loops.len();
-    let closed = Topology::from_faces(nt, &faces).map_err(CodecError::Mesh)?;
-    if closed.boundary_edges().next().is_some()
-        || closed.non_manifold_edges().next().is_some()
-        || closed.non_manifold_vertices().next().is_some()
-    {
-        return Err(CodecError::NonManifold(NonManifold::BoundaryLoop));
-    }
-
+    // The closed mesh, and one seed face per connected component (the smallest face
+    // index of each, ascending), found at the same time from `topo`'s own twins: the
+    // fans closing the boundary loops join no two components.
+    let (closed, seeds) = rayon::join(|| Closed::new(topo), || component_seeds(topo));
+    let closed = closed?;
+    let faces = &closed.faces;
+    let nt = closed.n_vertices;
     let nh = faces.len() * 3;
     let mut he_elem = vec![NIL; nh];
     // Element → its loop half-edge (of the unprocessed face).
@@ -328,29 +317,6 @@ pub fn encode(topo: &Topology) -> Result<EncodedConnectivity, CodecError> {
     let mut enc = RangeEncoder::new();
     let mut m = Models::new();
 
-    // Component count (by faces of the closed mesh; isolated vertices separately).
-    let mut seeds = Vec::new();
-    {
-        let mut seen = vec![false; faces.len()];
-        for f0 in 0..faces.len() {
-            if seen[f0] {
-                continue;
-            }
-            seeds.push(f0);
-            let mut st = vec![f0];
-            seen[f0] = true;
-            while let Some(f) = st.pop() {
-                for c in 0..3 {
-                    let t = closed.twin((3 * f + c) as u32);
-                    let g = t as usize / 3;
-                    if t != INVALID && !seen[g] {
-                        seen[g] = true;
-                        st.push(g);
-                    }
-                }
-            }
-        }
-    }
     m.count.encode(&mut enc, seeds.len() as u32);
 
     // Assigns the next number to a newly met vertex and codes its dummy flag.
@@ -529,6 +495,136 @@ pub fn encode(topo: &Topology) -> Result<EncodedConnectivity, CodecError> {
         order,
         faces: out_faces,
     })
+}
+
+/// `topo` closed by a fan of faces around one dummy vertex per boundary loop (as in
+/// Touma–Gotsman): the dummies are vertices `n..`, their faces follow `topo`'s.
+/// Half-edge `3f + c` runs from corner c of face f to corner c + 1; the twins are
+/// `topo`'s, with each boundary half-edge paired with its fan face's, so no second
+/// [`Topology`] is built (that took about as long as the coding itself).
+struct Closed {
+    faces: Vec<[u32; 3]>,
+    twin: Vec<u32>,
+    /// `topo`'s vertices and the dummies.
+    n_vertices: usize,
+}
+
+impl Closed {
+    /// Errors: [`NonManifold::BoundaryLoop`] when a boundary loop cannot be closed by
+    /// a manifold fan (shorter than three edges, or a vertex on two loop edges).
+    fn new(topo: &Topology) -> Result<Self, CodecError> {
+        let n = topo.n_vertices();
+        let mut faces = topo.faces().to_vec();
+        let mut twin = topo.twins().to_vec();
+        if !twin.contains(&INVALID) {
+            return Ok(Closed {
+                faces,
+                twin,
+                n_vertices: n,
+            });
+        }
+        let bad = CodecError::NonManifold(NonManifold::BoundaryLoop);
+        // Each boundary vertex's outgoing boundary half-edge (one on a manifold mesh).
+        let mut out = vec![NIL; n];
+        for (h, &t) in twin.iter().enumerate() {
+            if t == INVALID {
+                let v = topo.from(h as u32) as usize;
+                if out[v] != NIL {
+                    return Err(bad);
+                }
+                out[v] = h as u32;
+            }
+        }
+        let loops = topo.boundary_loops();
+        for (i, lp) in loops.iter().enumerate() {
+            let len = lp.len();
+            if len < 3 {
+                return Err(bad);
+            }
+            let d = (n + i) as u32;
+            let base = faces.len();
+            let he = |k: usize, c: usize| (3 * (base + k % len) + c) as u32;
+            for k in 0..len {
+                let (a, b) = (lp[k], lp[(k + 1) % len]);
+                // The fan face (d, b, a): d → b, b → a (the twin of the boundary
+                // half-edge a → b), a → d.
+                faces.push([d, b, a]);
+                let hb = out[a as usize];
+                if hb == NIL || topo.to(hb) != b || twin[hb as usize] != INVALID {
+                    return Err(bad);
+                }
+                twin[hb as usize] = he(k, 1);
+                twin.extend([he(k + 1, 2), hb, he(k + len - 1, 0)]);
+            }
+        }
+        if twin.contains(&INVALID) {
+            return Err(bad);
+        }
+        Ok(Closed {
+            faces,
+            twin,
+            n_vertices: n + loops.len(),
+        })
+    }
+
+    #[inline]
+    fn twin(&self, h: u32) -> u32 {
+        self.twin[h as usize]
+    }
+
+    #[inline]
+    fn from(&self, h: u32) -> u32 {
+        self.faces[h as usize / 3][h as usize % 3]
+    }
+
+    #[inline]
+    fn to(&self, h: u32) -> u32 {
+        self.faces[h as usize / 3][(h as usize + 1) % 3]
+    }
+
+    #[inline]
+    fn next(&self, h: u32) -> u32 {
+        if h % 3 == 2 {
+            h - 2
+        } else {
+            h + 1
+        }
+    }
+
+    #[inline]
+    fn prev(&self, h: u32) -> u32 {
+        if h % 3 == 0 {
+            h + 2
+        } else {
+            h - 1
+        }
+    }
+}
+
+/// The smallest face of each edge-connected component of `topo`, ascending.
+fn component_seeds(topo: &Topology) -> Vec<usize> {
+    let nf = topo.n_faces();
+    let mut seeds = Vec::new();
+    let mut seen = vec![false; nf];
+    let mut stack: Vec<u32> = Vec::new();
+    for f0 in 0..nf {
+        if seen[f0] {
+            continue;
+        }
+        seeds.push(f0);
+        seen[f0] = true;
+        stack.push(f0 as u32);
+        while let Some(f) = stack.pop() {
+            for c in 0..3 {
+                let t = topo.twin(3 * f + c);
+                if t != INVALID && !seen[t as usize / 3] {
+                    seen[t as usize / 3] = true;
+                    stack.push(t / 3);
+                }
+            }
+        }
+    }
+    seeds
 }
 
 /// Records that the loop edge of element `e` is the closed-mesh half-edge `h`.
@@ -749,10 +845,10 @@ mod tests {
 
     /// Random meshes: several shifted copies of tori and grids with randomly dropped
     /// faces (boundaries, handles, several components), vertices shuffled.
-    #[test]
-    fn random_meshes_round_trip() {
-        let mut rng = ChaCha8Rng::seed_from_u64(11);
-        for trial in 0..12 {
+    fn random_meshes(seed: u64, count: usize) -> Vec<TriMesh> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut out = Vec::new();
+        for trial in 0..count {
             let mut positions = Vec::new();
             let mut faces = Vec::new();
             for _ in 0..rng.gen_range(1..4) {
@@ -789,11 +885,59 @@ mod tests {
                     .map(|f| f.map(|v| perm[v as usize]))
                     .collect(),
             );
-            if shuffled.faces.is_empty() {
-                continue;
+            if !shuffled.faces.is_empty() {
+                out.push(shuffled);
             }
-            round_trip(&shuffled);
         }
+        out
+    }
+
+    #[test]
+    fn random_meshes_round_trip() {
+        for m in random_meshes(11, 12) {
+            round_trip(&m);
+        }
+    }
+
+    /// The closed mesh's twins, derived from the input's, are those of a topology
+    /// built from its faces; the component seeds are those of a search over it.
+    #[test]
+    fn closed_mesh_matches_a_rebuilt_topology() {
+        let mut meshes = random_meshes(12, 16);
+        for spec in ["builtin:grid:7", "builtin:step:6", "builtin:icosphere:2"] {
+            meshes.push(builtin::from_spec(spec).unwrap());
+        }
+        let mut loops = 0;
+        for m in &meshes {
+            let topo = Topology::new(m).unwrap();
+            let closed = Closed::new(&topo).unwrap();
+            let rebuilt = Topology::from_faces(closed.n_vertices, &closed.faces).unwrap();
+            assert!(rebuilt.is_manifold() && rebuilt.boundary_edges().next().is_none());
+            assert_eq!(closed.twin, rebuilt.twins());
+            loops += closed.n_vertices - topo.n_vertices();
+            // Seeds as the encoder found them before: a search over the closed mesh.
+            let mut seen = vec![false; closed.faces.len()];
+            let mut seeds = Vec::new();
+            for f0 in 0..closed.faces.len() {
+                if seen[f0] {
+                    continue;
+                }
+                seeds.push(f0);
+                let mut st = vec![f0];
+                seen[f0] = true;
+                while let Some(f) = st.pop() {
+                    for c in 0..3 {
+                        let g = rebuilt.twin((3 * f + c) as u32) as usize / 3;
+                        if !seen[g] {
+                            seen[g] = true;
+                            st.push(g);
+                        }
+                    }
+                }
+            }
+            assert_eq!(component_seeds(&topo), seeds);
+        }
+        assert!(loops > 10, "the meshes have few boundary loops ({loops})");
     }
 
     #[test]

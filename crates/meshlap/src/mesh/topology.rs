@@ -420,6 +420,11 @@ impl Topology {
     pub fn twin(&self, h: u32) -> u32 {
         self.twin[h as usize]
     }
+    /// Every half-edge's [twin](Topology::twin) (3·faces entries; [`INVALID`] on a
+    /// boundary or non-manifold edge).
+    pub(crate) fn twins(&self) -> &[u32] {
+        &self.twin
+    }
     /// The undirected edge of half-edge `h`.
     #[inline]
     pub fn half_edge_edge(&self, h: u32) -> EdgeId {
