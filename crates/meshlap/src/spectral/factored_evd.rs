@@ -137,23 +137,12 @@ impl FactoredEvd {
             type Output = [Vec<f64>; 3];
             #[inline(always)]
             fn portable(self) -> Self::Output {
-                // Plain loops, no closures: a closure is compiled without the
-                // caller's target features, and its `mul_add` would be a library call.
-                let Analyze(f, x, m) = self;
-                let n = f.n;
-                let mut y = [x[0].to_vec(), x[1].to_vec(), x[2].to_vec()];
-                // Qᵀ = H_{n−2} ⋯ H_0: reflector 0 first.
-                for k in 0..n.saturating_sub(1) {
-                    f.reflect3(k, &mut y);
-                }
-                let mut out = [vec![0.0; m], vec![0.0; m], vec![0.0; m]];
-                for j in 0..m {
-                    let s = dot3(&f.z[j * n..(j + 1) * n], [&y[0], &y[1], &y[2]]);
-                    for c in 0..3 {
-                        out[c][j] = s[c];
-                    }
-                }
-                out
+                self.0.analyze_in::<false>(self.1, self.2)
+            }
+            #[cfg(target_arch = "x86_64")]
+            #[inline(always)]
+            fn avx2_fma(self) -> Self::Output {
+                self.0.analyze_in::<true>(self.1, self.2)
             }
         }
         crate::cpu::dispatch(Analyze(self, x, m))
@@ -171,35 +160,79 @@ impl FactoredEvd {
             type Output = [Vec<f64>; 3];
             #[inline(always)]
             fn portable(self) -> Self::Output {
-                let Synthesize(f, c) = self;
-                let n = f.n;
-                let mut y = [vec![0.0f64; n], vec![0.0f64; n], vec![0.0f64; n]];
-                for j in 0..c[0].len() {
-                    let zj = &f.z[j * n..(j + 1) * n];
-                    for k in 0..3 {
-                        axpy(&mut y[k], c[k][j], zj);
-                    }
-                }
-                // Q = H_0 ⋯ H_{n−2}: the last reflector first.
-                for k in (0..n.saturating_sub(1)).rev() {
-                    f.reflect3(k, &mut y);
-                }
-                y
+                self.0.synthesize_in::<false>(self.1)
+            }
+            #[cfg(target_arch = "x86_64")]
+            #[inline(always)]
+            fn avx2_fma(self) -> Self::Output {
+                self.0.synthesize_in::<true>(self.1)
             }
         }
         crate::cpu::dispatch(Synthesize(self, c))
     }
 
+    /// [`FactoredEvd::analyze`]; `AVX`: the dot products by `dot3_simd::dot3`
+    /// (x86-64, only inside an AVX2 function). Plain loops, no closures: a closure is
+    /// compiled without the caller's target features, and its `mul_add` would be a
+    /// library call.
+    #[inline(always)]
+    fn analyze_in<const AVX: bool>(&self, x: [&[f64]; 3], m: usize) -> [Vec<f64>; 3] {
+        let n = self.n;
+        let mut y = [x[0].to_vec(), x[1].to_vec(), x[2].to_vec()];
+        // Qᵀ = H_{n−2} ⋯ H_0: reflector 0 first.
+        for k in 0..n.saturating_sub(1) {
+            self.reflect3::<AVX>(k, &mut y);
+        }
+        let mut out = [vec![0.0; m], vec![0.0; m], vec![0.0; m]];
+        let y = [&y[0][..], &y[1][..], &y[2][..]];
+        let mut j = 0;
+        // Two vectors at a time: their six sums are independent chains.
+        while j + 1 < m {
+            let (za, zb) = self.z[j * n..(j + 2) * n].split_at(n);
+            let [sa, sb] = dot3_pair::<AVX>([za, zb], y);
+            for c in 0..3 {
+                out[c][j] = sa[c];
+                out[c][j + 1] = sb[c];
+            }
+            j += 2;
+        }
+        if j < m {
+            let s = dot3::<AVX>(&self.z[j * n..(j + 1) * n], y);
+            for c in 0..3 {
+                out[c][j] = s[c];
+            }
+        }
+        out
+    }
+
+    /// [`FactoredEvd::synthesize`]; `AVX` as in [`FactoredEvd::analyze_in`].
+    #[inline(always)]
+    fn synthesize_in<const AVX: bool>(&self, c: [&[f64]; 3]) -> [Vec<f64>; 3] {
+        let n = self.n;
+        let mut y = [vec![0.0f64; n], vec![0.0f64; n], vec![0.0f64; n]];
+        for j in 0..c[0].len() {
+            let zj = &self.z[j * n..(j + 1) * n];
+            for k in 0..3 {
+                axpy(&mut y[k], c[k][j], zj);
+            }
+        }
+        // Q = H_0 ⋯ H_{n−2}: the last reflector first.
+        for k in (0..n.saturating_sub(1)).rev() {
+            self.reflect3::<AVX>(k, &mut y);
+        }
+        y
+    }
+
     /// `y_c ← H_k y_c` for the three columns (rows k+1..): `y_c −= τ_k v_k (v_kᵀ y_c)`.
     #[inline(always)]
-    fn reflect3(&self, k: usize, y: &mut [Vec<f64>; 3]) {
+    fn reflect3<const AVX: bool>(&self, k: usize, y: &mut [Vec<f64>; 3]) {
         let t = self.tau[k];
         if t == 0.0 {
             return;
         }
         let n = self.n;
         let v = &self.refl[offset(n, k)..offset(n, k + 1)];
-        let s = dot3(v, [&y[0][k + 1..], &y[1][k + 1..], &y[2][k + 1..]]);
+        let s = dot3::<AVX>(v, [&y[0][k + 1..], &y[1][k + 1..], &y[2][k + 1..]]);
         for c in 0..3 {
             axpy(&mut y[c][k + 1..], -(t * s[c]), v);
         }
@@ -207,21 +240,57 @@ impl FactoredEvd {
 }
 
 /// Three dot products `v·y_c` in one pass, each summed in [`dot`]'s order (the same
-/// bits as three calls; three independent chains).
+/// bits as three calls; three independent chains); the columns may be longer than
+/// `v`. `AVX`: by `dot3_simd::dot3`, one register per column (x86-64, only inside an
+/// AVX2 function).
 #[inline(always)]
-fn dot3(v: &[f64], y: [&[f64]; 3]) -> [f64; 3] {
+fn dot3<const AVX: bool>(v: &[f64], y: [&[f64]; 3]) -> [f64; 3] {
     let n = v.len();
+    let (y0, y1, y2) = (&y[0][..n], &y[1][..n], &y[2][..n]);
+    #[cfg(target_arch = "x86_64")]
+    if AVX {
+        // SAFETY: `AVX` is only set in code that runs when `cpu::avx2_fma()` is true.
+        return unsafe { dot3_simd::dot3(v, y0, y1, y2) };
+    }
     let n4 = n / 4 * 4;
     let mut acc = [[0.0f64; 4]; 3];
-    let mut i = 0;
-    while i < n4 {
-        for c in 0..3 {
-            for l in 0..4 {
-                acc[c][l] = v[i + l].mul_add(y[c][i + l], acc[c][l]);
-            }
+    for (((v4, a), b), c) in v[..n4]
+        .chunks_exact(4)
+        .zip(y0[..n4].chunks_exact(4))
+        .zip(y1[..n4].chunks_exact(4))
+        .zip(y2[..n4].chunks_exact(4))
+    {
+        for l in 0..4 {
+            acc[0][l] = v4[l].mul_add(a[l], acc[0][l]);
+            acc[1][l] = v4[l].mul_add(b[l], acc[1][l]);
+            acc[2][l] = v4[l].mul_add(c[l], acc[2][l]);
         }
-        i += 4;
     }
+    dot3_finish(v, [y0, y1, y2], acc)
+}
+
+/// [`dot3`] of two vectors of the same length against the same three columns (the
+/// same bits as two calls). `AVX`: by `dot3_simd::dot3_pair`, whose six sums are
+/// independent chains (one [`dot3`] waits on the latency of its three).
+#[inline(always)]
+fn dot3_pair<const AVX: bool>(v: [&[f64]; 2], y: [&[f64]; 3]) -> [[f64; 3]; 2] {
+    let n = v[0].len();
+    assert_eq!(v[1].len(), n);
+    let (y0, y1, y2) = (&y[0][..n], &y[1][..n], &y[2][..n]);
+    #[cfg(target_arch = "x86_64")]
+    if AVX {
+        // SAFETY: `AVX` is only set in code that runs when `cpu::avx2_fma()` is true.
+        return unsafe { dot3_simd::dot3_pair(v, y0, y1, y2) };
+    }
+    [dot3::<false>(v[0], y), dot3::<false>(v[1], y)]
+}
+
+/// [`dot3`]'s end: each column's four partial sums as `(s₀ + s₁) + (s₂ + s₃)`, then
+/// its tail of `len mod 4` entries in order.
+#[inline(always)]
+fn dot3_finish(v: &[f64], y: [&[f64]; 3], acc: [[f64; 4]; 3]) -> [f64; 3] {
+    let n = v.len();
+    let n4 = n / 4 * 4;
     let mut s = [0.0f64; 3];
     for c in 0..3 {
         s[c] = (acc[c][0] + acc[c][1]) + (acc[c][2] + acc[c][3]);
@@ -230,6 +299,88 @@ fn dot3(v: &[f64], y: [&[f64]; 3]) -> [f64; 3] {
         }
     }
     s
+}
+
+/// [`dot3`] in AVX2 + FMA. LLVM vectorises the portable loop poorly (its twelve
+/// partial sums go to 128-bit registers, shuffles and spills), so here each column's
+/// four partial sums are one register: the same fused multiply-adds per lane in the
+/// same order, then the same end ([`dot3_finish`]): the same bits.
+#[cfg(target_arch = "x86_64")]
+mod dot3_simd {
+    use std::arch::x86_64::*;
+
+    /// `v·y0`, `v·y1`, `v·y2` (all of `v`'s length).
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) fn dot3(v: &[f64], y0: &[f64], y1: &[f64], y2: &[f64]) -> [f64; 3] {
+        let n = v.len();
+        assert!(y0.len() == n && y1.len() == n && y2.len() == n);
+        let (pv, p0, p1, p2) = (v.as_ptr(), y0.as_ptr(), y1.as_ptr(), y2.as_ptr());
+        let (mut a0, mut a1, mut a2) = (
+            _mm256_setzero_pd(),
+            _mm256_setzero_pd(),
+            _mm256_setzero_pd(),
+        );
+        for j in 0..n / 4 {
+            // SAFETY: entries 4j..4j + 4 < n of all four slices.
+            unsafe {
+                let x = _mm256_loadu_pd(pv.add(4 * j));
+                a0 = _mm256_fmadd_pd(x, _mm256_loadu_pd(p0.add(4 * j)), a0);
+                a1 = _mm256_fmadd_pd(x, _mm256_loadu_pd(p1.add(4 * j)), a1);
+                a2 = _mm256_fmadd_pd(x, _mm256_loadu_pd(p2.add(4 * j)), a2);
+            }
+        }
+        let mut acc = [[0.0f64; 4]; 3];
+        // SAFETY: each row of `acc` is four writable f64.
+        unsafe {
+            _mm256_storeu_pd(acc[0].as_mut_ptr(), a0);
+            _mm256_storeu_pd(acc[1].as_mut_ptr(), a1);
+            _mm256_storeu_pd(acc[2].as_mut_ptr(), a2);
+        }
+        super::dot3_finish(v, [y0, y1, y2], acc)
+    }
+
+    /// [`dot3`] of `v[0]` and of `v[1]` (each of the columns' length), interleaved.
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) fn dot3_pair(v: [&[f64]; 2], y0: &[f64], y1: &[f64], y2: &[f64]) -> [[f64; 3]; 2] {
+        let n = y0.len();
+        assert!(v[0].len() == n && v[1].len() == n && y1.len() == n && y2.len() == n);
+        let (pa, pb) = (v[0].as_ptr(), v[1].as_ptr());
+        let (p0, p1, p2) = (y0.as_ptr(), y1.as_ptr(), y2.as_ptr());
+        let mut a = [_mm256_setzero_pd(); 3];
+        let mut b = [_mm256_setzero_pd(); 3];
+        for j in 0..n / 4 {
+            // SAFETY: entries 4j..4j + 4 < n of all five slices.
+            unsafe {
+                let (xa, xb) = (
+                    _mm256_loadu_pd(pa.add(4 * j)),
+                    _mm256_loadu_pd(pb.add(4 * j)),
+                );
+                let ys = [
+                    _mm256_loadu_pd(p0.add(4 * j)),
+                    _mm256_loadu_pd(p1.add(4 * j)),
+                    _mm256_loadu_pd(p2.add(4 * j)),
+                ];
+                for c in 0..3 {
+                    a[c] = _mm256_fmadd_pd(xa, ys[c], a[c]);
+                    b[c] = _mm256_fmadd_pd(xb, ys[c], b[c]);
+                }
+            }
+        }
+        let (mut acc_a, mut acc_b) = ([[0.0f64; 4]; 3], [[0.0f64; 4]; 3]);
+        for c in 0..3 {
+            // SAFETY: each row of `acc_a` and `acc_b` is four writable f64.
+            unsafe {
+                _mm256_storeu_pd(acc_a[c].as_mut_ptr(), a[c]);
+                _mm256_storeu_pd(acc_b[c].as_mut_ptr(), b[c]);
+            }
+        }
+        [
+            super::dot3_finish(v[0], [y0, y1, y2], acc_a),
+            super::dot3_finish(v[1], [y0, y1, y2], acc_b),
+        ]
+    }
 }
 
 /// A matrix ready for the decomposition, or its result when trivial.
@@ -400,6 +551,45 @@ mod tests {
     use faer::Mat;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
+
+    /// `dot3` gives each column the bits of `dense_evd::dot` (the order the format
+    /// fixes), at every length and remainder, with columns longer than `v`.
+    #[test]
+    fn dot3_gives_the_dot_bits() {
+        let mut rng = ChaCha8Rng::seed_from_u64(31);
+        for n in 0..40 {
+            let v: Vec<f64> = (0..n).map(|_| rng.gen_range(-1.0..1.0)).collect();
+            let y: Vec<Vec<f64>> = (0..3)
+                .map(|c| (0..n + c).map(|_| rng.gen_range(-1e3..1e3)).collect())
+                .collect();
+            let d: Vec<f64> = (0..3)
+                .map(|c| crate::spectral::dense_evd::dot(&v, &y[c][..n]))
+                .collect();
+            let s = dot3::<false>(&v, [&y[0], &y[1], &y[2]]);
+            for c in 0..3 {
+                assert_eq!(s[c].to_bits(), d[c].to_bits(), "n = {n}, column {c}");
+            }
+            #[cfg(target_arch = "x86_64")]
+            if crate::cpu::cpu_has_avx2_fma() {
+                let (y0, y1, y2) = (&y[0][..n], &y[1][..n], &y[2][..n]);
+                // SAFETY: the CPU has AVX2 and FMA.
+                let s = unsafe { dot3_simd::dot3(&v, y0, y1, y2) };
+                let w: Vec<f64> = v.iter().map(|x| x * 0.75 - 0.125).collect();
+                // SAFETY: as above.
+                let [pa, pb] = unsafe { dot3_simd::dot3_pair([&v, &w], y0, y1, y2) };
+                let sw = dot3::<false>(&w, [y0, y1, y2]);
+                for c in 0..3 {
+                    assert_eq!(s[c].to_bits(), d[c].to_bits(), "AVX2, n = {n}, column {c}");
+                    assert_eq!(pa[c].to_bits(), d[c].to_bits(), "pair, n = {n}, column {c}");
+                    assert_eq!(
+                        pb[c].to_bits(),
+                        sw[c].to_bits(),
+                        "pair, n = {n}, column {c}"
+                    );
+                }
+            }
+        }
+    }
 
     /// The explicit basis E = QZ, column by column, through `synthesize` of unit
     /// coefficients.
