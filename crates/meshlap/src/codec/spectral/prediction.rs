@@ -783,14 +783,18 @@ fn banded_prediction(np: usize, src: Vec<u32>, rows: Rows) -> Option<Prediction>
     }
     // The lower band of M in the new numbering, summed row by row, entry by entry
     // (as the dense form sums it).
+    // Each row's new indices and weights are gathered once, then its pairs summed
+    // in the same (a, c) order.
     let mut m = vec![0.0f64; np * (b + 1)];
+    let mut row: Vec<(usize, f64)> = Vec::new();
     for r in 0..rows.len() {
-        let ru = rows.u(r);
-        for &(a, wa) in ru {
-            for &(c, wc) in ru {
-                let (i, j) = (perm[a] as usize, perm[c] as usize);
+        row.clear();
+        row.extend(rows.u(r).iter().map(|&(a, w)| (perm[a] as usize, w)));
+        for &(i, wa) in &row {
+            let mi = &mut m[band_at(i, i, b) - b..=band_at(i, i, b)];
+            for &(j, wc) in &row {
                 if j <= i {
-                    m[band_at(i, j, b)] += wa * wc;
+                    mi[j + b - i] += wa * wc;
                 }
             }
         }
