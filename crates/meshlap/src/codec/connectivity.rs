@@ -297,7 +297,7 @@ pub fn encode(topo: &Topology) -> Result<EncodedConnectivity, CodecError> {
     let n = topo.n_vertices();
     let n_real_faces = topo.n_faces();
     // The closed mesh, and one seed face per connected component (the smallest face
-    // index of each, ascending), found at the same time from `topo`'s own twins: the
+    // index of each, ascending), found at the same time from `topo`'s components: the
     // fans closing the boundary loops join no two components.
     let (closed, seeds) = rayon::join(|| Closed::new(topo), || component_seeds(topo));
     let closed = closed?;
@@ -601,27 +601,18 @@ impl Closed {
     }
 }
 
-/// The smallest face of each edge-connected component of `topo`, ascending.
+/// The smallest face of each connected component of `topo`, ascending. On a
+/// vertex-manifold mesh (which [`encode`] has checked) the faces of a vertex
+/// component ([`Topology::components`]) are joined through edges.
 fn component_seeds(topo: &Topology) -> Vec<usize> {
-    let nf = topo.n_faces();
+    let (label, count) = topo.components();
+    let mut seen = vec![false; count];
     let mut seeds = Vec::new();
-    let mut seen = vec![false; nf];
-    let mut stack: Vec<u32> = Vec::new();
-    for f0 in 0..nf {
-        if seen[f0] {
-            continue;
-        }
-        seeds.push(f0);
-        seen[f0] = true;
-        stack.push(f0 as u32);
-        while let Some(f) = stack.pop() {
-            for c in 0..3 {
-                let t = topo.twin(3 * f + c);
-                if t != INVALID && !seen[t as usize / 3] {
-                    seen[t as usize / 3] = true;
-                    stack.push(t / 3);
-                }
-            }
+    for (f, t) in topo.faces().iter().enumerate() {
+        let c = label[t[0] as usize] as usize;
+        if !seen[c] {
+            seen[c] = true;
+            seeds.push(f);
         }
     }
     seeds
