@@ -107,15 +107,6 @@ pub(crate) unsafe fn assume_init_slice<T>(s: &mut [std::mem::MaybeUninit<T>]) ->
     unsafe { &mut *(s as *mut [std::mem::MaybeUninit<T>] as *mut [T]) }
 }
 
-/// Writes `x` into every element of `s` and returns it as initialised.
-pub(crate) fn fill_uninit<T: Copy>(s: &mut [std::mem::MaybeUninit<T>], x: T) -> &mut [T] {
-    for e in s.iter_mut() {
-        e.write(x);
-    }
-    // SAFETY: every element was just written.
-    unsafe { assume_init_slice(s) }
-}
-
 #[cfg(target_os = "linux")]
 fn advise_huge(start: usize, len: usize) {
     const HUGE: usize = 2 << 20;
