@@ -425,6 +425,15 @@ impl Topology {
     pub(crate) fn twins(&self) -> &[u32] {
         &self.twin
     }
+    /// Every half-edge's [undirected edge](Topology::half_edge_edge) (3·faces entries).
+    pub(crate) fn half_edge_edges(&self) -> &[u32] {
+        &self.he_edge
+    }
+    /// Every edge's [face count](Topology::edge_face_count), in [`Topology::edges`]
+    /// order.
+    pub(crate) fn edge_face_counts(&self) -> &[u32] {
+        &self.edge_faces
+    }
     /// The undirected edge of half-edge `h`.
     #[inline]
     pub fn half_edge_edge(&self, h: u32) -> EdgeId {

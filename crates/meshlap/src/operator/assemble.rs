@@ -16,14 +16,15 @@
 //! with no triplet list, no global sort, no duplicate merge and no per-entry
 //! allocation; the final arrays are not zeroed first (`mem::uninit_vec`: each entry
 //! is written once). The geometric operators (cotan, mean-value) compute their per-face
-//! values in parallel into one slot per half-edge and gather each edge's weight from
-//! its half-edges in face order ([`fold_half_edges_per_edge`]): the same sums as a
-//! sequential scatter over the faces, without one. While filling, every column is
+//! values in parallel and write each half-edge's value to its own side of its edge
+//! ([`per_face_edge_sides`]); the columns add an edge's two sides in face order: the
+//! same sums as a sequential scatter over the faces, without one and without a pass
+//! over the edges. While filling, every column is
 //! checked to have strictly increasing rows below n; only then is the matrix handed
 //! to faer without its sequential re-check (`new_unchecked`). A failed check (a broken [`Topology`] invariant, never
 //! expected) falls back to faer's checked constructor.
 
-use crate::mesh::topology::Topology;
+use crate::mesh::topology::{Topology, INVALID};
 use crate::SparseMatrix;
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use rayon::prelude::*;
@@ -49,81 +50,115 @@ pub(crate) fn vertex_weight_sums(topo: &Topology, w: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-/// Per undirected edge (in [`Topology::edges`] order), `zero` folded with
-/// `add(acc, h)` over the edge's half-edges `h` in ascending order. Half-edge `h`
-/// belongs to face `h / 3`, so this is face order: the result has the same bits as a
-/// sequential pass over the faces adding each half-edge's value into a zeroed
-/// per-edge array — computed in parallel over edges (a gather, no scatter), the same
-/// on any number of threads. Edges of one or two faces read their half-edges from the
-/// connectivity; the half-edges of non-manifold edges (three faces or more, rare) are
-/// added by one sequential pass over all half-edges.
-pub(crate) fn fold_half_edges_per_edge<T: Copy + Send + Sync>(
+/// The geometric operators' per-face pass (cotan, mean-value): per face f, `value(f)`
+/// gives three values `T` per half-edge `3f + m` (to be summed per undirected edge)
+/// and three values `U` per corner (kept per slot `3f + m`), computed in parallel
+/// over chunks of faces. Returns the per-corner values and, per undirected edge e
+/// ([`Topology::edges`] order), two sides `[a, b]` with
+/// `add(add(zero, a), b)` = `zero` folded with `add` over e's half-edges in ascending
+/// order, i.e. face order — the same sum as a sequential pass over the faces adding
+/// each half-edge's value into a zeroed per-edge array, on any number of threads. The
+/// caller folds the sides where it reads them (no pass over the edges):
+///
+/// - an edge of two faces (its half-edges twins): `[value of the lower half-edge,
+///   value of the higher]`, each written by its own face (a scatter to distinct
+///   slots: a face's half-edge knows its side from its twin, read in half-edge order);
+/// - a boundary edge: `[value, zero]`;
+/// - a non-manifold edge (three faces or more, rare): `[fold, zero]`, the fold by one
+///   sequential pass over all half-edges, which recomputes those edges' faces.
+///
+/// `zero` must be an identity of `add` on every folded value, as `0.0` is for `f64`
+/// sums that start at `+0.0` (they are never `−0.0`).
+///
+/// Or the error of the first face (the lowest index) whose `value` fails, whichever
+/// thread met it.
+pub(crate) fn per_face_edge_sides<T, U, E>(
     topo: &Topology,
     zero: T,
-    add: impl Fn(T, u32) -> T + Sync,
-) -> Vec<T> {
-    use crate::mesh::EdgeId;
-    let mut out: Vec<T> = (0..topo.n_edges())
-        .into_par_iter()
-        .with_min_len(4 * BLOCK)
-        .map(|e| {
-            let e = EdgeId(e as u32);
-            let h = topo.edge_half_edge(e);
-            match topo.edge_face_count(e) {
-                1 => add(zero, h),
-                2 => {
-                    let t = topo.twin(h);
-                    add(add(zero, h.min(t)), h.max(t))
-                }
-                _ => zero,
-            }
-        })
-        .collect();
-    if topo.non_manifold_edges().next().is_some() {
-        for h in 0..3 * topo.n_faces() as u32 {
-            let e = topo.half_edge_edge(h);
-            if topo.edge_face_count(e) > 2 {
-                out[e.idx()] = add(out[e.idx()], h);
-            }
-        }
-    }
-    out
-}
-
-/// Per face f, the three values `value(f)` (one per half-edge `3f + m`, or per corner),
-/// computed in parallel over chunks of faces into one slot each; or the error of the
-/// first face (the lowest index) whose `value` fails, whichever thread met it. The
-/// geometric operators' per-face pass (cotan, mean-value).
-pub(crate) fn per_face<T: Copy + Send + Sync, E: Send>(
-    n_faces: usize,
-    value: impl Fn(usize) -> Result<[T; 3], E> + Sync,
-) -> Result<Vec<T>, E> {
+    add: impl Fn(T, T) -> T,
+    value: impl Fn(usize) -> Result<([T; 3], [U; 3]), E> + Sync,
+) -> Result<(Vec<[T; 2]>, Vec<U>), E>
+where
+    T: Copy + Send + Sync,
+    U: Copy + Send + Sync,
+    E: Send,
+{
     const CHUNK: usize = 1024;
-    let mut out = crate::mem::uninit_vec::<T>(3 * n_faces);
-    let first_bad = out
-        .par_chunks_mut(3 * CHUNK)
-        .enumerate()
-        .filter_map(|(c, slots)| {
-            for (q, s) in slots.chunks_exact_mut(3).enumerate() {
-                let f = c * CHUNK + q;
-                match value(f) {
-                    Ok(v) => {
-                        for (s, v) in s.iter_mut().zip(v) {
-                            s.write(v);
+    let n_faces = topo.n_faces();
+    let (twins, he_edge, counts) = (
+        topo.twins(),
+        topo.half_edge_edges(),
+        topo.edge_face_counts(),
+    );
+    let mut corners = crate::mem::uninit_vec::<U>(3 * n_faces);
+    let mut sides = crate::mem::uninit_vec::<[T; 2]>(topo.n_edges());
+    let first_bad = {
+        // SAFETY: `sides` is borrowed mutably for the scatter's life and used by no
+        // one else; `MaybeUninit<[T; 2]>` has the layout of two consecutive `T`.
+        let scatter = unsafe {
+            crate::mem::Scatter::from_raw_parts(sides.as_mut_ptr().cast::<T>(), 2 * sides.len())
+        };
+        corners
+            .par_chunks_mut(3 * CHUNK)
+            .enumerate()
+            .filter_map(|(c, slots)| {
+                for (q, s) in slots.chunks_exact_mut(3).enumerate() {
+                    let f = c * CHUNK + q;
+                    let (edge_values, corner_values) = match value(f) {
+                        Ok(v) => v,
+                        Err(err) => return Some((f, err)),
+                    };
+                    for (s, v) in s.iter_mut().zip(corner_values) {
+                        s.write(v);
+                    }
+                    for (m, v) in edge_values.into_iter().enumerate() {
+                        let h = 3 * f + m;
+                        let (tw, e) = (twins[h], he_edge[h] as usize);
+                        // SAFETY: each slot of `sides` has one writer: the side of an
+                        // edge of two faces is its half-edge's rank among the two
+                        // (twins), a boundary edge's both sides are written by its
+                        // only half-edge, a non-manifold edge's by no face.
+                        unsafe {
+                            if tw != INVALID {
+                                scatter.write(2 * e + usize::from(h as u32 > tw), v);
+                            } else if counts[e] == 1 {
+                                scatter.write(2 * e, v);
+                                scatter.write(2 * e + 1, zero);
+                            }
                         }
                     }
-                    Err(err) => return Some((f, err)),
                 }
-            }
-            None
-        })
-        .min_by_key(|&(f, _)| f);
+                None
+            })
+            .min_by_key(|&(f, _)| f)
+    };
     if let Some((_, err)) = first_bad {
         return Err(err);
     }
-    // SAFETY: no face failed, so every chunk wrote the three slots of each of its
-    // faces, and the chunks cover all 3 · n_faces.
-    Ok(unsafe { crate::mem::assume_init_vec(out) })
+    if topo.non_manifold_edges().next().is_some() {
+        for e in topo.non_manifold_edges() {
+            sides[e.idx()].write([zero, zero]);
+        }
+        for h in 0..3 * n_faces {
+            let e = he_edge[h] as usize;
+            if counts[e] > 2 {
+                let v = value(h / 3)?.0[h % 3];
+                // SAFETY: written just above.
+                let [acc, _] = unsafe { sides[e].assume_init() };
+                sides[e].write([add(acc, v), zero]);
+            }
+        }
+    }
+    // SAFETY: no face failed, so every chunk wrote the three corner slots of each of
+    // its faces, and the chunks cover all 3 · n_faces; every edge's two sides were
+    // written (above: by its two twins, by its boundary half-edge, or as a
+    // non-manifold edge).
+    unsafe {
+        Ok((
+            crate::mem::assume_init_vec(sides),
+            crate::mem::assume_init_vec(corners),
+        ))
+    }
 }
 
 /// Rows and values of one block of columns, not yet written.
@@ -986,25 +1021,82 @@ mod tests {
     }
 
     #[test]
-    fn fold_over_half_edges_is_face_order_on_every_edge() {
+    fn edge_sides_sum_as_a_sequential_face_loop() {
         for (name, _, t) in cases() {
-            // Each half-edge's id, as a list per edge: the fold must visit them
-            // ascending, non-manifold edges included.
-            let got = fold_half_edges_per_edge(&t, (0u64, 0u32), |(acc, count), h| {
-                (acc.wrapping_mul(1_000_003) + u64::from(h) + 1, count + 1)
-            });
-            let mut want = vec![(0u64, 0u32); t.n_edges()];
-            for h in 0..3 * t.n_faces() as u32 {
-                let e = t.half_edge_edge(h).idx();
-                want[e] = (
-                    want[e].0.wrapping_mul(1_000_003) + u64::from(h) + 1,
-                    want[e].1 + 1,
+            // A value per half-edge over many magnitudes and both signs (−0.0
+            // included), so that a non-manifold edge's sum depends on its order.
+            let v = |h: usize| {
+                let x = (h as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+                match x % 7 {
+                    0 => -0.0,
+                    k => {
+                        (x >> 11) as f64
+                            * 2f64.powi(k as i32 * 9 - 80)
+                            * if x % 2 == 0 { 1.0 } else { -1.0 }
+                    }
+                }
+            };
+            let mut want = vec![0.0f64; t.n_edges()];
+            for h in 0..3 * t.n_faces() {
+                want[t.half_edge_edge(h as u32).idx()] += v(h);
+            }
+            for threads in [1, 3] {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let (sides, corners) = pool
+                    .install(|| {
+                        per_face_edge_sides(
+                            &t,
+                            0.0f64,
+                            |a, b| a + b,
+                            |f| {
+                                Ok::<_, ()>((
+                                    std::array::from_fn(|m| v(3 * f + m)),
+                                    std::array::from_fn(|m| (3 * f + m) as u32),
+                                ))
+                            },
+                        )
+                    })
+                    .unwrap();
+                let got: Vec<u64> = sides
+                    .iter()
+                    .map(|&[a, b]| (0.0 + a + b).to_bits())
+                    .collect();
+                let want: Vec<u64> = want.iter().map(|x| x.to_bits()).collect();
+                assert!(got == want, "{name}, {threads} threads");
+                assert!(
+                    corners.iter().enumerate().all(|(h, &c)| c as usize == h),
+                    "{name}"
                 );
             }
-            assert_eq!(got, want, "{name}");
-            for (e, &(_, c)) in got.iter().enumerate() {
-                assert_eq!(c as usize, t.edge_face_count(crate::mesh::EdgeId(e as u32)));
-            }
+        }
+    }
+
+    #[test]
+    fn edge_sides_report_the_first_failing_face() {
+        let (_, _, t) = cases().into_iter().find(|c| c.0 == "cow.obj").unwrap();
+        for threads in [1, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let got = pool.install(|| {
+                per_face_edge_sides(
+                    &t,
+                    0.0f64,
+                    |a, b| a + b,
+                    |f| {
+                        if f == 4000 || f == 1500 {
+                            Err(f)
+                        } else {
+                            Ok(([1.0; 3], [(); 3]))
+                        }
+                    },
+                )
+            });
+            assert_eq!(got.err(), Some(1500), "{threads} threads");
         }
     }
 }

@@ -51,53 +51,61 @@ crate::names::option_names!(MassKind, OperatorError, |s| OperatorError::UnknownO
 /// Assembles the cotangent stiffness matrix (n×n, `F = D − W`, positive semi-definite
 /// when no weight is negative) and the lumped mass diagonal (n).
 ///
-/// Three passes, each parallel and each summing in a fixed order, so every entry is
+/// Two passes, each parallel and each summing in a fixed order, so every entry is
 /// the same sum in the same order on any number of threads: the per-face geometry
-/// (½ cot of the corner opposite each half-edge, each corner's mass share) over
-/// chunks of faces; each edge's weight gathered from its half-edges in face order
-/// (`assemble::fold_half_edges_per_edge`); the columns filled with the diagonal summed
-/// in neighbour order (`assemble::one_ring_columns`). The masses are added face by
-/// face on one thread while the others fill the matrix.
+/// over chunks of faces, ½ cot of the corner opposite each half-edge written to its
+/// side of the edge and each corner's mass share to its slot
+/// (`assemble::per_face_edge_sides`); the columns, each edge's weight summed from its
+/// two sides in face order and the diagonal in neighbour order
+/// (`assemble::one_ring_columns`). The masses are added face by face on one thread
+/// while the others fill the matrix.
 pub fn cotan(
     mesh: &TriMesh,
     topo: &Topology,
     mass_kind: MassKind,
 ) -> Result<(SparseMatrix, Vec<f64>), OperatorError> {
     let faces = topo.faces();
-    // Slot 3f + m: ½ cot of the corner opposite half-edge m (from corner m to corner
-    // m + 1 of face f), which is corner m + 2, and the mass share of corner m.
-    let slots = super::assemble::per_face(faces.len(), |f| {
-        let t = faces[f];
-        let (half, m) =
-            face_shares(mesh, t, mass_kind).ok_or_else(|| OperatorError::DegenerateFace {
-                face: f as u32,
-                a: t[0],
-                b: t[1],
-                c: t[2],
-                kind: "cotan",
-            })?;
-        Ok::<_, OperatorError>(std::array::from_fn(|k| (half[(k + 2) % 3], m[k])))
-    })?;
+    // Per half-edge 3f + m (from corner m to corner m + 1 of face f): ½ cot of the
+    // corner opposite it, corner m + 2, summed per edge; per corner m its mass share.
+    let (sides, shares) = super::assemble::per_face_edge_sides(
+        topo,
+        0.0f64,
+        |a, b| a + b,
+        |f| {
+            let t = faces[f];
+            let (half, m) =
+                face_shares(mesh, t, mass_kind).ok_or_else(|| OperatorError::DegenerateFace {
+                    face: f as u32,
+                    a: t[0],
+                    b: t[1],
+                    c: t[2],
+                    kind: "cotan",
+                })?;
+            Ok::<_, OperatorError>((std::array::from_fn(|k| half[(k + 2) % 3]), m))
+        },
+    )?;
+    // Edge e's weight ½(cot α + cot β), its half-edges in face order.
+    let w = |e: u32| {
+        let [a, b] = sides[e as usize];
+        0.0 + a + b
+    };
     let (mass, l) = rayon::join(
         || {
             let mut mass = vec![0.0f64; topo.n_vertices()];
-            for (t, s) in faces.iter().zip(slots.chunks_exact(3)) {
+            for (t, s) in faces.iter().zip(shares.chunks_exact(3)) {
                 for k in 0..3 {
-                    mass[t[k] as usize] += s[k].1;
+                    mass[t[k] as usize] += s[k];
                 }
             }
             mass
         },
         || {
-            let w = super::assemble::fold_half_edges_per_edge(topo, 0.0f64, |acc, h| {
-                acc + slots[h as usize].0
-            });
             super::assemble::one_ring_columns(topo, |j, off| {
                 let edges = topo.neighbor_edges(crate::VertexId(j as u32));
                 for (o, &e) in off.iter_mut().zip(edges) {
-                    *o = -w[e as usize];
+                    *o = -w(e);
                 }
-                edges.iter().map(|&e| w[e as usize]).sum()
+                edges.iter().map(|&e| w(e)).sum()
             })
         },
     );

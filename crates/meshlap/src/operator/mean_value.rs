@@ -29,9 +29,13 @@ use rayon::prelude::*;
 /// sum's reciprocal), then the columns in parallel. Of several
 /// faulty faces the first is named.
 pub fn mean_value(mesh: &TriMesh, topo: &Topology) -> Result<SparseMatrix, OperatorError> {
-    let w = directed_weights(mesh, topo)?;
-    // The weight from `from` to `to` along edge e.
-    let directed = |e: u32, from: u32, to: u32| w[e as usize][usize::from(from > to)];
+    let sides = directed_weights(mesh, topo)?;
+    // The weight from `from` to `to` along edge e: its two sides summed in face order.
+    let directed = |e: u32, from: u32, to: u32| {
+        let [a, b] = sides[e as usize];
+        let d = usize::from(from > to);
+        0.0 + a[d] + b[d]
+    };
     // Per row, the reciprocal of its normalising sum (one division per vertex, not one
     // per entry).
     let inv_sums: Vec<f64> = (0..topo.n_vertices())
@@ -63,38 +67,22 @@ pub fn mean_value(mesh: &TriMesh, topo: &Topology) -> Result<SparseMatrix, Opera
     Ok(f)
 }
 
-/// Directed weights per edge `[a, b]` (`a < b`, [`Topology::edges`] order):
+/// Directed weights per edge `[a, b]` (`a < b`, [`Topology::edges`] order), as two
+/// sides to be added in order (`0 + side₀ + side₁`, `assemble::per_face_edge_sides`):
 /// `[w_ab, w_ba]`, each the sum over the edge's faces, in face order, of
 /// `tan(θ/2)/‖x_b − x_a‖` for the angle θ at the weight's start. A half-edge from x to
 /// y adds its start's angle to the weight from x (slot `x > y`), its end's to the
-/// other.
-///
-/// On one thread the faces' contributions are added into the edges as they are
-/// computed; on more, they are computed in parallel into one slot per half-edge and
-/// each edge gathers its own (`assemble::fold_half_edges_per_edge`). Both add the same
-/// values in the same order: the same bits.
-fn directed_weights(mesh: &TriMesh, topo: &Topology) -> Result<Vec<[f64; 2]>, OperatorError> {
+/// other. The faces are computed in parallel; the sums are the same on any number of
+/// threads.
+fn directed_weights(mesh: &TriMesh, topo: &Topology) -> Result<Vec<[[f64; 2]; 2]>, OperatorError> {
     let faces = topo.faces();
-    let add = |acc: [f64; 2], v: [f64; 2]| [acc[0] + v[0], acc[1] + v[1]];
-    if rayon::current_num_threads() == 1 {
-        let mut w = vec![[0.0f64; 2]; topo.n_edges()];
-        for (f, &t) in faces.iter().enumerate() {
-            let c = face_contributions(mesh, f, t)?;
-            for (m, &v) in c.iter().enumerate() {
-                let e = topo.half_edge_edge((3 * f + m) as u32).idx();
-                w[e] = add(w[e], v);
-            }
-        }
-        return Ok(w);
-    }
-    // Per half-edge h = 3f + m (from corner m to corner m + 1): its edge's two directed
-    // contributions, `[from the lower vertex, from the higher]`.
-    let half = super::assemble::per_face(faces.len(), |f| face_contributions(mesh, f, faces[f]))?;
-    Ok(super::assemble::fold_half_edges_per_edge(
+    let (sides, _) = super::assemble::per_face_edge_sides(
         topo,
         [0.0f64; 2],
-        |acc, h| add(acc, half[h as usize]),
-    ))
+        |acc, v| [acc[0] + v[0], acc[1] + v[1]],
+        |f| face_contributions(mesh, f, faces[f]).map(|c| (c, [(); 3])),
+    )?;
+    Ok(sides)
 }
 
 /// The directed contributions of face `f` with corners `t` to its three edges: per
