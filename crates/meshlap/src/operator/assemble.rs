@@ -50,10 +50,11 @@ pub(crate) fn vertex_weight_sums(topo: &Topology, w: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-/// The geometric operators' per-face pass (cotan, mean-value): per face f, `value(f)`
-/// gives three values `T` per half-edge `3f + m` (to be summed per undirected edge)
-/// and three values `U` per corner (kept per slot `3f + m`), computed in parallel
-/// over chunks of faces. Returns the per-corner values and, per undirected edge e
+/// The geometric operators' per-face pass (cotan, mean-value): per face f three values
+/// `T` per half-edge `3f + m` (to be summed per undirected edge) and three values `U`
+/// per corner (kept per slot `3f + m`), computed in parallel over chunks of faces:
+/// `values(faces, out)` pushes the pairs of a range of faces onto `out` (empty), in
+/// order, or returns the error of the range's first failing face. Returns the per-corner values and, per undirected edge e
 /// ([`Topology::edges`] order), two sides `[a, b]` with
 /// `add(add(zero, a), b)` = `zero` folded with `add` over e's half-edges in ascending
 /// order, i.e. face order — the same sum as a sequential pass over the faces adding
@@ -70,13 +71,12 @@ pub(crate) fn vertex_weight_sums(topo: &Topology, w: &[f64]) -> Vec<f64> {
 /// `zero` must be an identity of `add` on every folded value, as `0.0` is for `f64`
 /// sums that start at `+0.0` (they are never `−0.0`).
 ///
-/// Or the error of the first face (the lowest index) whose `value` fails, whichever
-/// thread met it.
+/// Or the error of the first failing face (the lowest index), whichever thread met it.
 pub(crate) fn per_face_edge_sides<T, U, E>(
     topo: &Topology,
     zero: T,
     add: impl Fn(T, T) -> T,
-    value: impl Fn(usize) -> Result<([T; 3], [U; 3]), E> + Sync,
+    values: impl Fn(std::ops::Range<usize>, &mut Vec<([T; 3], [U; 3])>) -> Result<(), E> + Sync,
 ) -> Result<(Vec<[T; 2]>, Vec<U>), E>
 where
     T: Copy + Send + Sync,
@@ -101,36 +101,43 @@ where
         corners
             .par_chunks_mut(3 * CHUNK)
             .enumerate()
-            .filter_map(|(c, slots)| {
-                for (q, s) in slots.chunks_exact_mut(3).enumerate() {
-                    let f = c * CHUNK + q;
-                    let (edge_values, corner_values) = match value(f) {
-                        Ok(v) => v,
-                        Err(err) => return Some((f, err)),
-                    };
-                    for (s, v) in s.iter_mut().zip(corner_values) {
-                        s.write(v);
+            .map_init(
+                || Vec::with_capacity(CHUNK),
+                |buf, (c, slots)| {
+                    let faces = c * CHUNK..c * CHUNK + slots.len() / 3;
+                    buf.clear();
+                    if let Err(err) = values(faces.clone(), buf) {
+                        return Some((c, err));
                     }
-                    for (m, v) in edge_values.into_iter().enumerate() {
-                        let h = 3 * f + m;
-                        let (tw, e) = (twins[h], he_edge[h] as usize);
-                        // SAFETY: each slot of `sides` has one writer: the side of an
-                        // edge of two faces is its half-edge's rank among the two
-                        // (twins), a boundary edge's both sides are written by its
-                        // only half-edge, a non-manifold edge's by no face.
-                        unsafe {
-                            if tw != INVALID {
-                                scatter.write(2 * e + usize::from(h as u32 > tw), v);
-                            } else if counts[e] == 1 {
-                                scatter.write(2 * e, v);
-                                scatter.write(2 * e + 1, zero);
+                    assert_eq!(buf.len(), faces.len(), "per-face values missing");
+                    for ((s, &(edge_values, corner_values)), f) in
+                        slots.chunks_exact_mut(3).zip(buf.iter()).zip(faces)
+                    {
+                        for (s, v) in s.iter_mut().zip(corner_values) {
+                            s.write(v);
+                        }
+                        for (m, v) in edge_values.into_iter().enumerate() {
+                            let h = 3 * f + m;
+                            let (tw, e) = (twins[h], he_edge[h] as usize);
+                            // SAFETY: each slot of `sides` has one writer: the side of
+                            // an edge of two faces is its half-edge's rank among the
+                            // two (twins), a boundary edge's both sides are written by
+                            // its only half-edge, a non-manifold edge's by no face.
+                            unsafe {
+                                if tw != INVALID {
+                                    scatter.write(2 * e + usize::from(h as u32 > tw), v);
+                                } else if counts[e] == 1 {
+                                    scatter.write(2 * e, v);
+                                    scatter.write(2 * e + 1, zero);
+                                }
                             }
                         }
                     }
-                }
-                None
-            })
-            .min_by_key(|&(f, _)| f)
+                    None
+                },
+            )
+            .flatten()
+            .min_by_key(|&(c, _)| c)
     };
     if let Some((_, err)) = first_bad {
         return Err(err);
@@ -139,10 +146,13 @@ where
         for e in topo.non_manifold_edges() {
             sides[e.idx()].write([zero, zero]);
         }
+        let mut one = Vec::with_capacity(1);
         for h in 0..3 * n_faces {
             let e = he_edge[h] as usize;
             if counts[e] > 2 {
-                let v = value(h / 3)?.0[h % 3];
+                one.clear();
+                values(h / 3..h / 3 + 1, &mut one)?;
+                let v = one[0].0[h % 3];
                 // SAFETY: written just above.
                 let [acc, _] = unsafe { sides[e].assume_init() };
                 sides[e].write([add(acc, v), zero]);
@@ -1051,11 +1061,14 @@ mod tests {
                             &t,
                             0.0f64,
                             |a, b| a + b,
-                            |f| {
-                                Ok::<_, ()>((
-                                    std::array::from_fn(|m| v(3 * f + m)),
-                                    std::array::from_fn(|m| (3 * f + m) as u32),
-                                ))
+                            |faces, out| {
+                                out.extend(faces.map(|f| {
+                                    (
+                                        std::array::from_fn(|m| v(3 * f + m)),
+                                        std::array::from_fn(|m| (3 * f + m) as u32),
+                                    )
+                                }));
+                                Ok::<_, ()>(())
                             },
                         )
                     })
@@ -1087,12 +1100,14 @@ mod tests {
                     &t,
                     0.0f64,
                     |a, b| a + b,
-                    |f| {
-                        if f == 4000 || f == 1500 {
-                            Err(f)
-                        } else {
-                            Ok(([1.0; 3], [(); 3]))
+                    |faces, out| {
+                        for f in faces {
+                            if f == 4000 || f == 1500 || f == 1501 {
+                                return Err(f);
+                            }
+                            out.push(([1.0; 3], [(); 3]));
                         }
+                        Ok(())
                     },
                 )
             });

@@ -23,7 +23,9 @@
 //! [`OperatorError::NonFinite`]. An isolated vertex (no faces) gets an empty row and
 //! zero mass. The result is never NaN or infinite.
 
-use super::geometry::{cross, dot, norm, sub};
+#[cfg(test)]
+use super::geometry::norm;
+use super::geometry::{cross, dot, sub};
 use super::OperatorError;
 use crate::mesh::{topology::Topology, TriMesh};
 use crate::SparseMatrix;
@@ -71,17 +73,27 @@ pub fn cotan(
         topo,
         0.0f64,
         |a, b| a + b,
-        |f| {
-            let t = faces[f];
-            let (half, m) =
-                face_shares(mesh, t, mass_kind).ok_or_else(|| OperatorError::DegenerateFace {
-                    face: f as u32,
-                    a: t[0],
-                    b: t[1],
-                    c: t[2],
-                    kind: "cotan",
-                })?;
-            Ok::<_, OperatorError>((std::array::from_fn(|k| half[(k + 2) % 3]), m))
+        |range, out| {
+            let first = range.start;
+            let bad = crate::cpu::dispatch(FaceGeometry {
+                pos: &mesh.positions,
+                faces: &faces[range],
+                mass_kind,
+                out,
+            });
+            match bad {
+                None => Ok(()),
+                Some(q) => {
+                    let t = faces[first + q];
+                    Err(OperatorError::DegenerateFace {
+                        face: (first + q) as u32,
+                        a: t[0],
+                        b: t[1],
+                        c: t[2],
+                        kind: "cotan",
+                    })
+                }
+            }
         },
     )?;
     // Edge e's weight ½(cot α + cot β), its half-edges in face order.
@@ -113,52 +125,102 @@ pub fn cotan(
     Ok((l, mass))
 }
 
-/// ½·cot of the angle at each corner of face `t` and each corner's mass share, or
-/// `None` when the face is degenerate ([`is_proper_triangle`]).
+/// Faces per group of lanes in [`FaceGeometry`].
+const LANES: usize = 64;
+
+/// The per-face geometry of consecutive faces: per face, ½·cot of the corner opposite
+/// each half-edge m (from corner m to corner m + 1: the corner m + 2) and each
+/// corner's mass share, pushed onto `out` in face order; stops at the first face that
+/// is degenerate ([`is_proper_triangle`]) and returns its index in `faces`.
 ///
-/// Each edge vector and squared length is formed once and shared by the corners and
-/// the properness test; the values have the same bits as the per-corner formulas
-/// (`x_j − x_i` is exactly `−(x_i − x_j)`).
-fn face_shares(mesh: &TriMesh, t: [u32; 3], mass_kind: MassKind) -> Option<([f64; 3], [f64; 3])> {
-    let [a, b, c] = t.map(|v| mesh.positions[v as usize]);
-    // Edge k from corner k to corner k + 1, and its squared length.
-    let (e0, e1, e2) = (sub(b, a), sub(c, b), sub(a, c));
-    let len2 = [dot(e0, e0), dot(e1, e1), dot(e2, e2)];
-    let area2 = norm(cross(e0, sub(c, a)));
-    if !proper_triangle(area2, len2) {
-        return None;
-    }
-    // cot of the angle at corner k, opposite half-edge k+1 → k+2: the dot product of
-    // the two edges leaving corner k over the doubled area.
-    let neg = |v: [f64; 3]| [-v[0], -v[1], -v[2]];
-    let cots = [
-        dot(e0, neg(e2)) / area2,
-        dot(e1, neg(e0)) / area2,
-        dot(e2, neg(e1)) / area2,
-    ];
-    let half = cots.map(|x| 0.5 * x);
-    let area = 0.5 * area2;
-    let mut m = [0.0; 3];
-    match mass_kind {
-        MassKind::Barycentric => m = [area / 3.0; 3],
-        MassKind::Voronoi => {
-            let obtuse = (0..3).find(|&k| cots[k] < 0.0);
-            for k in 0..3 {
-                m[k] = match obtuse {
-                    Some(o) if o == k => area / 2.0,
-                    Some(_) => area / 4.0,
-                    None => {
-                        // Voronoi area at corner k: 1/8 (|e_kj|² cot at l + |e_kl|² cot
-                        // at j), with j = k + 1, l = k + 2: e_kj is edge k, e_kl edge
-                        // k + 2.
-                        let (j, l) = ((k + 1) % 3, (k + 2) % 3);
-                        (len2[k] * cots[l] + len2[l] * cots[j]) / 8.0
-                    }
-                };
+/// Per group of [`LANES`] faces, one loop gathers the corners and forms the edge
+/// vectors' products (scalar: the corners are scattered), and one loop over the lanes
+/// does the square roots, divisions and the mass's cases without branches, so that it
+/// vectorises; each lane computes the same IEEE operations in the same order as a
+/// face at a time (the cot at corner k: the dot product of the two edges leaving it
+/// over the doubled area `‖e₀ × (c − a)‖`), so the bits do not depend on the build.
+/// The kernel runs in the AVX2 build where the CPU has it ([`crate::cpu::dispatch`]).
+struct FaceGeometry<'a> {
+    pos: &'a [[f64; 3]],
+    faces: &'a [[u32; 3]],
+    mass_kind: MassKind,
+    out: &'a mut Vec<([f64; 3], [f64; 3])>,
+}
+
+impl crate::cpu::Kernel for FaceGeometry<'_> {
+    type Output = Option<usize>;
+    #[inline(always)]
+    fn portable(self) -> Option<usize> {
+        let FaceGeometry {
+            pos,
+            faces,
+            mass_kind,
+            out,
+        } = self;
+        let voronoi = mass_kind == MassKind::Voronoi;
+        for (g, group) in faces.chunks(LANES).enumerate() {
+            // Squared edge lengths (edge k from corner k to corner k + 1), the cots'
+            // numerators (corner k) and the squared doubled area, per lane.
+            let mut len2 = [[0.0f64; LANES]; 3];
+            let mut num = [[0.0f64; LANES]; 3];
+            let mut cross2 = [0.0f64; LANES];
+            for (q, t) in group.iter().enumerate() {
+                let [a, b, c] = [pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]];
+                let (e0, e1, e2) = (sub(b, a), sub(c, b), sub(a, c));
+                len2[0][q] = dot(e0, e0);
+                len2[1][q] = dot(e1, e1);
+                len2[2][q] = dot(e2, e2);
+                let n = cross(e0, sub(c, a));
+                cross2[q] = dot(n, n);
+                let neg = |v: [f64; 3]| [-v[0], -v[1], -v[2]];
+                num[0][q] = dot(e0, neg(e2));
+                num[1][q] = dot(e1, neg(e0));
+                num[2][q] = dot(e2, neg(e1));
+            }
+            // Lanes past the group's end compute on zeros and are not read.
+            let mut half = [[0.0f64; LANES]; 3];
+            let mut mass = [[0.0f64; LANES]; 3];
+            let mut proper = [false; LANES];
+            for q in 0..LANES {
+                let area2 = cross2[q].sqrt();
+                let l2 = [len2[0][q], len2[1][q], len2[2][q]];
+                let longest2 = 0.0f64.max(l2[0]).max(l2[1]).max(l2[2]);
+                proper[q] =
+                    area2.is_finite() && longest2.is_finite() && area2 > f64::EPSILON * longest2;
+                let cots = [num[0][q] / area2, num[1][q] / area2, num[2][q] / area2];
+                let area = 0.5 * area2;
+                // The first obtuse corner, if any, takes half the area, the others a
+                // quarter; else the Voronoi area at corner k: 1/8 (|e_kj|² cot at l +
+                // |e_kl|² cot at j), j = k + 1, l = k + 2 (e_kj edge k, e_kl edge k + 2).
+                let o = [cots[0] < 0.0, cots[1] < 0.0, cots[2] < 0.0];
+                let first = [o[0], !o[0] && o[1], !o[0] && !o[1] && o[2]];
+                let obtuse = o[0] | o[1] | o[2];
+                for k in 0..3 {
+                    half[k][q] = 0.5 * cots[k];
+                    let (j, l) = ((k + 1) % 3, (k + 2) % 3);
+                    let circum = (l2[k] * cots[l] + l2[l] * cots[j]) / 8.0;
+                    let share = if first[k] { area / 2.0 } else { area / 4.0 };
+                    mass[k][q] = if !voronoi {
+                        area / 3.0
+                    } else if obtuse {
+                        share
+                    } else {
+                        circum
+                    };
+                }
+            }
+            for q in 0..group.len() {
+                if !proper[q] {
+                    return Some(g * LANES + q);
+                }
+                out.push((
+                    [half[2][q], half[0][q], half[1][q]],
+                    [mass[0][q], mass[1][q], mass[2][q]],
+                ));
             }
         }
+        None
     }
-    Some((half, m))
 }
 
 /// True when a triangle with doubled area `area2` and corners `p` has an area above
@@ -237,6 +299,81 @@ mod tests {
                 let total: f64 = mass.iter().sum();
                 assert!((total - area).abs() < 1e-12 * area, "{name} {kind:?}");
                 assert!(mass.iter().all(|&x| x > 0.0));
+            }
+        }
+    }
+
+    /// The masses of a face at a time, with the formulas of the module doc (the obtuse
+    /// case by a search for the first obtuse corner), as the lanes replaced them.
+    fn masses_face_at_a_time(m: &TriMesh, kind: MassKind) -> Vec<f64> {
+        let mut mass = vec![0.0f64; m.n_vertices()];
+        for t in &m.faces {
+            let [a, b, c] = t.map(|v| m.positions[v as usize]);
+            let (e0, e1, e2) = (sub(b, a), sub(c, b), sub(a, c));
+            let len2 = [dot(e0, e0), dot(e1, e1), dot(e2, e2)];
+            let area2 = norm(cross(e0, sub(c, a)));
+            let neg = |v: [f64; 3]| [-v[0], -v[1], -v[2]];
+            let cots = [
+                dot(e0, neg(e2)) / area2,
+                dot(e1, neg(e0)) / area2,
+                dot(e2, neg(e1)) / area2,
+            ];
+            let area = 0.5 * area2;
+            let obtuse = (0..3).find(|&k| cots[k] < 0.0);
+            for k in 0..3 {
+                let share = match (kind, obtuse) {
+                    (MassKind::Barycentric, _) => area / 3.0,
+                    (MassKind::Voronoi, Some(o)) if o == k => area / 2.0,
+                    (MassKind::Voronoi, Some(_)) => area / 4.0,
+                    (MassKind::Voronoi, None) => {
+                        let (j, l) = ((k + 1) % 3, (k + 2) % 3);
+                        (len2[k] * cots[l] + len2[l] * cots[j]) / 8.0
+                    }
+                };
+                mass[t[k] as usize] += share;
+            }
+        }
+        mass
+    }
+
+    #[test]
+    fn masses_equal_a_face_at_a_time_bit_for_bit() {
+        let cow = crate::input::open(
+            &format!("{}/../../tests/data/cow.obj", env!("CARGO_MANIFEST_DIR")),
+            &crate::input::OpenOptions::default(),
+        )
+        .unwrap()
+        .mesh;
+        let mut cases: Vec<(String, TriMesh)> = meshes()
+            .into_iter()
+            .map(|(n, m)| (n.to_string(), m))
+            .collect();
+        cases.push(("cow".into(), cow));
+        // Jittered by up to 0.4 of the spacing: many obtuse triangles.
+        let mut grid = builtin::grid(40).unwrap();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        for p in &mut grid.positions {
+            p[0] += rng.gen_range(-0.01..0.01);
+            p[1] += rng.gen_range(-0.01..0.01);
+            p[2] = rng.gen_range(-0.002..0.002);
+        }
+        cases.push(("jittered grid".into(), grid));
+        for (name, m) in &cases {
+            let t = topo(m);
+            for kind in [MassKind::Voronoi, MassKind::Barycentric] {
+                let want: Vec<u64> = masses_face_at_a_time(m, kind)
+                    .iter()
+                    .map(|x| x.to_bits())
+                    .collect();
+                for threads in [1, 3] {
+                    let pool = rayon::ThreadPoolBuilder::new()
+                        .num_threads(threads)
+                        .build()
+                        .unwrap();
+                    let (_, mass) = pool.install(|| cotan(m, &t, kind).unwrap());
+                    let got: Vec<u64> = mass.iter().map(|x| x.to_bits()).collect();
+                    assert!(got == want, "{name} {kind:?} {threads} threads");
+                }
             }
         }
     }

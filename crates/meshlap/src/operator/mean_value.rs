@@ -80,9 +80,118 @@ fn directed_weights(mesh: &TriMesh, topo: &Topology) -> Result<Vec<[[f64; 2]; 2]
         topo,
         [0.0f64; 2],
         |acc, v| [acc[0] + v[0], acc[1] + v[1]],
-        |f| face_contributions(mesh, f, faces[f]).map(|c| (c, [(); 3])),
+        |range, out| {
+            // The lanes stop at a face they cannot take (a zero-length edge or a
+            // degenerate triangle); the one-face function names its error.
+            let mut start = range.start;
+            while start < range.end {
+                let stop = crate::cpu::dispatch(FaceLanes {
+                    pos: &mesh.positions,
+                    faces: &faces[start..range.end],
+                    out,
+                });
+                let Some(q) = stop else { break };
+                let f = start + q;
+                out.push((face_contributions(mesh, f, faces[f])?, [(); 3]));
+                start = f + 1;
+            }
+            Ok::<_, OperatorError>(())
+        },
     )?;
     Ok(sides)
+}
+
+/// Faces per group of lanes in [`FaceLanes`].
+const LANES: usize = 64;
+
+/// [`face_contributions`] of consecutive faces, pushed onto `out` in face order (with
+/// `()` per corner); stops before the first face with a zero-length edge or a
+/// triangle that is zero-area to rounding and returns its index in `faces`, for
+/// [`face_contributions`] to name the error.
+///
+/// Per group of [`LANES`] faces, one loop gathers the corners and forms the edge
+/// vectors, squared lengths and squared doubled area (scalar: the corners are
+/// scattered), one loop over the lanes does the six square roots and nine divisions
+/// of each face without branches, so that it vectorises, and one loop puts the
+/// weights in their edges' slots. Each lane computes the IEEE operations of
+/// [`face_contributions`] in the same order (the vector from corner k to corner k + 2
+/// is the exact negation of edge k + 2), so the bits are the same; the kernel runs
+/// in the AVX2 build where the CPU has it ([`crate::cpu::dispatch`]).
+struct FaceLanes<'a> {
+    pos: &'a [[f64; 3]],
+    faces: &'a [[u32; 3]],
+    out: &'a mut Vec<([[f64; 2]; 3], [(); 3])>,
+}
+
+impl crate::cpu::Kernel for FaceLanes<'_> {
+    type Output = Option<usize>;
+    #[inline(always)]
+    fn portable(self) -> Option<usize> {
+        let FaceLanes { pos, faces, out } = self;
+        for (g, group) in faces.chunks(LANES).enumerate() {
+            // Edge m (from corner m to corner m + 1) per coordinate, its squared
+            // length, and the squared doubled area, per lane.
+            let mut edge = [[[0.0f64; LANES]; 3]; 3];
+            let mut len2 = [[0.0f64; LANES]; 3];
+            let mut cross2 = [0.0f64; LANES];
+            for (q, t) in group.iter().enumerate() {
+                let c = t.map(|v| pos[v as usize]);
+                let e: [[f64; 3]; 3] = [sub(c[1], c[0]), sub(c[2], c[1]), sub(c[0], c[2])];
+                for m in 0..3 {
+                    for x in 0..3 {
+                        edge[m][x][q] = e[m][x];
+                    }
+                    len2[m][q] = dot(e[m], e[m]);
+                }
+                let n = cross(e[0], sub(c[2], c[0]));
+                cross2[q] = dot(n, n);
+            }
+            // Per corner k: the weight along edge k (`start`) and along edge k + 2
+            // (`end`), both tan(θ_k/2) over the edge's length. Lanes past the group's
+            // end compute on zeros and are not read.
+            let mut start = [[0.0f64; LANES]; 3];
+            let mut end = [[0.0f64; LANES]; 3];
+            let mut fine = [false; LANES];
+            for q in 0..LANES {
+                let l2 = [len2[0][q], len2[1][q], len2[2][q]];
+                let len = [l2[0].sqrt(), l2[1].sqrt(), l2[2].sqrt()];
+                let area2 = cross2[q].sqrt();
+                let longest2 = 0.0f64.max(l2[0]).max(l2[1]).max(l2[2]);
+                let mut ok =
+                    area2.is_finite() && longest2.is_finite() && area2 > f64::EPSILON * longest2;
+                for k in 0..3 {
+                    let k2 = (k + 2) % 3;
+                    let u = [edge[k][0][q], edge[k][1][q], edge[k][2][q]];
+                    let v = [-edge[k2][0][q], -edge[k2][1][q], -edge[k2][2][q]];
+                    let (lu, lv) = (len[k], len[k2]);
+                    // `!(x > 0)`: NaN or not positive.
+                    ok &= lu > 0.0 && lv > 0.0;
+                    let (du, dv) = (scale(u, lv), scale(v, lu));
+                    let (plus, minus) = (add(du, dv), sub(du, dv));
+                    let denom2 = dot(plus, plus);
+                    ok &= denom2 > 0.0;
+                    let half_tan = (dot(minus, minus) / denom2).sqrt();
+                    start[k][q] = half_tan / lu;
+                    end[k][q] = half_tan / lv;
+                }
+                fine[q] = ok;
+            }
+            for (q, t) in group.iter().enumerate() {
+                if !fine[q] {
+                    return Some(g * LANES + q);
+                }
+                // As `face_contributions` writes them, in the same order.
+                let mut w = [[0.0f64; 2]; 3];
+                for k in 0..3 {
+                    let (i, j, l) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
+                    w[k][usize::from(i > j)] = start[k][q];
+                    w[(k + 2) % 3][usize::from(i > l)] = end[k][q];
+                }
+                out.push((w, [(); 3]));
+            }
+        }
+        None
+    }
 }
 
 /// The directed contributions of face `f` with corners `t` to its three edges: per
@@ -165,6 +274,50 @@ mod tests {
                 if !t.is_boundary_vertex(VertexId(v as u32)) {
                     assert!(y[v].abs() < 1e-13, "vertex {v}: {}", y[v]);
                 }
+            }
+        }
+    }
+
+    /// A zero-length edge, then a collinear triangle, in 3,000 separate triangles
+    /// (many lane groups): the error is the one a face-at-a-time loop meets first, on
+    /// any pool.
+    #[test]
+    fn the_lanes_stop_where_a_face_loop_fails() {
+        let (mut v, mut f) = (Vec::new(), Vec::new());
+        for i in 0..3000u32 {
+            let x = f64::from(i);
+            let apex = match i {
+                2100 => [x, 0.0, 0.0],              // on corner 0: a zero-length edge
+                2500 | 2900 => [x + 0.5, 0.0, 0.0], // collinear
+                _ => [x, 1.0, 0.0],
+            };
+            v.extend([[x, 0.0, 0.0], [x + 1.0, 0.0, 0.0], apex]);
+            f.push([3 * i, 3 * i + 1, 3 * i + 2]);
+        }
+        let whole = TriMesh::new(v, f);
+        // The whole mesh, then without the first faulty face (the collinear one first).
+        let mut later = whole.clone();
+        later.positions[3 * 2100 + 2] = [2100.0, 1.0, 0.0];
+        for (m, zero_length) in [(&whole, true), (&later, false)] {
+            let t = topo(m);
+            let want = t
+                .faces()
+                .iter()
+                .enumerate()
+                .find_map(|(f, &face)| face_contributions(m, f, face).err())
+                .expect("a faulty face");
+            assert_eq!(
+                matches!(want, OperatorError::ZeroLengthEdge { .. }),
+                zero_length,
+                "{want}"
+            );
+            for threads in [1, 3] {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let got = pool.install(|| mean_value(m, &t)).unwrap_err();
+                assert_eq!(got.to_string(), want.to_string(), "{threads} threads");
             }
         }
     }
