@@ -54,12 +54,14 @@ pub(crate) fn vertex_weight_sums(topo: &Topology, w: &[f64]) -> Vec<f64> {
 /// `T` per half-edge `3f + m` (to be summed per undirected edge) and three values `U`
 /// per corner (kept per slot `3f + m`), computed in parallel over chunks of faces:
 /// `values(faces, out)` pushes the pairs of a range of faces onto `out` (empty), in
-/// order, or returns the error of the range's first failing face. Returns the per-corner values and, per undirected edge e
-/// ([`Topology::edges`] order), two sides `[a, b]` with
-/// `add(add(zero, a), b)` = `zero` folded with `add` over e's half-edges in ascending
-/// order, i.e. face order — the same sum as a sequential pass over the faces adding
-/// each half-edge's value into a zeroed per-edge array, on any number of threads. The
-/// caller folds the sides where it reads them (no pass over the edges):
+/// order, or returns the error of the range's first failing face.
+///
+/// Returns the per-corner values and, per undirected edge e ([`Topology::edges`]
+/// order), two sides `[a, b]` with `add(add(zero, a), b)` = `zero` folded with `add`
+/// over e's half-edges in ascending order, i.e. face order — the same sum as a
+/// sequential pass over the faces adding each half-edge's value into a zeroed
+/// per-edge array, on any number of threads. The caller folds the sides where it
+/// reads them (no pass over the edges):
 ///
 /// - an edge of two faces (its half-edges twins): `[value of the lower half-edge,
 ///   value of the higher]`, each written by its own face (a scatter to distinct
