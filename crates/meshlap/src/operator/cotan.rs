@@ -184,9 +184,7 @@ impl crate::cpu::Kernel for FaceGeometry<'_> {
             for q in 0..LANES {
                 let area2 = cross2[q].sqrt();
                 let l2 = [len2[0][q], len2[1][q], len2[2][q]];
-                let longest2 = 0.0f64.max(l2[0]).max(l2[1]).max(l2[2]);
-                proper[q] =
-                    area2.is_finite() && longest2.is_finite() && area2 > f64::EPSILON * longest2;
+                proper[q] = proper_triangle(area2, l2);
                 let cots = [num[0][q] / area2, num[1][q] / area2, num[2][q] / area2];
                 let area = 0.5 * area2;
                 // The first obtuse corner, if any, takes half the area, the others a
@@ -237,7 +235,7 @@ pub(crate) fn is_proper_triangle(area2: f64, p: [[f64; 3]; 3]) -> bool {
 
 /// [`is_proper_triangle`] from the squared edge lengths.
 #[inline]
-fn proper_triangle(area2: f64, len2: [f64; 3]) -> bool {
+pub(crate) fn proper_triangle(area2: f64, len2: [f64; 3]) -> bool {
     let longest2 = len2.into_iter().fold(0.0f64, f64::max);
     area2.is_finite() && longest2.is_finite() && area2 > f64::EPSILON * longest2
 }

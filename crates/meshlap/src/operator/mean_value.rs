@@ -156,9 +156,7 @@ impl crate::cpu::Kernel for FaceLanes<'_> {
                 let l2 = [len2[0][q], len2[1][q], len2[2][q]];
                 let len = [l2[0].sqrt(), l2[1].sqrt(), l2[2].sqrt()];
                 let area2 = cross2[q].sqrt();
-                let longest2 = 0.0f64.max(l2[0]).max(l2[1]).max(l2[2]);
-                let mut ok =
-                    area2.is_finite() && longest2.is_finite() && area2 > f64::EPSILON * longest2;
+                let mut ok = super::cotan::proper_triangle(area2, l2);
                 for k in 0..3 {
                     let k2 = (k + 2) % 3;
                     let u = [edge[k][0][q], edge[k][1][q], edge[k][2][q]];
