@@ -239,3 +239,57 @@ def test_band_and_block_sizes_change_the_path_not_the_spectrum(big_sphere):
     for bad in [0, -3, 2.5, True]:
         with pytest.raises(meshlap.SpectralError, match="positive integer"):
             meshlap.eigs(V, F, 5, "sql", band_size=bad)
+
+
+def test_spectrum_is_the_dense_ed_transform():
+    """`meshlap.spectrum` (the CLI's `spectrum`) against numpy's dense solvers: all n
+    eigenpairs of the KL and SQL (symmetric), of the TL (symmetrized and general paths,
+    unit columns as Matlab's eig), the k smallest with `count`, and the info dict."""
+    V, F = meshlap.read_mesh("builtin:torus:24:12")
+    n = len(V)
+    for kind in ["kl", "sql"]:
+        A = meshlap.operator(V, F, kind).toarray()
+        evals, evecs = meshlap.spectrum(V, F, kind)
+        assert evals.shape == (n,) and evecs.shape == (n, n)
+        np.testing.assert_allclose(evals, np.linalg.eigvalsh(A), atol=1e-12)
+        check_pairs(sp.csr_array(A), None, evals, evecs, tol=1e-12)
+    # The TL on a mesh of unequal degrees (on the torus it is KL/6, symmetric).
+    V, F = meshlap.read_mesh("builtin:icosphere:2")
+    n = len(V)
+    T = meshlap.operator(V, F, "tl").toarray()
+    ref = np.sort(np.linalg.eigvals(T).real)
+    for path in ["auto", "general"]:
+        evals, evecs, info = meshlap.spectrum(V, F, "tl", path=path, return_info=True)
+        np.testing.assert_allclose(evals, ref, atol=1e-10)
+        assert np.abs(T @ evecs - evecs * evals).max() < 1e-10
+        np.testing.assert_allclose(np.linalg.norm(evecs, axis=0), 1.0, atol=1e-12)
+        assert info["path"] == ("symmetrized" if path == "auto" else "general")
+        assert sum(info["multiplicities"]) == n and info["max_residual"] < 1e-10
+    # Weighted: orthonormal in the symmetrizer's inner product. The TL's symmetrizer
+    # is the degree matrix D up to one free scale per connected component, so on a
+    # connected mesh EᵀDE is a multiple of the identity.
+    evals, evecs, info = meshlap.spectrum(
+        V, F, "tl", normalization="weighted", return_info=True
+    )
+    D = np.diag(meshlap.operator(V, F, "kl").diagonal())
+    G = evecs.T @ D @ evecs
+    np.testing.assert_allclose(G, G[0, 0] * np.eye(n), atol=1e-9 * G[0, 0])
+    assert info["orthonormality_error"] < 1e-10
+    # The k smallest, with another dense solver: the same values.
+    small, vecs = meshlap.spectrum(V, F, "sql", 7, dense_solver="reproducible")
+    assert small.shape == (7,) and vecs.shape == (n, 7)
+    np.testing.assert_allclose(small, np.linalg.eigvalsh(meshlap.operator(V, F, "sql").toarray())[:7], atol=1e-12)
+
+
+def test_spectrum_bad_options():
+    V, F = meshlap.read_mesh("builtin:grid:4")
+    with pytest.raises(meshlap.SpectralError, match="normalization"):
+        meshlap.spectrum(V, F, "kl", normalization="euclid")
+    with pytest.raises(meshlap.SpectralError, match="dense solver"):
+        meshlap.spectrum(V, F, "kl", dense_solver="lapack")
+    with pytest.raises(ValueError):
+        meshlap.spectrum(V, F, "kl", path="sideways")
+    with pytest.raises(ValueError):
+        meshlap.spectrum(V, F, "kl", 0)
+    with pytest.raises(ValueError):
+        meshlap.spectrum(V, F, "tl", path="symmetric")

@@ -19,6 +19,9 @@ type Eigen<'py> = (
     Bound<'py, PyArray1<f64>>,
 );
 
+/// Eigenvalues (k,), eigenvectors (n, k) and the JSON of how they were computed.
+type Basis<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray2<f64>>, String);
+
 /// A descriptor (n, T) and its samples (T,).
 type Samples<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<f64>>);
 
@@ -147,6 +150,64 @@ fn eigs<'py>(
     })
     .or_raise(py)?;
     partial_out(py, ps)
+}
+
+/// `spectrum(V, F, kind, count, path, normalization, dense_solver, sql_diagonal, mass,
+/// tol, refine, band_size, block_size)` → `(evals, evecs, info JSON)`: the eigenbasis
+/// of `meshlap spectrum` — all n eigenpairs by a dense eigendecomposition (n ≤
+/// `DENSE_LIMIT`), or the `count` smallest (shift-invert above the limit), canonical
+/// signs, through [`meshlap::spectral::smallest`].
+#[pyfunction]
+#[pyo3(signature = (v, f, kind="sql", count=None, path="auto", normalization="unit", dense_solver="blocked", sql_diagonal="zero-row-sum", mass="voronoi", tol=None, refine=true, band_size=None, block_size=None))]
+#[allow(clippy::too_many_arguments)]
+fn spectrum<'py>(
+    py: Python<'py>,
+    v: PyReadonlyArray2<'_, f64>,
+    f: FaceArray<'_>,
+    kind: &str,
+    count: Option<usize>,
+    path: &str,
+    normalization: &str,
+    dense_solver: &str,
+    sql_diagonal: &str,
+    mass: &str,
+    tol: Option<f64>,
+    refine: bool,
+    band_size: Option<usize>,
+    block_size: Option<usize>,
+) -> PyResult<Basis<'py>> {
+    use meshlap::spectral::{smallest, BasisOptions, SmallestParams};
+    let basis = BasisOptions {
+        path: path.parse().or_raise(py)?,
+        normalization: normalization.parse().or_raise(py)?,
+        dense_solver: dense_solver.parse().or_raise(py)?,
+        ..Default::default()
+    };
+    let input = mesh_of(py, &v, &f)?;
+    let op = assemble(py, &input, kind, sql_diagonal, mass)?;
+    let params = SmallestParams {
+        basis,
+        partial: partial_params(0, tol, refine, band_size, block_size),
+        ..Default::default()
+    };
+    let sp = compute(py, || smallest(&op, count, &params, &mut |_, _| {})).or_raise(py)?;
+    // The CLI's JSON keys and path names (`meshlap spectrum --json`).
+    let i = &sp.info;
+    let info = json(
+        py,
+        &serde_json::json!({
+            "path": i.path.to_string(),
+            "multiplicities": i.multiplicities,
+            "max_residual": i.max_residual,
+            "orthonormality_error": i.orthonormality_error,
+            "bands": i.bands.len(),
+        }),
+    )?;
+    Ok((
+        PyArray1::from_vec(py, sp.eigenvalues),
+        mat_out(py, sp.eigenvectors.as_ref())?,
+        info,
+    ))
 }
 
 /// `eigsh(indptr, indices, data, n, k, mass, mass_csc, tol, refine, band_size,
@@ -493,5 +554,5 @@ fn wks<'py>(
 }
 
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    crate::add_functions!(m; operator, mass_matrix, properties, eigs, eigsh, project, compaction, smooth, hks, wks)
+    crate::add_functions!(m; operator, mass_matrix, properties, spectrum, eigs, eigsh, project, compaction, smooth, hks, wks)
 }

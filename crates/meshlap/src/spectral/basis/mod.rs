@@ -134,6 +134,21 @@ pub enum Normalization {
     Weighted,
 }
 
+impl std::str::FromStr for Normalization {
+    type Err = SpectralError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Ok(match s.to_ascii_lowercase().as_str() {
+            "unit" => Normalization::Unit,
+            "weighted" => Normalization::Weighted,
+            _ => {
+                return Err(SpectralError::InvalidArgument(format!(
+                    "unknown normalization {s:?} (unit or weighted)"
+                )))
+            }
+        })
+    }
+}
+
 /// The dense symmetric eigensolver of the symmetric and symmetrized paths.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]

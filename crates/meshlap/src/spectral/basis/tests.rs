@@ -463,3 +463,29 @@ fn large_bases_match_faer_and_are_orthonormal() {
         }
     }
 }
+
+/// The option names of the CLI's `--path`, `--normalization` and `--dense-solver` and
+/// of the Python package's `spectrum`, parsed by the library (any case), and unknown
+/// names rejected with the choices listed.
+#[test]
+fn option_names_parse() {
+    assert_eq!(
+        "UNIT".parse::<Normalization>().unwrap(),
+        Normalization::Unit
+    );
+    assert_eq!(
+        "weighted".parse::<Normalization>().unwrap(),
+        Normalization::Weighted
+    );
+    let e = "euclid".parse::<Normalization>().unwrap_err().to_string();
+    assert!(e.contains("unit or weighted"), "{e}");
+    for s in [
+        DenseSolver::Blocked,
+        DenseSolver::Faer,
+        DenseSolver::Reproducible,
+    ] {
+        assert_eq!(s.name().parse::<DenseSolver>().unwrap(), s);
+    }
+    assert!("lapack".parse::<DenseSolver>().is_err());
+    assert_eq!("general".parse::<EigenPath>().unwrap(), EigenPath::General);
+}
