@@ -102,35 +102,49 @@ impl Scratch {
 }
 
 /// Step 1: seeds spread over each component's vertices in index order, ascending.
+/// Components are numbered in the order of their lowest vertex and found by a
+/// union-find over the edges in index order (one sequential pass over the adjacency,
+/// where a depth-first search jumps across it).
 fn initial_seeds(n: usize, nbrs: &Graph<'_>, k: usize) -> Vec<u32> {
-    let mut comp = vec![NONE; n];
-    let mut members: Vec<Vec<u32>> = Vec::new();
-    let mut stack = Vec::new();
-    for s in 0..n as u32 {
-        if comp[s as usize] != NONE {
-            continue;
-        }
-        let c = members.len() as u32;
-        comp[s as usize] = c;
-        stack.push(s);
-        while let Some(v) = stack.pop() {
-            for &w in nbrs.of(v) {
-                if comp[w as usize] == NONE {
-                    comp[w as usize] = c;
-                    stack.push(w);
-                }
+    let mut uf = crate::mesh::topology::UnionFind::new(n);
+    for v in 0..n as u32 {
+        for &w in nbrs.of(v) {
+            if w > v {
+                uf.union(v as usize, w as usize);
             }
         }
-        members.push(Vec::new());
     }
-    for v in 0..n as u32 {
-        members[comp[v as usize] as usize].push(v);
+    // Component numbers by lowest vertex, and each component's size.
+    let mut comp = vec![NONE; n];
+    let mut number = vec![NONE; n];
+    let mut sizes: Vec<usize> = Vec::new();
+    for v in 0..n {
+        let r = uf.find(v);
+        if number[r] == NONE {
+            number[r] = sizes.len() as u32;
+            sizes.push(0);
+        }
+        comp[v] = number[r];
+        sizes[number[r] as usize] += 1;
     }
-    let mut seeds = Vec::with_capacity(k + members.len());
-    for m in &members {
-        let c = m.len();
-        let s = ((c * k + n / 2) / n).clamp(1, c);
-        seeds.extend((0..s).map(|i| m[(2 * i + 1) * c / (2 * s)]));
+    // Each component's vertices ascending, packed one component after the other.
+    let mut start: Vec<usize> = Vec::with_capacity(sizes.len() + 1);
+    start.push(0);
+    for &c in &sizes {
+        start.push(start[start.len() - 1] + c);
+    }
+    let mut fill = start.clone();
+    let mut members = vec![0u32; n];
+    for v in 0..n {
+        let c = comp[v] as usize;
+        members[fill[c]] = v as u32;
+        fill[c] += 1;
+    }
+    let mut seeds = Vec::with_capacity(k + sizes.len());
+    for (c, &len) in sizes.iter().enumerate() {
+        let m = &members[start[c]..start[c] + len];
+        let s = ((len * k + n / 2) / n).clamp(1, len);
+        seeds.extend((0..s).map(|i| m[(2 * i + 1) * len / (2 * s)]));
     }
     seeds.sort_unstable();
     seeds
@@ -461,6 +475,76 @@ mod tests {
         let (a, parts) = run(1);
         assert_eq!(run(3).0, a);
         check_connected(&t, &a, parts);
+    }
+
+    /// The seeds from the union-find's components are those of a depth-first search
+    /// numbering components by their lowest vertex (the method before it), on random
+    /// graphs of many components, isolated vertices included.
+    #[test]
+    fn seeds_match_a_depth_first_component_search() {
+        fn by_search(n: usize, nbrs: &Graph<'_>, k: usize) -> Vec<u32> {
+            let mut comp = vec![NONE; n];
+            let mut members: Vec<Vec<u32>> = Vec::new();
+            for s in 0..n as u32 {
+                if comp[s as usize] != NONE {
+                    continue;
+                }
+                let c = members.len() as u32;
+                comp[s as usize] = c;
+                let mut stack = vec![s];
+                while let Some(v) = stack.pop() {
+                    for &w in nbrs.of(v) {
+                        if comp[w as usize] == NONE {
+                            comp[w as usize] = c;
+                            stack.push(w);
+                        }
+                    }
+                }
+                members.push(Vec::new());
+            }
+            for v in 0..n as u32 {
+                members[comp[v as usize] as usize].push(v);
+            }
+            let mut seeds = Vec::new();
+            for m in &members {
+                let c = m.len();
+                let s = ((c * k + n / 2) / n).clamp(1, c);
+                seeds.extend((0..s).map(|i| m[(2 * i + 1) * c / (2 * s)]));
+            }
+            seeds.sort_unstable();
+            seeds
+        }
+        let mut rng = crate::rng::SplitMix64::new(17);
+        for round in 0..200 {
+            let n = 1 + (rng.next_u64() % 300) as usize;
+            let edges = (rng.next_u64() % (2 * n as u64)) as usize;
+            let mut adj: Vec<Vec<u32>> = vec![Vec::new(); n];
+            for _ in 0..edges {
+                let a = (rng.next_u64() % n as u64) as u32;
+                let b = (rng.next_u64() % n as u64) as u32;
+                if a != b && !adj[a as usize].contains(&b) {
+                    adj[a as usize].push(b);
+                    adj[b as usize].push(a);
+                }
+            }
+            let mut off = vec![0u32];
+            let mut flat = Vec::new();
+            for a in &adj {
+                flat.extend_from_slice(a);
+                off.push(flat.len() as u32);
+            }
+            let g = Graph {
+                off: &off,
+                adj: &flat,
+            };
+            for k in [1, 3, n / 4 + 1, n] {
+                assert_eq!(
+                    initial_seeds(n, &g, k),
+                    by_search(n, &g, k),
+                    "round {round}, k {k}"
+                );
+            }
+        }
     }
 
     /// A decision is the most frequent label of the open cells among the neighbours
