@@ -34,72 +34,98 @@ pub(super) fn decode_chunked(
     let Header { params, step } = Header::read(&mut r)?;
     let recipe = Recipe::for_version(version);
     let layout = layout(topo, &params, version)?;
-    let mut dec = RangeDecoder::new(r.rest());
-    let mut models = Models::new();
     let n = topo.n_vertices();
     let mut rec = vec![[0.0f64; 3]; n];
     // The coefficients depend on the stream only (and the patch sizes), the bases on
     // the connectivity only, and the synthesis `E_m X̃` on the patch only:
-    // range-decode every patch in order, compute the bases and synthesize in
-    // parallel, then add the predictions in order (each reads earlier patches'
-    // positions).
-    let mut coefs = Vec::with_capacity(layout.len());
-    for l in &layout {
-        let q = models.code_patch(l.m, step, params.band_slope, |_, _, _, model| {
-            model.decode(&mut dec)
-        })?;
-        if dec.exhausted() {
-            return Err(CodecError::Truncated("geometry stream"));
+    // range-decode every patch in order (on a thread of its own when the pool has
+    // more than one, so that the bases start at once and wait only for coefficients
+    // not decoded yet), compute the bases and synthesize in parallel, then add the
+    // predictions in order (each reads earlier patches' positions).
+    let coefs = Coefficients::new(layout.len());
+    let data = r.rest();
+    let decode_all = || {
+        let mut dec = RangeDecoder::new(data);
+        let mut models = Models::new();
+        let mut failed = FailOnDrop(Some(&coefs));
+        for (p, l) in layout.iter().enumerate() {
+            let q = models.code_patch(l.m, step, params.band_slope, |_, _, _, model| {
+                model.decode(&mut dec)
+            })?;
+            if dec.exhausted() {
+                return Err(CodecError::Truncated("geometry stream"));
+            }
+            coefs.publish(p, q);
         }
-        coefs.push(q);
-    }
-    // A patch needs the vectors up to its last non-zero coefficient only: `x̃ = E X̃`
-    // summed in index order from +0 adds ±0 for a zero coefficient, which changes
-    // no partial sum (none is −0), so the shorter sum has the same bits. Format
-    // version 6 on (fixed-order products); older files use every vector.
-    let need: Vec<usize> = coefs
-        .iter()
-        .map(|q| match recipe.arith {
-            Arithmetic::Fixed => (0..q.nrows())
+        failed.0 = None;
+        Ok((dec, models))
+    };
+    let owner = predictor_owners(n, &params, &layout);
+    let mut synthesize = |coefs: &Coefficients| {
+        // A patch needs the vectors up to its last non-zero coefficient only: `x̃ = E X̃`
+        // summed in index order from +0 adds ±0 for a zero coefficient, which changes
+        // no partial sum (none is −0), so the shorter sum has the same bits. Format
+        // version 6 on (fixed-order products); older files use every vector.
+        let need = |p: usize| match (coefs.wait(p), recipe.arith) {
+            (Some(q), Arithmetic::Fixed) => (0..q.nrows())
                 .rev()
                 .find(|&j| (0..3).any(|k| q[(j, k)] != 0.0))
                 .map_or(0, |j| j + 1),
-            Arithmetic::Faer => usize::MAX,
+            _ => usize::MAX,
+        };
+        // Bases and syntheses a chunk at a time (bounded memory at any mesh size),
+        // the next chunk computed while the predictions of the current one are added.
+        let compute = |r: std::ops::Range<usize>| {
+            // Each basis is used once, for its synthesis, right after it is computed.
+            bases_then(
+                topo,
+                &params,
+                recipe,
+                &layout,
+                owner.as_deref(),
+                r,
+                need,
+                |p, mut b| {
+                    let q = coefs
+                        .wait(p)
+                        .ok_or(CodecError::Truncated("geometry stream"))?;
+                    let m = need(p);
+                    let x = if m < q.nrows() {
+                        b.synthesize(&q.subrows(0, m).to_owned())?
+                    } else {
+                        b.synthesize(q)?
+                    };
+                    b.basis = None;
+                    Ok((b, x))
+                },
+            )
+        };
+        stream(&chunks(&layout, chunk), compute, |_, done| {
+            for (b, x) in &done {
+                let xhat = b.pred.as_ref().map(|pr| pr.predict(&rec));
+                b.place(xhat.as_ref(), x, &mut rec);
+            }
+            Ok(())
         })
-        .collect();
-    // Bases and syntheses a chunk at a time (bounded memory at any mesh size), the
-    // next chunk computed while the predictions of the current one are added.
-    let owner = predictor_owners(n, &params, &layout);
-    let compute = |r: std::ops::Range<usize>| {
-        // Each basis is used once, for its synthesis, right after it is computed.
-        let done = bases_then(
-            topo,
-            &params,
-            recipe,
-            &layout,
-            owner.as_deref(),
-            r,
-            |p| need[p],
-            |p, mut b| {
-                let q = &coefs[p];
-                let x = if need[p] < q.nrows() {
-                    b.synthesize(&q.subrows(0, need[p]).to_owned())?
-                } else {
-                    b.synthesize(q)?
-                };
-                b.basis = None;
-                Ok((b, x))
-            },
-        )?;
-        Ok(done)
     };
-    stream(&chunks(&layout, chunk), compute, |_, done| {
-        for (b, x) in &done {
-            let xhat = b.pred.as_ref().map(|pr| pr.predict(&rec));
-            b.place(xhat.as_ref(), x, &mut rec);
-        }
-        Ok(())
-    })?;
+    let (mut dec, mut models) = if rayon::current_num_threads() > 1 {
+        let (decoded, synthesized) = std::thread::scope(|sc| {
+            let coder = sc.spawn(decode_all);
+            let synthesized = synthesize(&coefs);
+            let decoded = coder
+                .join()
+                .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+            (decoded, synthesized)
+        });
+        // A stream error stops the bases at the patch it hit: report it first.
+        let decoded = decoded?;
+        synthesized?;
+        decoded
+    } else {
+        let decoded = decode_all()?;
+        synthesize(&coefs)?;
+        decoded
+    };
     let (border, loose) = border_and_loose(topo, &layout);
     Residuals::new(&border, &loose, params.border_residuals).code(
         topo,
@@ -113,4 +139,63 @@ pub(super) fn decode_chunked(
         return Err(CodecError::Corrupt("non-finite decoded coordinate"));
     }
     Ok(rec)
+}
+
+/// Each patch's decoded coefficients, published one patch at a time by the range
+/// decoder and awaited by the bases that need them.
+struct Coefficients {
+    slots: Vec<std::sync::OnceLock<faer::Mat<f64>>>,
+    /// Patches published so far, and whether the decoder stopped early.
+    progress: std::sync::Mutex<(usize, bool)>,
+    published: std::sync::Condvar,
+}
+
+impl Coefficients {
+    fn new(patches: usize) -> Self {
+        Self {
+            slots: (0..patches).map(|_| std::sync::OnceLock::new()).collect(),
+            progress: std::sync::Mutex::new((0, false)),
+            published: std::sync::Condvar::new(),
+        }
+    }
+
+    /// Publishes patch `p`'s coefficients (patches in order).
+    fn publish(&self, p: usize, q: faer::Mat<f64>) {
+        let _ = self.slots[p].set(q);
+        let mut g = self.progress.lock().unwrap_or_else(|e| e.into_inner());
+        g.0 = p + 1;
+        self.published.notify_all();
+    }
+
+    /// Marks the decoder stopped: no more patches come.
+    fn stop(&self) {
+        let mut g = self.progress.lock().unwrap_or_else(|e| e.into_inner());
+        g.1 = true;
+        self.published.notify_all();
+    }
+
+    /// Patch `p`'s coefficients once published; `None` if the decoder stopped
+    /// before it.
+    fn wait(&self, p: usize) -> Option<&faer::Mat<f64>> {
+        if let Some(q) = self.slots[p].get() {
+            return Some(q);
+        }
+        let mut g = self.progress.lock().unwrap_or_else(|e| e.into_inner());
+        while g.0 <= p && !g.1 {
+            g = self.published.wait(g).unwrap_or_else(|e| e.into_inner());
+        }
+        self.slots[p].get()
+    }
+}
+
+/// Stops the [`Coefficients`] when the decoder returns early or unwinds, unless
+/// disarmed (`.0 = None`), so that no basis waits for a patch that never comes.
+struct FailOnDrop<'a>(Option<&'a Coefficients>);
+
+impl Drop for FailOnDrop<'_> {
+    fn drop(&mut self) {
+        if let Some(c) = self.0 {
+            c.stop();
+        }
+    }
 }

@@ -689,3 +689,47 @@ fn rcm_order_matches_its_reference() {
         }
     }
 }
+
+/// With more than one thread the coefficients are range-decoded on a thread of
+/// their own while the bases wait for them: the same bits as on one thread, and a
+/// stream cut short anywhere (the bases then wait for patches that never come) or
+/// corrupted gives an error or a decoding, never a hang or a panic.
+#[test]
+fn coefficients_decoded_beside_the_bases() {
+    use rand::SeedableRng;
+    let m = builtin::from_spec("builtin:torus:40:24").unwrap();
+    let topo = Topology::new(&m).unwrap();
+    let params = SpectralParams {
+        patch_size: 40,
+        ..Default::default()
+    };
+    let enc = SpectralEncoder::new(topo.graph(), &m.positions, params)
+        .unwrap()
+        .encode(m.bbox_diagonal() / 512.0)
+        .unwrap();
+    let version = crate::codec::container::VERSION;
+    let on = |threads: usize, data: &[u8]| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| decode(topo.graph(), data, version))
+    };
+    for threads in [1, 2, 3] {
+        let dec = on(threads, &enc.bytes).unwrap();
+        assert!(
+            dec.iter()
+                .flatten()
+                .zip(enc.decoded.iter().flatten())
+                .all(|(a, b)| a.to_bits() == b.to_bits()),
+            "{threads} threads"
+        );
+    }
+    for cut in (0..enc.bytes.len()).step_by(7) {
+        assert!(on(3, &enc.bytes[..cut]).is_err(), "cut at {cut}");
+    }
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+    for _ in 0..50 {
+        let _ = on(2, &corrupt(&enc.bytes, &mut rng));
+    }
+}
