@@ -4,8 +4,8 @@
 use super::coefficients::Models;
 use super::header::Header;
 use super::patches::{
-    bases_then, border_and_loose, chunks, layout, predictor_owners, stream, Arithmetic, Recipe,
-    CHUNK_BYTES,
+    bases_then, border_and_loose, chunks, layout, predictor_owners, stream, Arithmetic, Progress,
+    Recipe, StopOnDrop, CHUNK_BYTES,
 };
 use super::residuals::Residuals;
 use crate::codec::container::ByteReader;
@@ -47,7 +47,7 @@ pub(super) fn decode_chunked(
     let decode_all = || {
         let mut dec = RangeDecoder::new(data);
         let mut models = Models::new();
-        let mut failed = FailOnDrop(Some(&coefs));
+        let mut failed = StopOnDrop(Some(&coefs.progress));
         for (p, l) in layout.iter().enumerate() {
             let q = models.code_patch(l.m, step, params.band_slope, |_, _, _, model| {
                 model.decode(&mut dec)
@@ -75,7 +75,7 @@ pub(super) fn decode_chunked(
         };
         // Bases and syntheses a chunk at a time (bounded memory at any mesh size),
         // the next chunk computed while the predictions of the current one are added.
-        let compute = |r: std::ops::Range<usize>| {
+        let compute = |r: std::ops::Range<usize>, sink: &(dyn Fn(usize, _) + Sync)| {
             // Each basis is used once, for its synthesis, right after it is computed.
             bases_then(
                 topo,
@@ -96,15 +96,15 @@ pub(super) fn decode_chunked(
                         b.synthesize(q)?
                     };
                     b.basis = None;
-                    Ok((b, x))
+                    sink(p, (b, x));
+                    Ok(())
                 },
-            )
+            )?;
+            Ok(())
         };
-        stream(&chunks(&layout, chunk), compute, |_, done| {
-            for (b, x) in &done {
-                let xhat = b.pred.as_ref().map(|pr| pr.predict(&rec));
-                b.place(xhat.as_ref(), x, &mut rec);
-            }
+        stream(&chunks(&layout, chunk), compute, |_, (b, x)| {
+            let xhat = b.pred.as_ref().map(|pr| pr.predict(&rec));
+            b.place(xhat.as_ref(), &x, &mut rec);
             Ok(())
         })
     };
@@ -146,56 +146,32 @@ pub(super) fn decode_chunked(
 struct Coefficients {
     slots: Vec<std::sync::OnceLock<faer::Mat<f64>>>,
     /// Patches published so far, and whether the decoder stopped early.
-    progress: std::sync::Mutex<(usize, bool)>,
-    published: std::sync::Condvar,
+    progress: Progress,
 }
 
 impl Coefficients {
     fn new(patches: usize) -> Self {
         Self {
             slots: (0..patches).map(|_| std::sync::OnceLock::new()).collect(),
-            progress: std::sync::Mutex::new((0, false)),
-            published: std::sync::Condvar::new(),
+            progress: Progress::new(0),
         }
     }
 
     /// Publishes patch `p`'s coefficients (patches in order).
     fn publish(&self, p: usize, q: faer::Mat<f64>) {
         let _ = self.slots[p].set(q);
-        let mut g = self.progress.lock().unwrap_or_else(|e| e.into_inner());
-        g.0 = p + 1;
-        self.published.notify_all();
-    }
-
-    /// Marks the decoder stopped: no more patches come.
-    fn stop(&self) {
-        let mut g = self.progress.lock().unwrap_or_else(|e| e.into_inner());
-        g.1 = true;
-        self.published.notify_all();
+        self.progress.advance(p + 1);
     }
 
     /// Patch `p`'s coefficients once published; `None` if the decoder stopped
     /// before it.
     fn wait(&self, p: usize) -> Option<&faer::Mat<f64>> {
-        if let Some(q) = self.slots[p].get() {
-            return Some(q);
-        }
-        let mut g = self.progress.lock().unwrap_or_else(|e| e.into_inner());
-        while g.0 <= p && !g.1 {
-            g = self.published.wait(g).unwrap_or_else(|e| e.into_inner());
-        }
-        self.slots[p].get()
-    }
-}
-
-/// Stops the [`Coefficients`] when the decoder returns early or unwinds, unless
-/// disarmed (`.0 = None`), so that no basis waits for a patch that never comes.
-struct FailOnDrop<'a>(Option<&'a Coefficients>);
-
-impl Drop for FailOnDrop<'_> {
-    fn drop(&mut self) {
-        if let Some(c) = self.0 {
-            c.stop();
+        match self.slots[p].get() {
+            Some(q) => Some(q),
+            None => {
+                self.progress.wait_past(p);
+                self.slots[p].get()
+            }
         }
     }
 }

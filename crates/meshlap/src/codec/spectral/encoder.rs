@@ -5,8 +5,8 @@ use super::coefficients::{octave, Models, FREQ_BANDS};
 use super::header::Header;
 use super::params::SpectralParams;
 use super::patches::{
-    bases_of, border_and_loose, chunks, layout, predictor_owners, stream, PatchBasis, PatchLayout,
-    Recipe, CHUNK_BYTES,
+    bases_then, border_and_loose, chunks, layout, predictor_owners, stream, PatchBasis,
+    PatchLayout, Recipe, CHUNK_BYTES,
 };
 use super::residuals::Residuals;
 use crate::codec::entropy::RangeEncoder;
@@ -15,7 +15,6 @@ use crate::codec::{CodecError, ParameterError};
 use crate::mesh::graph::VertexGraph;
 use faer::Mat;
 use glam::DVec3;
-use rayon::prelude::*;
 
 /// What the spectral encoder measured.
 #[derive(Clone, Debug, Default, serde::Serialize)]
@@ -46,16 +45,19 @@ fn patch_coordinates(b: &PatchBasis, positions: &[[f64; 3]]) -> Mat<f64> {
 
 /// The full bases of the patches `range` of `layout` (with their predictors when
 /// `owner` is given) and the unquantized coefficients (m×3) of the positions (n×3) on
-/// them, in parallel.
-fn bases_and_coefficients(
+/// them, in parallel, each patch's analysis right after its basis in the same task
+/// (while the basis is in cache); `then` gets each patch's index, basis and
+/// coefficients there, and its results are returned in patch order.
+fn analyzed_bases_then<T: Send>(
     topo: &VertexGraph,
     params: &SpectralParams,
     layout: &[PatchLayout],
     owner: Option<&[u32]>,
     positions: &[[f64; 3]],
     range: std::ops::Range<usize>,
-) -> Result<(Vec<PatchBasis>, Vec<Mat<f64>>), CodecError> {
-    let b = bases_of(
+    then: impl Fn(usize, PatchBasis, Mat<f64>) -> Result<T, CodecError> + Sync,
+) -> Result<Vec<T>, CodecError> {
+    bases_then(
         topo,
         params,
         Recipe::for_version(crate::codec::container::VERSION),
@@ -63,12 +65,11 @@ fn bases_and_coefficients(
         owner,
         range,
         |_| usize::MAX,
-    )?;
-    let c = b
-        .par_iter()
-        .map(|b| b.analyze(&patch_coordinates(b, positions)))
-        .collect::<Result<Vec<_>, _>>()?;
-    Ok((b, c))
+        |p, b| {
+            let c = b.analyze(&patch_coordinates(&b, positions))?;
+            then(p, b, c)
+        },
+    )
 }
 
 /// A coded spectral geometry stream.
@@ -160,14 +161,17 @@ impl<'a> SpectralEncoder<'a> {
         let owner = predictor_owners(topo.n_vertices(), &params, &layout);
         let total: usize = layout.iter().map(PatchLayout::basis_bytes).sum();
         let bases = if total <= budget {
-            let (b, c) = bases_and_coefficients(
+            let (b, c) = analyzed_bases_then(
                 topo,
                 &params,
                 &layout,
                 owner.as_deref(),
                 positions,
                 0..layout.len(),
-            )?;
+                |_, b, c| Ok((b, c)),
+            )?
+            .into_iter()
+            .unzip();
             Bases::Kept(b, c)
         } else {
             Bases::Streamed { owner, chunk }
@@ -263,21 +267,23 @@ impl<'a> SpectralEncoder<'a> {
             }
             Bases::Streamed { owner, chunk } => {
                 let ranges = chunks(&self.layout, *chunk);
-                let compute = |r| {
-                    bases_and_coefficients(
+                let compute = |r, sink: &(dyn Fn(usize, _) + Sync)| {
+                    analyzed_bases_then(
                         self.topo,
                         &self.params,
                         &self.layout,
                         owner.as_deref(),
                         self.positions,
                         r,
-                    )
-                };
-                stream(&ranges, compute, |_, (bases, coefs)| {
-                    for (b, c) in bases.iter().zip(&coefs) {
-                        self.encode_patch(&mut pass, b, c, step, measure)?;
-                    }
+                        |p, b, c| {
+                            sink(p, (b, c));
+                            Ok(())
+                        },
+                    )?;
                     Ok(())
+                };
+                stream(&ranges, compute, |_, (b, c)| {
+                    self.encode_patch(&mut pass, &b, &c, step, measure)
                 })?;
             }
         }

@@ -481,26 +481,12 @@ pub(super) fn predictor_owners(
 /// then being zero): the decoder, which
 /// knows the coefficients before the bases, needs the vectors up to a patch's last
 /// non-zero coefficient only. Bases and predictors are computed together (they are
-/// independent: the predictors need the vertex sets only).
-pub(super) fn bases_of(
-    topo: &VertexGraph,
-    params: &SpectralParams,
-    recipe: Recipe,
-    layout: &[PatchLayout],
-    owner: Option<&[u32]>,
-    range: std::ops::Range<usize>,
-    need: impl Fn(usize) -> usize + Sync,
-) -> Result<Vec<PatchBasis>, CodecError> {
-    bases_then(topo, params, recipe, layout, owner, range, need, |_, b| {
-        Ok(b)
-    })
-}
-
-/// [`bases_of`], handing each patch's basis (with its index) to `then` as soon as
-/// its group is computed, in the same task: a decoder that synthesizes there and
+/// independent: the predictors need the vertex sets only). Each patch's basis (with
+/// its index) goes to `then` as soon as its group is computed, in the same task, and
+/// `then`'s results are returned in patch order: a decoder that synthesizes there and
 /// drops the basis keeps a few bases alive at a time instead of a chunk's, so their
 /// memory is reused while still in cache.
-#[allow(clippy::too_many_arguments)] // bases_of's arguments and the hook
+#[allow(clippy::too_many_arguments)] // the bases' arguments and the hook
 pub(super) fn bases_then<T: Send>(
     topo: &VertexGraph,
     params: &SpectralParams,
@@ -554,6 +540,22 @@ pub(super) fn bases_then<T: Send>(
     Ok(groups.into_iter().flatten().collect())
 }
 
+/// [`bases_then`] keeping the bases (the tests compare them).
+#[cfg(test)]
+pub(super) fn bases_of(
+    topo: &VertexGraph,
+    params: &SpectralParams,
+    recipe: Recipe,
+    layout: &[PatchLayout],
+    owner: Option<&[u32]>,
+    range: std::ops::Range<usize>,
+    need: impl Fn(usize) -> usize + Sync,
+) -> Result<Vec<PatchBasis>, CodecError> {
+    bases_then(topo, params, recipe, layout, owner, range, need, |_, b| {
+        Ok(b)
+    })
+}
+
 /// Bytes of dense bases computed at once by [`stream`]: with two chunks alive (one
 /// being coded, the next being computed) the bases of any mesh take about twice
 /// this, plus their predictors.
@@ -578,32 +580,154 @@ pub(super) fn chunks(layout: &[PatchLayout], budget: usize) -> Vec<std::ops::Ran
     out
 }
 
-/// Runs `compute` on each range of `ranges` in order and hands its result to
-/// `consume` (with the range), computing the next range while the current one is
-/// consumed: the patches' bases (parallel, independent of the coded positions) overlap
-/// the sequential coding that needs them in order, and at most two ranges' results
-/// are alive at once.
+/// Runs `compute` on each range of `ranges` (consecutive, ascending) in order; it
+/// hands each patch's result to its sink (in any order, from any thread), and
+/// `consume` gets them one patch at a time in patch order: the patches' bases
+/// (parallel, independent of the coded positions) overlap the sequential coding that
+/// needs them in order. With more than one thread in the pool, `consume` runs on a
+/// thread of its own and takes each patch as soon as it and every earlier one are
+/// computed, so the coding of a range overlaps its own computation and no range
+/// waits for the slowest patch of the one before; range `i + 1` is computed only once
+/// range `i − 1` is consumed, so at most two ranges' results are alive at once. On
+/// one thread, each range is computed, then consumed. The first error is returned:
+/// `compute`'s if it failed (the coding then stops at the first patch that never
+/// came), else `consume`'s (the computation then stops after its current range).
 pub(super) fn stream<T: Send>(
     ranges: &[std::ops::Range<usize>],
-    compute: impl Fn(std::ops::Range<usize>) -> Result<T, CodecError> + Sync,
-    mut consume: impl FnMut(std::ops::Range<usize>, T) -> Result<(), CodecError> + Send,
+    compute: impl Fn(std::ops::Range<usize>, &(dyn Fn(usize, T) + Sync)) -> Result<(), CodecError>
+        + Sync,
+    mut consume: impl FnMut(usize, T) -> Result<(), CodecError> + Send,
 ) -> Result<(), CodecError> {
-    let Some(first) = ranges.first() else {
+    let (Some(first), Some(last)) = (ranges.first(), ranges.last()) else {
         return Ok(());
     };
-    let mut next = Some(compute(first.clone())?);
-    for (i, r) in ranges.iter().enumerate() {
-        let cur = next
-            .take()
-            .ok_or(CodecError::Internal("stream: no chunk"))?;
-        let (done, computed) = rayon::join(
-            || consume(r.clone(), cur),
-            || ranges.get(i + 1).map(|r| compute(r.clone())).transpose(),
-        );
-        done?;
-        next = computed?;
+    if rayon::current_num_threads() <= 1 {
+        for r in ranges {
+            let slots: Vec<std::sync::Mutex<Option<T>>> =
+                r.clone().map(|_| std::sync::Mutex::new(None)).collect();
+            compute(r.clone(), &|p, t| {
+                if let Some(slot) = p.checked_sub(r.start).and_then(|i| slots.get(i)) {
+                    *slot.lock().unwrap_or_else(|e| e.into_inner()) = Some(t);
+                }
+            })?;
+            for (p, slot) in r.clone().zip(slots) {
+                let t = slot.into_inner().unwrap_or_else(|e| e.into_inner());
+                consume(
+                    p,
+                    t.ok_or(CodecError::Internal("stream: a patch was not computed"))?,
+                )?;
+            }
+        }
+        return Ok(());
     }
-    Ok(())
+    let (begin, end) = (first.start, last.end);
+    let consumed = Progress::new(begin);
+    let (tx, rx) = std::sync::mpsc::channel::<(usize, T)>();
+    std::thread::scope(|sc| {
+        // Owned here, so that an unwinding computation drops it and the coding ends.
+        let tx = tx;
+        let consumer = sc.spawn(|| {
+            let rx = rx;
+            // Stops the computation however this returns (error or unwinding).
+            let _stop = StopOnDrop(Some(&consumed));
+            let mut early = std::collections::BTreeMap::new();
+            let mut next = begin;
+            while next < end {
+                let Ok((p, t)) = rx.recv() else {
+                    return Err(CodecError::Internal("stream: a patch never came"));
+                };
+                early.insert(p, t);
+                while let Some(t) = early.remove(&next) {
+                    consume(next, t)?;
+                    next += 1;
+                    consumed.advance(next);
+                }
+            }
+            Ok(())
+        });
+        let computed = (|| {
+            for (i, r) in ranges.iter().enumerate() {
+                // Range i − 2 consumed (or the coding stopped).
+                if i >= 2 && !consumed.wait_past(ranges[i - 1].start - 1) {
+                    break;
+                }
+                if consumed.stopped() {
+                    break;
+                }
+                let tx = tx.clone();
+                compute(r.clone(), &move |p, t| {
+                    // The coding stopped: nothing takes the rest.
+                    let _ = tx.send((p, t));
+                })?;
+            }
+            Ok(())
+        })();
+        drop(tx);
+        let coded = consumer
+            .join()
+            .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+        computed.and(coded)
+    })
+}
+
+/// How far a sequential producer (the coefficients' range decoder, the coding of
+/// [`stream`]) has got, for the threads that wait on it: a count of items done in
+/// order, and whether it stopped early.
+pub(super) struct Progress {
+    state: std::sync::Mutex<(usize, bool)>,
+    changed: std::sync::Condvar,
+}
+
+impl Progress {
+    /// Nothing done yet beyond `start` items.
+    pub fn new(start: usize) -> Self {
+        Self {
+            state: std::sync::Mutex::new((start, false)),
+            changed: std::sync::Condvar::new(),
+        }
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, (usize, bool)> {
+        self.state.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// `done` items are done.
+    pub fn advance(&self, done: usize) {
+        self.lock().0 = done;
+        self.changed.notify_all();
+    }
+
+    /// No more items come.
+    pub fn stop(&self) {
+        self.lock().1 = true;
+        self.changed.notify_all();
+    }
+
+    /// Whether the producer stopped early.
+    pub fn stopped(&self) -> bool {
+        self.lock().1
+    }
+
+    /// Waits until item `i` is done (true) or the producer stopped before it (false).
+    pub fn wait_past(&self, i: usize) -> bool {
+        let mut g = self.lock();
+        while g.0 <= i && !g.1 {
+            g = self.changed.wait(g).unwrap_or_else(|e| e.into_inner());
+        }
+        g.0 > i
+    }
+}
+
+/// Stops a [`Progress`] when dropped (a producer's early return or unwinding)
+/// unless disarmed (`.0 = None`), so that no thread waits for items that never come.
+pub(super) struct StopOnDrop<'a>(pub Option<&'a Progress>);
+
+impl Drop for StopOnDrop<'_> {
+    fn drop(&mut self) {
+        if let Some(p) = self.0 {
+            p.stop();
+        }
+    }
 }
 
 /// Patch of each vertex given each patch's vertices in order (`u32::MAX`: in no

@@ -691,7 +691,8 @@ fn rcm_order_matches_its_reference() {
 }
 
 /// With more than one thread the coefficients are range-decoded on a thread of
-/// their own while the bases wait for them: the same bits as on one thread, and a
+/// their own while the bases wait for them, and the coding takes each patch as soon
+/// as it is computed ([`super::patches::stream`]): the same bits as on one thread, and a
 /// stream cut short anywhere (the bases then wait for patches that never come) or
 /// corrupted gives an error or a decoding, never a hang or a panic.
 #[test]
@@ -716,6 +717,23 @@ fn coefficients_decoded_beside_the_bases() {
             .install(|| decode(topo.graph(), data, version))
     };
     for threads in [1, 2, 3] {
+        // The streamed encoder (a chunk per patch, or a few) gives the same bytes.
+        for chunk in [1, 50_000] {
+            let streamed = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| {
+                    SpectralEncoder::with_budgets(topo.graph(), &m.positions, params, 0, chunk)
+                        .unwrap()
+                        .encode(m.bbox_diagonal() / 512.0)
+                        .unwrap()
+                });
+            assert_eq!(
+                streamed.bytes, enc.bytes,
+                "{threads} threads, chunk {chunk}"
+            );
+        }
         let dec = on(threads, &enc.bytes).unwrap();
         assert!(
             dec.iter()
