@@ -74,7 +74,7 @@ pub(super) fn decode_chunked(
             _ => usize::MAX,
         };
         // Bases and syntheses a chunk at a time (bounded memory at any mesh size),
-        // the next chunk computed while the predictions of the current one are added.
+        // each patch's prediction added as soon as every earlier patch is placed.
         let compute = |r: std::ops::Range<usize>, sink: &(dyn Fn(usize, _) + Sync)| {
             // Each basis is used once, for its synthesis, right after it is computed.
             bases_then(

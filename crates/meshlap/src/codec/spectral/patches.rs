@@ -540,22 +540,6 @@ pub(super) fn bases_then<T: Send>(
     Ok(groups.into_iter().flatten().collect())
 }
 
-/// [`bases_then`] keeping the bases (the tests compare them).
-#[cfg(test)]
-pub(super) fn bases_of(
-    topo: &VertexGraph,
-    params: &SpectralParams,
-    recipe: Recipe,
-    layout: &[PatchLayout],
-    owner: Option<&[u32]>,
-    range: std::ops::Range<usize>,
-    need: impl Fn(usize) -> usize + Sync,
-) -> Result<Vec<PatchBasis>, CodecError> {
-    bases_then(topo, params, recipe, layout, owner, range, need, |_, b| {
-        Ok(b)
-    })
-}
-
 /// Bytes of dense bases computed at once by [`stream`]: with two chunks alive (one
 /// being coded, the next being computed) the bases of any mesh take about twice
 /// this, plus their predictors.

@@ -444,7 +444,7 @@ fn direct_kirchhoff_matches_the_assembled_operator() {
 /// rounding and sign (per vector), for each symmetric operator.
 #[test]
 fn factored_bases_match_the_explicit_ones() {
-    use super::patches::{bases_of, layout, Recipe};
+    use super::patches::{bases_then, layout, Recipe};
     use crate::operator::OperatorKind;
     let mesh = crate::mesh::builtin::torus(20, 12).unwrap();
     let topo = crate::mesh::topology::Topology::new(&mesh).unwrap();
@@ -462,7 +462,7 @@ fn factored_bases_match_the_explicit_ones() {
         };
         let lay = layout(topo.graph(), &params, 8).unwrap();
         let n = lay.len();
-        let old = bases_of(
+        let old = bases_then(
             topo.graph(),
             &params,
             Recipe::for_version(7),
@@ -470,9 +470,10 @@ fn factored_bases_match_the_explicit_ones() {
             None,
             0..n,
             |_| usize::MAX,
+            |_, b| Ok(b),
         )
         .unwrap();
-        let new = bases_of(
+        let new = bases_then(
             topo.graph(),
             &params,
             Recipe::for_version(8),
@@ -480,6 +481,7 @@ fn factored_bases_match_the_explicit_ones() {
             None,
             0..n,
             |_| usize::MAX,
+            |_, b| Ok(b),
         )
         .unwrap();
         for (a, b) in old.iter().zip(&new) {
