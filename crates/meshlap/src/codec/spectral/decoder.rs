@@ -55,24 +55,26 @@ pub(super) fn decode_chunked(
             if dec.exhausted() {
                 return Err(CodecError::Truncated("geometry stream"));
             }
-            coefs.publish(p, q);
+            // A patch needs the vectors up to its last non-zero coefficient only:
+            // `x̃ = E X̃` summed in index order from +0 adds ±0 for a zero
+            // coefficient, which changes no partial sum (none is −0), so the shorter
+            // sum has the same bits. Format version 6 on (fixed-order products);
+            // older files use every vector.
+            let need = match recipe.arith {
+                Arithmetic::Fixed => (0..q.nrows())
+                    .rev()
+                    .find(|&j| (0..3).any(|k| q[(j, k)] != 0.0))
+                    .map_or(0, |j| j + 1),
+                Arithmetic::Faer => usize::MAX,
+            };
+            coefs.publish(p, q, need);
         }
         failed.0 = None;
         Ok((dec, models))
     };
     let owner = predictor_owners(n, &params, &layout);
-    let mut synthesize = |coefs: &Coefficients| {
-        // A patch needs the vectors up to its last non-zero coefficient only: `x̃ = E X̃`
-        // summed in index order from +0 adds ±0 for a zero coefficient, which changes
-        // no partial sum (none is −0), so the shorter sum has the same bits. Format
-        // version 6 on (fixed-order products); older files use every vector.
-        let need = |p: usize| match (coefs.wait(p), recipe.arith) {
-            (Some(q), Arithmetic::Fixed) => (0..q.nrows())
-                .rev()
-                .find(|&j| (0..3).any(|k| q[(j, k)] != 0.0))
-                .map_or(0, |j| j + 1),
-            _ => usize::MAX,
-        };
+    let mut synthesize = || {
+        let need = |p: usize| coefs.wait(p).map_or(usize::MAX, |&(_, m)| m);
         // Bases and syntheses a chunk at a time (bounded memory at any mesh size),
         // each patch's prediction added as soon as every earlier patch is placed.
         let compute = |r: std::ops::Range<usize>, sink: &(dyn Fn(usize, _) + Sync)| {
@@ -86,10 +88,10 @@ pub(super) fn decode_chunked(
                 r,
                 need,
                 |p, mut b| {
-                    let q = coefs
+                    let (q, m) = coefs
                         .wait(p)
                         .ok_or(CodecError::Truncated("geometry stream"))?;
-                    let m = need(p);
+                    let m = *m;
                     let x = if m < q.nrows() {
                         b.synthesize(&q.subrows(0, m).to_owned())?
                     } else {
@@ -111,7 +113,7 @@ pub(super) fn decode_chunked(
     let (mut dec, mut models) = if rayon::current_num_threads() > 1 {
         let (decoded, synthesized) = std::thread::scope(|sc| {
             let coder = sc.spawn(decode_all);
-            let synthesized = synthesize(&coefs);
+            let synthesized = synthesize();
             let decoded = coder
                 .join()
                 .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
@@ -123,7 +125,7 @@ pub(super) fn decode_chunked(
         decoded
     } else {
         let decoded = decode_all()?;
-        synthesize(&coefs)?;
+        synthesize()?;
         decoded
     };
     let (border, loose) = border_and_loose(topo, &layout);
@@ -141,10 +143,11 @@ pub(super) fn decode_chunked(
     Ok(rec)
 }
 
-/// Each patch's decoded coefficients, published one patch at a time by the range
-/// decoder and awaited by the bases that need them.
+/// Each patch's decoded coefficients and how many of its vectors they need,
+/// published one patch at a time by the range decoder and awaited by the bases that
+/// need them.
 struct Coefficients {
-    slots: Vec<std::sync::OnceLock<faer::Mat<f64>>>,
+    slots: Vec<std::sync::OnceLock<(faer::Mat<f64>, usize)>>,
     /// Patches published so far, and whether the decoder stopped early.
     progress: Progress,
 }
@@ -157,17 +160,18 @@ impl Coefficients {
         }
     }
 
-    /// Publishes patch `p`'s coefficients (patches in order).
-    fn publish(&self, p: usize, q: faer::Mat<f64>) {
-        let _ = self.slots[p].set(q);
+    /// Publishes patch `p`'s coefficients and the vectors they need (patches in
+    /// order).
+    fn publish(&self, p: usize, q: faer::Mat<f64>, need: usize) {
+        let _ = self.slots[p].set((q, need));
         self.progress.advance(p + 1);
     }
 
-    /// Patch `p`'s coefficients once published; `None` if the decoder stopped
-    /// before it.
-    fn wait(&self, p: usize) -> Option<&faer::Mat<f64>> {
+    /// Patch `p`'s coefficients and the vectors they need, once published; `None`
+    /// if the decoder stopped before it.
+    fn wait(&self, p: usize) -> Option<&(faer::Mat<f64>, usize)> {
         match self.slots[p].get() {
-            Some(q) => Some(q),
+            Some(c) => Some(c),
             None => {
                 self.progress.wait_past(p);
                 self.slots[p].get()

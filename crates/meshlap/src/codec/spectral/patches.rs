@@ -632,8 +632,8 @@ pub(super) fn stream<T: Send>(
         let computed = (|| {
             for (i, r) in ranges.iter().enumerate() {
                 // Range i − 2 consumed (or the coding stopped).
-                if i >= 2 && !consumed.wait_past(ranges[i - 1].start - 1) {
-                    break;
+                if i >= 2 {
+                    consumed.wait_past(ranges[i - 1].start - 1);
                 }
                 if consumed.stopped() {
                     break;
@@ -692,13 +692,12 @@ impl Progress {
         self.lock().1
     }
 
-    /// Waits until item `i` is done (true) or the producer stopped before it (false).
-    pub fn wait_past(&self, i: usize) -> bool {
+    /// Waits until item `i` is done or the producer stopped.
+    pub fn wait_past(&self, i: usize) {
         let mut g = self.lock();
         while g.0 <= i && !g.1 {
             g = self.changed.wait(g).unwrap_or_else(|e| e.into_inner());
         }
-        g.0 > i
     }
 }
 

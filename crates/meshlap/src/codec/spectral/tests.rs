@@ -706,31 +706,29 @@ fn coefficients_decoded_beside_the_bases() {
         patch_size: 40,
         ..Default::default()
     };
+    let step = m.bbox_diagonal() / 512.0;
     let enc = SpectralEncoder::new(topo.graph(), &m.positions, params)
         .unwrap()
-        .encode(m.bbox_diagonal() / 512.0)
+        .encode(step)
         .unwrap();
     let version = crate::codec::container::VERSION;
-    let on = |threads: usize, data: &[u8]| {
+    let pool = |threads: usize| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .unwrap()
-            .install(|| decode(topo.graph(), data, version))
     };
+    let on =
+        |threads: usize, data: &[u8]| pool(threads).install(|| decode(topo.graph(), data, version));
     for threads in [1, 2, 3] {
         // The streamed encoder (a chunk per patch, or a few) gives the same bytes.
         for chunk in [1, 50_000] {
-            let streamed = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap()
-                .install(|| {
-                    SpectralEncoder::with_budgets(topo.graph(), &m.positions, params, 0, chunk)
-                        .unwrap()
-                        .encode(m.bbox_diagonal() / 512.0)
-                        .unwrap()
-                });
+            let streamed = pool(threads).install(|| {
+                SpectralEncoder::with_budgets(topo.graph(), &m.positions, params, 0, chunk)
+                    .unwrap()
+                    .encode(step)
+                    .unwrap()
+            });
             assert_eq!(
                 streamed.bytes, enc.bytes,
                 "{threads} threads, chunk {chunk}"
