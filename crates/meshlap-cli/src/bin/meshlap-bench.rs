@@ -19,7 +19,7 @@
 //! `--bits Q`, `--target-bpv B`; non-manifold vertices split first),
 //! `partial` (the `--count` smallest eigenpairs by banded shift-invert block
 //! Krylov–Schur; `--tol`, `--band`, `--block`, `--no-refine` override `PartialParams`), `partition`
-//! (METIS patches of `--patch-size`), `project-patches` (partition + patch-wise
+//! (patches of `--patch-size`, METIS or `--method lloyd`), `project-patches` (partition + patch-wise
 //! truncated ED reconstruction, end to end, with the peak RSS).
 
 use meshlap::input::{open, OpenOptions};
@@ -134,7 +134,7 @@ fn main() {
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let usage = "usage: meshlap-bench load|operators|topology|io|read|spectrum|solvers|codec|partial|partition|project-patches MESH \
-                 [--repeat N] [--kind K] [--general] [--phases] [--lambda L] [--export DIR] [--count K] [--tol T] [--band B] [--block P] [--no-refine] [--patch-size P] [--mode M] [--bits Q] [--target-bpv B] \
+                 [--repeat N] [--kind K] [--general] [--phases] [--lambda L] [--export DIR] [--count K] [--tol T] [--band B] [--block P] [--no-refine] [--patch-size P] [--method metis|lloyd] [--mode M] [--bits Q] [--target-bpv B] \
                  | dump MESH DIR | write MESH OUT [--repeat N]";
     let task = args.first().ok_or(usage)?.clone();
     let mesh = args.get(1).ok_or(usage)?.clone();
@@ -450,7 +450,10 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             let p: usize = flag(&args, "--patch-size").unwrap_or("300").parse()?;
             let input = open(&mesh, &OpenOptions::default())?;
             out.insert("vertices".into(), input.mesh.n_vertices().into());
-            let opts = meshlap::partition::PartitionOptions::new(p);
+            let mut opts = meshlap::partition::PartitionOptions::new(p);
+            if let Some(m) = flag(&args, "--method") {
+                opts.method = m.parse()?;
+            }
             let mut stats = None;
             let (m, t) = try_time(repeat, || {
                 let part = meshlap::partition::partition(input.topology.graph(), &opts)?;
