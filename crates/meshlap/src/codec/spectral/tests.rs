@@ -7,6 +7,15 @@ use crate::mesh::builtin;
 use crate::mesh::topology::Topology;
 use crate::operator::OperatorKind;
 
+/// Whether the positions `a` and `b` have the same bits, coordinate by coordinate
+/// (over the shorter of the two).
+fn same_bits(a: &[[f64; 3]], b: &[[f64; 3]]) -> bool {
+    a.iter()
+        .flatten()
+        .zip(b.iter().flatten())
+        .all(|(x, y)| x.to_bits() == y.to_bits())
+}
+
 #[test]
 fn decoder_reproduces_encoder_exactly_with_repeated_eigenvalues() {
     for spec in ["builtin:icosphere:3", "builtin:cube:8", "builtin:grid:9"] {
@@ -69,13 +78,7 @@ fn decoder_with_partial_bases_reproduces_encoder_exactly() {
             for div in [4.0, 64.0, 1024.0, 65536.0] {
                 let e = enc.encode(m.bbox_diagonal() / div).unwrap();
                 let dec = decode(topo.graph(), &e.bytes, crate::codec::container::VERSION).unwrap();
-                assert!(
-                    dec.iter()
-                        .flatten()
-                        .zip(e.decoded.iter().flatten())
-                        .all(|(a, b)| a.to_bits() == b.to_bits()),
-                    "{spec} {op} diag/{div}"
-                );
+                assert!(same_bits(&dec, &e.decoded), "{spec} {op} diag/{div}");
             }
         }
     }
@@ -335,11 +338,7 @@ fn streamed_bases_give_the_same_stream_and_decoding() {
                 let got = streamed.encode(step).unwrap();
                 assert_eq!(got.bytes, want.bytes, "{spec} diag/{div} chunk {chunk}");
                 assert!(
-                    got.decoded
-                        .iter()
-                        .flatten()
-                        .zip(want.decoded.iter().flatten())
-                        .all(|(a, b)| a.to_bits() == b.to_bits()),
+                    same_bits(&got.decoded, &want.decoded),
                     "{spec} diag/{div} chunk {chunk}"
                 );
                 assert_eq!(got.stats.patches, want.stats.patches);
@@ -353,10 +352,7 @@ fn streamed_bases_give_the_same_stream_and_decoding() {
                 )
                 .unwrap();
                 assert!(
-                    dec.iter()
-                        .flatten()
-                        .zip(want.decoded.iter().flatten())
-                        .all(|(a, b)| a.to_bits() == b.to_bits()),
+                    same_bits(&dec, &want.decoded),
                     "{spec} diag/{div} decoder chunk {chunk}"
                 );
             }
@@ -735,13 +731,7 @@ fn coefficients_decoded_beside_the_bases() {
             );
         }
         let dec = on(threads, &enc.bytes).unwrap();
-        assert!(
-            dec.iter()
-                .flatten()
-                .zip(enc.decoded.iter().flatten())
-                .all(|(a, b)| a.to_bits() == b.to_bits()),
-            "{threads} threads"
-        );
+        assert!(same_bits(&dec, &enc.decoded), "{threads} threads");
     }
     for cut in (0..enc.bytes.len()).step_by(7) {
         assert!(on(3, &enc.bytes[..cut]).is_err(), "cut at {cut}");
