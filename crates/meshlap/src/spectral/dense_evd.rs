@@ -556,22 +556,11 @@ pub(super) fn ql_eigenvalues(d: &[f64], e: &[f64]) -> Option<Vec<f64>> {
         .map(|x| x * x)
         .chain(std::iter::once(0.0))
         .collect();
-    let eps2 = f64::EPSILON * f64::EPSILON;
     let tnorm = infinity_norm(&d, e);
     for l in 0..n {
         let mut iter = 0;
         loop {
-            let mut m = l;
-            while m + 1 < n {
-                // Relative to the neighbouring diagonal or, as EISPACK's tql1, to ‖T‖:
-                // a purely relative test never deflates a noise-level block that is
-                // still coupled to O(1) eigenvalues (low-rank and graded matrices).
-                let dd = (d[m].abs() + d[m + 1].abs()).max(tnorm);
-                if e2[m] <= eps2 * dd * dd {
-                    break;
-                }
-                m += 1;
-            }
+            let m = split_point(&d, &e2, l, tnorm);
             if m == l {
                 break;
             }
@@ -617,6 +606,36 @@ pub(super) fn ql_eigenvalues(d: &[f64], e: &[f64]) -> Option<Vec<f64>> {
     }
     d.sort_by(f64::total_cmp);
     Some(d)
+}
+
+/// The QL iteration's split point from row `l`: the first `m ≥ l` (`m + 1 < n`) whose
+/// squared off-diagonal `e2[m]` is negligible, `e_m² ≤ ε² max(|d_m| + |d_{m+1}|,
+/// ‖T‖∞)²`, else `n − 1` (`n = d.len()`, `e2` at least `n − 1` long, `l < n`). The
+/// test is relative to the neighbouring diagonal or, as EISPACK's tql1, to ‖T‖: a
+/// purely relative test never deflates a noise-level block that is still coupled to
+/// O(1) eigenvalues (low-rank and graded matrices). Four rows are tested at a time
+/// (independent tests, no chain of dependent branches); a test is a predicate, so
+/// the split point is the one-row-at-a-time search's.
+#[inline(always)]
+fn split_point(d: &[f64], e2: &[f64], l: usize, tnorm: f64) -> usize {
+    let n = d.len();
+    let eps2 = f64::EPSILON * f64::EPSILON;
+    let small = |m: usize| {
+        let dd = (d[m].abs() + d[m + 1].abs()).max(tnorm);
+        e2[m] <= eps2 * dd * dd
+    };
+    let mut m = l;
+    while m + 4 < n {
+        let hit = [small(m), small(m + 1), small(m + 2), small(m + 3)];
+        if hit[0] | hit[1] | hit[2] | hit[3] {
+            return m + hit.iter().take_while(|&&h| !h).count();
+        }
+        m += 4;
+    }
+    while m + 1 < n && !small(m) {
+        m += 1;
+    }
+    m
 }
 
 /// One tridiagonal's state in [`ql_eigenvalues_many`]: the QL iteration of
@@ -667,18 +686,10 @@ impl QlState {
     #[inline(always)]
     fn next_sweep(&mut self) -> Result<Option<QlSweep>, ()> {
         let n = self.d.len();
-        let eps2 = f64::EPSILON * f64::EPSILON;
         let (d, e2) = (&self.d, &self.e2);
         while self.l < n {
             let l = self.l;
-            let mut m = l;
-            while m + 1 < n {
-                let dd = (d[m].abs() + d[m + 1].abs()).max(self.tnorm);
-                if e2[m] <= eps2 * dd * dd {
-                    break;
-                }
-                m += 1;
-            }
+            let m = split_point(d, e2, l, self.tnorm);
             if m == l {
                 self.l += 1;
                 self.iter = 0;
@@ -2050,6 +2061,52 @@ mod tests {
             check::<8>(&t, offset);
             check::<12>(&t, offset);
         }
+    }
+
+    /// The four-at-a-time split point is the first negligible row a row-by-row search
+    /// finds, from every start, with negligible rows at every position (none, one,
+    /// several, next to the end) and tests that pass on the diagonal's or on ‖T‖'s
+    /// scale.
+    #[test]
+    fn split_point_is_the_row_by_row_search() {
+        fn by_row(d: &[f64], e2: &[f64], l: usize, tnorm: f64) -> usize {
+            let eps2 = f64::EPSILON * f64::EPSILON;
+            let mut m = l;
+            while m + 1 < d.len() {
+                let dd = (d[m].abs() + d[m + 1].abs()).max(tnorm);
+                if e2[m] <= eps2 * dd * dd {
+                    break;
+                }
+                m += 1;
+            }
+            m
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(77);
+        let mut hits = 0;
+        for case in 0..3000 {
+            let n = 1 + case % 23;
+            let d: Vec<f64> = (0..n)
+                .map(|_| rng.gen_range(-1.0..1.0) * 10f64.powi(rng.gen_range(-3..4)))
+                .collect();
+            let rate = [0.0, 0.05, 0.3][case % 3];
+            let e2: Vec<f64> = (0..n)
+                .map(|_| {
+                    if rng.gen_bool(rate) {
+                        // At, just below and just above the threshold of a unit scale.
+                        [0.0, 1e-40, 4.9e-32, 5.0e-32][rng.gen_range(0..4)]
+                    } else {
+                        rng.gen_range(1e-6..1.0)
+                    }
+                })
+                .collect();
+            let tnorm = [0.0, 1.0, 1e3][case % 3];
+            for l in 0..n {
+                let want = by_row(&d, &e2, l, tnorm);
+                assert_eq!(split_point(&d, &e2, l, tnorm), want, "case {case}, l {l}");
+                hits += usize::from(want + 1 < n);
+            }
+        }
+        assert!(hits > 1000, "too few negligible rows found: {hits}");
     }
 
     #[test]
