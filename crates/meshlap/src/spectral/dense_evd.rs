@@ -2099,7 +2099,7 @@ mod tests {
                     }
                 })
                 .collect();
-            let tnorm = [0.0, 1.0, 1e3][case % 3];
+            let tnorm = [0.0, 1.0, 1e3][(case / 3) % 3];
             for l in 0..n {
                 let want = by_row(&d, &e2, l, tnorm);
                 assert_eq!(split_point(&d, &e2, l, tnorm), want, "case {case}, l {l}");
