@@ -350,6 +350,7 @@ pub(crate) enum RingOrder {
 }
 
 /// The k of column j in `order`, into `out`.
+#[cfg(test)]
 fn ring_ks(topo: &Topology, j: usize, order: RingOrder, out: &mut Vec<u32>) {
     let nb = topo.neighbors(crate::VertexId(j as u32));
     out.clear();
@@ -364,11 +365,24 @@ fn ring_ks(topo: &Topology, j: usize, order: RingOrder, out: &mut Vec<u32>) {
     rest[1..].copy_from_slice(&nb[split..]);
 }
 
+/// The off-diagonal entries `entry(k, i)`, i ∈ N(k), of the one-ring columns k that
+/// [`two_ring_matrix`] combines: one value per column k (`v[k]`: the rows of the Tutte
+/// Laplacian, as `TᵀT` reads them) or one per row i (`v[i]`: its columns, as `T²`
+/// reads them). With one value per column, the product `c_jk · v[k]` is formed once
+/// per k instead of once per entry: the same product, so the same bits.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum RingEntries<'a> {
+    /// `entry(k, i) = v[k]`.
+    PerColumn(&'a [f64]),
+    /// `entry(k, i) = v[i]`.
+    PerRow(&'a [f64]),
+}
+
 /// An n×n second-order matrix with the two-ring pattern: column j is
 /// `Σ_k coeff(j, k) · column_k` over k ∈ {j} ∪ N(j) (in `order`), where `column_k` has
-/// the entries `entry(k, i)` at rows i ∈ {k} ∪ N(k). Each entry is
-/// `0 + Σ_k coeff(j, k)·entry(k, i)` summed in `order` — the same bits as a dense
-/// accumulator (Gustavson) visiting the same k in the same order.
+/// the entries `entry(k, k) = diag(k)` and `entry(k, i)` for i ∈ N(k) (`off`). Each
+/// entry is `0 + Σ_k coeff(j, k)·entry(k, i)` summed in `order` — the same bits as a
+/// dense accumulator (Gustavson) visiting the same k in the same order.
 ///
 /// Two parallel passes over blocks of columns. The first finds each column's distinct
 /// rows, already sorted, with a per-worker bitmap of n bits (no clearing between
@@ -377,13 +391,15 @@ fn ring_ks(topo: &Topology, j: usize, order: RingOrder, out: &mut Vec<u32>) {
 /// out in order (and cleared). The rows go to the block's list (4 bytes each) and the
 /// running sum of the column lengths gives the column pointers. The second pass
 /// copies each block's rows into the final array and sums the values in a per-worker
-/// dense accumulator of n entries, read out (and zeroed) in the rows' order.
-/// (Sorting each column's ~19 rows by rank instead cost a fifth of the time.)
+/// dense accumulator of n entries, read out (and zeroed) in the rows' order, adding
+/// each `coeff(j, k)·column_k` with [`add_column`]. (Sorting each column's ~19 rows by
+/// rank instead cost a fifth of the time.)
 pub(crate) fn two_ring_matrix(
     topo: &Topology,
     order: RingOrder,
     coeff: impl Fn(usize, usize) -> f64 + Sync,
-    entry: impl Fn(usize, usize) -> f64 + Sync,
+    diag: impl Fn(usize) -> f64 + Sync,
+    off: RingEntries<'_>,
 ) -> SparseMatrix {
     let n = topo.n_vertices();
     let nbr = |k: usize| topo.neighbors(crate::VertexId(k as u32));
@@ -396,14 +412,16 @@ pub(crate) fn two_ring_matrix(
         .enumerate()
         .with_min_len(min_len)
         .map_init(
-            || (vec![0u64; n.div_ceil(64)], Vec::new(), Vec::new()),
-            |(bits, ks, words), (b, cnt)| {
+            || (vec![0u64; n.div_ceil(64)], Vec::new()),
+            |(bits, words), (b, cnt)| {
                 let mut rows: Vec<u32> = Vec::new();
                 let mut ok = true;
                 let columns = cnt.len();
                 for (c, j) in cnt.iter_mut().zip(b * BLOCK..) {
-                    ring_ks(topo, j, order, ks);
-                    let bound: usize = ks.iter().map(|&k| nbr(k as usize).len() + 1).sum();
+                    let nb = nbr(j);
+                    // Candidates: {k} ∪ N(k) for k ∈ {j} ∪ N(j).
+                    let bound =
+                        nb.len() + 1 + nb.iter().map(|&k| nbr(k as usize).len() + 1).sum::<usize>();
                     if words.len() < bound {
                         words.resize(bound, 0u32);
                     }
@@ -420,7 +438,9 @@ pub(crate) fn two_ring_matrix(
                         bits[w] = old | (1u64 << (i & 63));
                         top = top.max(i);
                     };
-                    for &k in ks.iter() {
+                    visit(j as u32);
+                    nb.iter().for_each(|&i| visit(i));
+                    for &k in nb {
                         visit(k);
                         nbr(k as usize).iter().for_each(|&i| visit(i));
                     }
@@ -429,14 +449,18 @@ pub(crate) fn two_ring_matrix(
                     ok &= (top as usize) < n;
                     let words = &mut words[..m];
                     sort_distinct(words);
+                    let len: usize = words
+                        .iter()
+                        .map(|&w| bits[w as usize].count_ones() as usize)
+                        .sum();
                     if rows.is_empty() {
-                        // Room for every column's candidates, if they were as many
-                        // as the first's: rarely regrown (pages never written cost
-                        // nothing).
-                        rows.reserve(bound * columns);
+                        // Room for every column's rows, if they were up to half as
+                        // many again as the first's: rarely regrown (pages never
+                        // written cost nothing).
+                        rows.reserve((len + len / 2 + 8) * columns);
                     }
                     let before = rows.len();
-                    rows.reserve(bound);
+                    rows.reserve(len);
                     let spare = rows.spare_capacity_mut();
                     let mut q = 0;
                     for &w in words.iter() {
@@ -473,22 +497,23 @@ pub(crate) fn two_ring_matrix(
         .zip(blocks.into_par_iter())
         .with_min_len(min_len)
         .for_each_init(
-            || (vec![0.0f64; n], Vec::new()),
-            |(acc, ks), ((s, e, rows, vals), (found, _))| {
+            || vec![0.0f64; n],
+            |acc, ((s, e, rows, vals), (found, _))| {
                 // The block's rows were counted into `col_ptr` from the same lists.
                 assert_eq!(found.len(), rows.len(), "two-ring block length");
                 let mut p0 = 0;
                 for j in s..e {
-                    ring_ks(topo, j, order, ks);
-                    for &k in ks.iter() {
-                        let k = k as usize;
-                        let c = coeff(j, k);
-                        acc[k] += c * entry(k, k);
-                        for &i in nbr(k) {
-                            let i = i as usize;
-                            acc[i] += c * entry(k, i);
-                        }
-                    }
+                    let nb = nbr(j);
+                    let split = match order {
+                        RingOrder::Ascending => count_below(nb, j),
+                        RingOrder::DiagonalFirst => 0,
+                    };
+                    let add = |acc: &mut [f64], k: usize| {
+                        add_column(acc, k, nbr(k), coeff(j, k), diag(k), off);
+                    };
+                    nb[..split].iter().for_each(|&k| add(acc, k as usize));
+                    add(acc, j);
+                    nb[split..].iter().for_each(|&k| add(acc, k as usize));
                     let len = col_ptr[j + 1] - col_ptr[j];
                     let (r, v) = (&mut rows[p0..p0 + len], &mut vals[p0..p0 + len]);
                     for ((&i, ri), vi) in found[p0..p0 + len].iter().zip(r).zip(v) {
@@ -503,6 +528,27 @@ pub(crate) fn two_ring_matrix(
     // SAFETY: each block's slices have the length of its row list (asserted), and
     // every column wrote all `len` of its rows and values; the columns cover [0, nnz).
     unsafe { finish(n, col_ptr, row_idx, val, sorted) }
+}
+
+/// Adds `c · column_k` (entries `dk` at row k, `off` at the rows `nb_k` = N(k)) into
+/// the dense accumulator of [`two_ring_matrix`]'s second pass.
+#[inline(always)]
+fn add_column(acc: &mut [f64], k: usize, nb_k: &[u32], c: f64, dk: f64, off: RingEntries<'_>) {
+    acc[k] += c * dk;
+    match off {
+        RingEntries::PerColumn(v) => {
+            let ck = c * v[k];
+            for &i in nb_k {
+                acc[i as usize] += ck;
+            }
+        }
+        RingEntries::PerRow(v) => {
+            for &i in nb_k {
+                let i = i as usize;
+                acc[i] += c * v[i];
+            }
+        }
+    }
 }
 
 /// Up to this many distinct 64-row words of a two-ring column are sorted by rank (see
@@ -891,24 +937,38 @@ mod tests {
             let n = t.n_vertices();
             // Arbitrary, asymmetric coefficients: every (j, k) and (k, i) distinct.
             let coeff = |j: usize, k: usize| 1.0 + (j as f64) / (n as f64) - 0.5 * (k as f64);
-            let entry = |k: usize, i: usize| 0.25 + (k as f64) * 1e-3 - (i as f64) * 0.7;
-            for order in [RingOrder::Ascending, RingOrder::DiagonalFirst] {
-                let got = two_ring_matrix(&t, order, coeff, entry);
-                let want = reference::combine_columns(
-                    n,
-                    |j, out| {
-                        let mut ks = Vec::new();
-                        ring_ks(&t, j, order, &mut ks);
-                        out.extend(ks.into_iter().map(|k| (k as usize, coeff(j, k as usize))));
-                    },
-                    |k, out| {
-                        out.push((k, entry(k, k)));
-                        for &i in t.neighbors(VertexId(k as u32)) {
-                            out.push((i as usize, entry(k, i as usize)));
-                        }
-                    },
-                );
-                assert_identical(&name, &format!("two-ring {order:?}"), &got, &want);
+            let diag = |k: usize| 0.25 - (k as f64) * 0.7 + 1.0 / 3.0;
+            let v: Vec<f64> = (0..n)
+                .map(|k| 0.25 + (k as f64) * 1e-3 - 1.0 / 7.0)
+                .collect();
+            for off in [RingEntries::PerColumn(&v), RingEntries::PerRow(&v)] {
+                let entry = |k: usize, i: usize| match (i == k, off) {
+                    (true, _) => diag(k),
+                    (false, RingEntries::PerColumn(v)) => v[k],
+                    (false, RingEntries::PerRow(v)) => v[i],
+                };
+                for order in [RingOrder::Ascending, RingOrder::DiagonalFirst] {
+                    let got = two_ring_matrix(&t, order, coeff, diag, off);
+                    let want = reference::combine_columns(
+                        n,
+                        |j, out| {
+                            let mut ks = Vec::new();
+                            ring_ks(&t, j, order, &mut ks);
+                            out.extend(ks.into_iter().map(|k| (k as usize, coeff(j, k as usize))));
+                        },
+                        |k, out| {
+                            out.push((k, entry(k, k)));
+                            for &i in t.neighbors(VertexId(k as u32)) {
+                                out.push((i as usize, entry(k, i as usize)));
+                            }
+                        },
+                    );
+                    let what = match off {
+                        RingEntries::PerColumn(_) => "per column",
+                        RingEntries::PerRow(_) => "per row",
+                    };
+                    assert_identical(&name, &format!("two-ring {order:?} {what}"), &got, &want);
+                }
             }
         }
     }

@@ -114,10 +114,15 @@ pub fn cotan(
         || {
             super::assemble::one_ring_columns(topo, |j, off| {
                 let edges = topo.neighbor_edges(crate::VertexId(j as u32));
+                // Each weight read once; the diagonal summed in the same order and
+                // from the same −0.0 as `Iterator::sum`.
+                let mut diag = -0.0;
                 for (o, &e) in off.iter_mut().zip(edges) {
-                    *o = -w(e);
+                    let x = w(e);
+                    *o = -x;
+                    diag += x;
                 }
-                edges.iter().map(|&e| w(e)).sum()
+                diag
             })
         },
     );

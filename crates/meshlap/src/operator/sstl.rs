@@ -16,13 +16,15 @@ use crate::SparseMatrix;
 pub fn sstl(topo: &Topology) -> Result<SparseMatrix, OperatorError> {
     // −1/d_k once per vertex, not once per product.
     let neg_inv = degree_map_checked(topo, |d| -1.0 / d)?;
-    // T_kj = 1 on the diagonal, −1/d_k for k ∈ N(j).
+    // T_kj = 1 on the diagonal, −1/d_k for k ∈ N(j): row k of T is v[k] = −1/d_k off
+    // the diagonal.
     let t_kj = |j: usize, k: usize| if k == j { 1.0 } else { neg_inv[k] };
     Ok(assemble::two_ring_matrix(
         topo,
         assemble::RingOrder::Ascending,
         t_kj,
-        |k, i| t_kj(i, k),
+        |_| 1.0,
+        assemble::RingEntries::PerColumn(&neg_inv),
     ))
 }
 

@@ -13,11 +13,13 @@ pub fn tutte2(topo: &Topology) -> Result<SparseMatrix, OperatorError> {
     // −1/d_i once per vertex, not once per product.
     let neg_inv = degree_map_checked(topo, |d| -1.0 / d)?;
     let t = |i: usize, k: usize| if i == k { 1.0 } else { neg_inv[i] };
+    // Column k of T: 1 on the diagonal, T_ik = −1/d_i at its rows i ∈ N(k).
     Ok(assemble::two_ring_matrix(
         topo,
         assemble::RingOrder::DiagonalFirst,
         |j, k| t(k, j),
-        |k, i| t(i, k),
+        |_| 1.0,
+        assemble::RingEntries::PerRow(&neg_inv),
     ))
 }
 
