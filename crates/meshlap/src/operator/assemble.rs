@@ -419,9 +419,9 @@ pub(crate) fn two_ring_matrix(
                 let columns = cnt.len();
                 for (c, j) in cnt.iter_mut().zip(b * BLOCK..) {
                     let nb = nbr(j);
-                    // Candidates: {k} ∪ N(k) for k ∈ {j} ∪ N(j).
+                    // Candidates: j, N(j) and N(k) for k ∈ N(j).
                     let bound =
-                        nb.len() + 1 + nb.iter().map(|&k| nbr(k as usize).len() + 1).sum::<usize>();
+                        nb.len() + 1 + nb.iter().map(|&k| nbr(k as usize).len()).sum::<usize>();
                     if words.len() < bound {
                         words.resize(bound, 0u32);
                     }
@@ -438,10 +438,11 @@ pub(crate) fn two_ring_matrix(
                         bits[w] = old | (1u64 << (i & 63));
                         top = top.max(i);
                     };
+                    // The rows are {j} ∪ N(j) ∪ N(k) over k ∈ N(j): each k is
+                    // visited once, as a neighbour of j.
                     visit(j as u32);
                     nb.iter().for_each(|&i| visit(i));
                     for &k in nb {
-                        visit(k);
                         nbr(k as usize).iter().for_each(|&i| visit(i));
                     }
                     // Rows come out strictly increasing (distinct words in order, bits
