@@ -349,22 +349,6 @@ pub(crate) enum RingOrder {
     DiagonalFirst,
 }
 
-/// The k of column j in `order`, into `out`.
-#[cfg(test)]
-fn ring_ks(topo: &Topology, j: usize, order: RingOrder, out: &mut Vec<u32>) {
-    let nb = topo.neighbors(crate::VertexId(j as u32));
-    out.clear();
-    out.resize(nb.len() + 1, 0);
-    let split = match order {
-        RingOrder::Ascending => count_below(nb, j),
-        RingOrder::DiagonalFirst => 0,
-    };
-    let (lo, rest) = out.split_at_mut(split);
-    lo.copy_from_slice(&nb[..split]);
-    rest[0] = j as u32;
-    rest[1..].copy_from_slice(&nb[split..]);
-}
-
 /// The off-diagonal entries `entry(k, i)`, i ∈ N(k), of the one-ring columns k that
 /// [`two_ring_matrix`] combines: one value per column k (`v[k]`: the rows of the Tutte
 /// Laplacian, as `TᵀT` reads them) or one per row i (`v[i]`: its columns, as `T²`
@@ -758,6 +742,21 @@ mod tests {
     use crate::operator::cotan::{cotan, MassKind};
     use crate::operator::sql::{sql, sql_diagonal, sql_edge_weights, BoundaryDiagonal};
     use crate::operator::{degrees_checked, test_util, Operator, OperatorKind, OperatorOptions};
+
+    /// The k of column j in `order`, into `out`.
+    fn ring_ks(topo: &Topology, j: usize, order: RingOrder, out: &mut Vec<u32>) {
+        let nb = topo.neighbors(crate::VertexId(j as u32));
+        out.clear();
+        out.resize(nb.len() + 1, 0);
+        let split = match order {
+            RingOrder::Ascending => count_below(nb, j),
+            RingOrder::DiagonalFirst => 0,
+        };
+        let (lo, rest) = out.split_at_mut(split);
+        lo.copy_from_slice(&nb[..split]);
+        rest[0] = j as u32;
+        rest[1..].copy_from_slice(&nb[split..]);
+    }
 
     fn cases() -> Vec<(String, TriMesh, Topology)> {
         let mut out: Vec<(String, TriMesh, Topology)> = test_util::meshes()
