@@ -144,6 +144,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     };
     let mut out: BTreeMap<String, serde_json::Value> = BTreeMap::new();
     out.insert("threads".into(), rayon::current_num_threads().into());
+    out.insert("simd".into(), meshlap::cpu::build_name().into());
     match task.as_str() {
         "load" => {
             let t = timing(repeat, || {

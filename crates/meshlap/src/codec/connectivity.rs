@@ -593,7 +593,7 @@ impl Closed {
 
     #[inline]
     fn prev(&self, h: u32) -> u32 {
-        if h % 3 == 0 {
+        if h.is_multiple_of(3) {
             h + 2
         } else {
             h - 1

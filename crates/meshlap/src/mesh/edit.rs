@@ -47,7 +47,7 @@ fn next(h: u32) -> u32 {
 
 /// The previous half-edge in the same face.
 fn prev(h: u32) -> u32 {
-    if h % 3 == 0 {
+    if h.is_multiple_of(3) {
         h + 2
     } else {
         h - 1

@@ -409,7 +409,7 @@ impl Topology {
     /// Previous half-edge in the same face.
     #[inline]
     pub fn prev(&self, h: u32) -> u32 {
-        if h % 3 == 0 {
+        if h.is_multiple_of(3) {
             h + 2
         } else {
             h - 1

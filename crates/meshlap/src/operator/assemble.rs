@@ -1104,7 +1104,7 @@ mod tests {
                     k => {
                         (x >> 11) as f64
                             * 2f64.powi(k as i32 * 9 - 80)
-                            * if x % 2 == 0 { 1.0 } else { -1.0 }
+                            * if x.is_multiple_of(2) { 1.0 } else { -1.0 }
                     }
                 }
             };

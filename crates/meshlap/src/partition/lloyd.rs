@@ -687,7 +687,9 @@ mod tests {
                     _ => (rng.next_u64() % u64::from(k)) as u32,
                 })
                 .collect();
-            let mut open: Vec<u8> = (0..k).map(|_| u8::from(rng.next_u64() % 4 != 0)).collect();
+            let mut open: Vec<u8> = (0..k)
+                .map(|_| u8::from(!rng.next_u64().is_multiple_of(4)))
+                .collect();
             open.push(0);
             let nb: Vec<u32> = (0..deg as u32).collect();
             let mut count = vec![0usize; k as usize];

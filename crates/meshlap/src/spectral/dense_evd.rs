@@ -794,7 +794,7 @@ pub(super) fn ql_eigenvalues_many<const K: usize>(
         }
         let mut done = false;
         #[cfg(target_arch = "x86_64")]
-        if K % 4 == 0 && crate::cpu::avx2_fma() {
+        if K.is_multiple_of(4) && crate::cpu::avx2_fma() {
             // SAFETY: `avx2_fma()` is only true when the CPU has AVX2 and FMA.
             unsafe { simd_ql::steps(&mut q, &mut sw, run) };
             done = true;

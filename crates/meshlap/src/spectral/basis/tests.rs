@@ -197,7 +197,10 @@ fn canonical_basis_survives_a_different_computation_order() {
         let b = EigenBasis::compute(&o, &Default::default()).unwrap();
         let n = b.n();
         let a = o.matrix.to_dense();
-        let p = [7, 11, 13].into_iter().find(|p| n % p != 0).unwrap();
+        let p = [7, 11, 13]
+            .into_iter()
+            .find(|p| !n.is_multiple_of(*p))
+            .unwrap();
         let perm: Vec<usize> = (0..n).map(|i| (i * p + 3) % n).collect();
         let pa = Mat::from_fn(n, n, |i, j| a[(perm[i], perm[j])]);
         let (lam, pu) = dense_symmetric(

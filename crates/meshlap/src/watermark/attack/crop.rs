@@ -40,7 +40,7 @@ pub fn crop(mesh: &TriMesh, percent: f64, seed: u64) -> Result<TriMesh, AttackEr
     let n = mesh.n_vertices();
     let remove = ((percent / 100.0 * n as f64).ceil() as usize).min(n);
     let axis = principal_axis(&mesh.positions);
-    let side = if seed % 2 == 0 { 1.0 } else { -1.0 };
+    let side = if seed.is_multiple_of(2) { 1.0 } else { -1.0 };
     let key = |i: usize| side * (0..3).map(|k| mesh.positions[i][k] * axis[k]).sum::<f64>();
     let mut order: Vec<usize> = (0..n).collect();
     // Largest projection first; ties broken by index for determinism.
