@@ -2,7 +2,11 @@
 //!
 //! ```text
 //! magic      4 bytes  "MLZ\x1a"
-//! version    u16 LE   (8: as 7, but the spectral coder keeps the bases of the
+//! version    u16 LE   (9: as 8, but the spectral coder's Lloyd patches take two
+//!                     relaxation steps instead of five
+//!                     (`partition::PartitionMethod::LLOYD_ITERATIONS_FAST`); 8 and
+//!                     older are decoded as they were written;
+//!                     8: as 7, but the spectral coder keeps the bases of the
 //!                     symmetric operators (Kirchhoff, graph, SQL, SSTL) factored,
 //!                     `X = Zᵀ(Qᵀx)`, `x̃ = Q(Z X̃)` (`spectral::FactoredEvd`: no
 //!                     back-transformation, no canonicalisation; Tutte keeps the
@@ -43,7 +47,7 @@ use super::CodecError;
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"MLZ\x1a";
 /// Current format version (what [`write()`] writes).
-pub const VERSION: u16 = 8;
+pub const VERSION: u16 = 9;
 /// Oldest format version [`read`] accepts (its files decode as they always did).
 pub const MIN_VERSION: u16 = 4;
 const MAX_SECTIONS: u16 = 16;
@@ -267,7 +271,7 @@ mod tests {
         old[4..6].copy_from_slice(&3u16.to_le_bytes());
         let e = read(&old).unwrap_err();
         assert!(matches!(e, CodecError::Version { found: 3, .. }));
-        assert!(e.to_string().contains("reads versions 4 to 8"), "{e}");
+        assert!(e.to_string().contains("reads versions 4 to 9"), "{e}");
         // Versions 4 and 5 are still read; version 4 without the section version 5
         // added.
         let mut v5 = img.clone();

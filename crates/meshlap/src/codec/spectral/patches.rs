@@ -170,6 +170,16 @@ pub(super) fn partition_method(version: u16) -> crate::partition::PartitionMetho
     }
 }
 
+/// Lloyd steps of the patches of format `version` (versions 7 and 8: five; 9 on: two).
+pub(super) fn lloyd_iterations(version: u16) -> usize {
+    use crate::partition::PartitionMethod;
+    if version >= 9 {
+        PartitionMethod::LLOYD_ITERATIONS_FAST
+    } else {
+        PartitionMethod::LLOYD_ITERATIONS
+    }
+}
+
 /// Patches of about `p` vertices ([`crate::partition`] with the method of format
 /// `version`, [`partition_method`]: connected patches, every vertex on a face of its
 /// own patch). Deterministic for a given connectivity, so the decoder, which has the
@@ -183,6 +193,7 @@ fn partition(
     use crate::partition::{partition as make_patches, PartitionOptions};
     let opts = PartitionOptions {
         method: partition_method(version),
+        lloyd_iterations: lloyd_iterations(version),
         ..PartitionOptions::new(p.max(3))
     };
     make_patches(topo, &opts).map_err(CodecError::Partition)

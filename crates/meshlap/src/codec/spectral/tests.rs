@@ -741,3 +741,40 @@ fn coefficients_decoded_beside_the_bases() {
         let _ = on(2, &corrupt(&enc.bytes, &mut rng));
     }
 }
+
+/// Format 9 relaxes the Lloyd cells two steps, 7 and 8 five: the same method with the
+/// version's step count (and so other patches on a mesh with many of them), each
+/// version's patches a partition of the vertices.
+#[test]
+fn lloyd_steps_follow_the_format_version() {
+    use super::patches::{layout, lloyd_iterations};
+    use crate::partition::PartitionMethod;
+    assert_eq!(lloyd_iterations(7), PartitionMethod::LLOYD_ITERATIONS);
+    assert_eq!(lloyd_iterations(8), PartitionMethod::LLOYD_ITERATIONS);
+    assert_eq!(lloyd_iterations(9), PartitionMethod::LLOYD_ITERATIONS_FAST);
+    assert_eq!(crate::codec::container::VERSION, 9);
+    let mesh = builtin::icosphere(4).unwrap();
+    let topo = Topology::new(&mesh).unwrap();
+    let params = SpectralParams {
+        patch_size: 40,
+        ..Default::default()
+    };
+    let cells = |version: u16| {
+        let lay = layout(topo.graph(), &params, version).unwrap();
+        let mut seen = vec![false; topo.n_vertices()];
+        for l in &lay {
+            for &v in &l.verts {
+                assert!(
+                    !std::mem::replace(&mut seen[v as usize], true),
+                    "v{version}"
+                );
+            }
+        }
+        assert!(
+            seen.iter().all(|&s| s),
+            "v{version}: every vertex in a patch"
+        );
+        lay.into_iter().map(|l| l.verts).collect::<Vec<_>>()
+    };
+    assert_ne!(cells(8), cells(9));
+}
