@@ -178,6 +178,25 @@ pub(crate) fn dispatch<K: Kernel>(k: K) -> K::Output {
 mod tests {
     use super::*;
 
+    /// Runs this test binary again, the one test `name` only, with the environment
+    /// variable `var` set to 1 and `child` marking the child run (the variables are
+    /// read once per process, so a process cannot switch builds; hence the child), and
+    /// asserts that the child's test passed.
+    fn rerun_as_child(name: &str, var: &str, child: &str) {
+        let out = std::process::Command::new(std::env::current_exe().unwrap())
+            .args(["--exact", name, "--test-threads", "1"])
+            .env(var, "1")
+            .env(child, "1")
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success() && stdout.contains("1 passed"),
+            "{stdout}{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+
     #[test]
     fn the_switch_never_claims_features_the_cpu_lacks() {
         assert!(!avx2_fma() || cpu_has_avx2_fma());
@@ -217,28 +236,15 @@ mod tests {
             assert_eq!(dispatch(Fma(0.1, 10.0, -1.0)), 0.1f64.mul_add(10.0, -1.0));
             return;
         }
-        let out = std::process::Command::new(std::env::current_exe().unwrap())
-            .args([
-                "--exact",
-                "cpu::tests::the_environment_variable_keeps_kernels_off_avx512",
-                "--test-threads",
-                "1",
-            ])
-            .env(NO_AVX512_ENV, "1")
-            .env(CHILD, "1")
-            .output()
-            .unwrap();
-        let stdout = String::from_utf8_lossy(&out.stdout);
-        assert!(
-            out.status.success() && stdout.contains("1 passed"),
-            "{stdout}{}",
-            String::from_utf8_lossy(&out.stderr)
+        rerun_as_child(
+            "cpu::tests::the_environment_variable_keeps_kernels_off_avx512",
+            NO_AVX512_ENV,
+            CHILD,
         );
     }
 
     /// Runs this test binary again, this one test only, with `MESHLAP_PORTABLE=1`:
-    /// the child sees the portable build selected (the variable is read once, so a
-    /// process cannot switch; hence the child).
+    /// the child sees the portable build selected.
     #[test]
     fn the_environment_variable_forces_the_portable_build() {
         const CHILD: &str = "MESHLAP_CPU_TEST_CHILD";
@@ -257,22 +263,10 @@ mod tests {
             assert_eq!(dispatch(Add(0.5, 0.25)), 0.75);
             return;
         }
-        let out = std::process::Command::new(std::env::current_exe().unwrap())
-            .args([
-                "--exact",
-                "cpu::tests::the_environment_variable_forces_the_portable_build",
-                "--test-threads",
-                "1",
-            ])
-            .env(PORTABLE_ENV, "1")
-            .env(CHILD, "1")
-            .output()
-            .unwrap();
-        let stdout = String::from_utf8_lossy(&out.stdout);
-        assert!(
-            out.status.success() && stdout.contains("1 passed"),
-            "{stdout}{}",
-            String::from_utf8_lossy(&out.stderr)
+        rerun_as_child(
+            "cpu::tests::the_environment_variable_forces_the_portable_build",
+            PORTABLE_ENV,
+            CHILD,
         );
     }
 }
