@@ -45,7 +45,8 @@ class RepairError(Error):
 
 
 class PartitionError(Error):
-    """METIS partitioning failed or was given a bad patch size."""
+    """Partitioning failed (METIS) or was given a bad patch size or too many Lloyd
+    steps."""
 
 
 class CodecError(Error):

@@ -141,6 +141,19 @@ def test_partition_lloyd_cells(big_sphere):
     np.testing.assert_array_equal(again, labels)
 
 
+def test_partition_lloyd_iterations(big_sphere):
+    V, F = big_sphere
+    default = meshlap.partition(V, F, 100, method="lloyd")
+    five = meshlap.partition(V, F, 100, method="lloyd", lloyd_iterations=5)
+    np.testing.assert_array_equal(default, five)
+    two, stats = meshlap.partition(V, F, 100, method="lloyd", lloyd_iterations=2,
+                                   return_stats=True)
+    assert two.shape == (len(V),) and two.max() + 1 == stats["patches"]
+    assert np.bincount(two).min() == stats["min_size"]
+    with pytest.raises(meshlap.PartitionError, match="at most 100"):
+        meshlap.partition(V, F, 100, method="lloyd", lloyd_iterations=101)
+
+
 def test_render_returns_an_rgb_picture(sphere):
     V, F = sphere
     img = meshlap.render(V, F, size=(120, 90))

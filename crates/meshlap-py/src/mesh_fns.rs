@@ -144,10 +144,10 @@ fn repair_sql<'py>(
     Ok((va, fa, json(py, &report)?))
 }
 
-/// `partition(V, F, patch_size, seed=0, method="metis")` → `(labels int32 (n,),
-/// stats JSON)`.
+/// `partition(V, F, patch_size, seed=0, method="metis", lloyd_iterations=None)` →
+/// `(labels int32 (n,), stats JSON)`; `None`: the library's default Lloyd steps.
 #[pyfunction]
-#[pyo3(signature = (v, f, patch_size, seed=0, method="metis"))]
+#[pyo3(signature = (v, f, patch_size, seed=0, method="metis", lloyd_iterations=None))]
 fn partition<'py>(
     py: Python<'py>,
     v: PyReadonlyArray2<'_, f64>,
@@ -155,14 +155,17 @@ fn partition<'py>(
     patch_size: usize,
     seed: i32,
     method: &str,
+    lloyd_iterations: Option<usize>,
 ) -> PyResult<(Bound<'py, PyArray1<i32>>, String)> {
     use meshlap::partition::{partition_mesh, PartitionMethod, PartitionOptions};
     let method: PartitionMethod = method.parse().or_raise(py)?;
     let input = mesh_of(py, &v, &f)?;
+    let defaults = PartitionOptions::new(patch_size);
     let opts = PartitionOptions {
         method,
         seed,
-        ..PartitionOptions::new(patch_size)
+        lloyd_iterations: lloyd_iterations.unwrap_or(defaults.lloyd_iterations),
+        ..defaults
     };
     let part = compute(py, || partition_mesh(&input.mesh, &input.topology, &opts)).or_raise(py)?;
     let labels: Vec<i32> = part.patch_of().iter().map(|&p| p as i32).collect();

@@ -134,7 +134,7 @@ fn main() {
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let usage = "usage: meshlap-bench load|operators|topology|io|read|spectrum|solvers|codec|partial|partition|project-patches MESH \
-                 [--repeat N] [--kind K] [--general] [--phases] [--lambda L] [--export DIR] [--count K] [--tol T] [--band B] [--block P] [--no-refine] [--patch-size P] [--method metis|lloyd] [--mode M] [--bits Q] [--target-bpv B] \
+                 [--repeat N] [--kind K] [--general] [--phases] [--lambda L] [--export DIR] [--count K] [--tol T] [--band B] [--block P] [--no-refine] [--patch-size P] [--method metis|lloyd] [--lloyd-iterations N] [--mode M] [--bits Q] [--target-bpv B] \
                  | dump MESH DIR | write MESH OUT [--repeat N]";
     let task = args.first().ok_or(usage)?.clone();
     let mesh = args.get(1).ok_or(usage)?.clone();
@@ -454,6 +454,9 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             let mut opts = meshlap::partition::PartitionOptions::new(p);
             if let Some(m) = flag(&args, "--method") {
                 opts.method = m.parse()?;
+            }
+            if let Some(k) = flag(&args, "--lloyd-iterations") {
+                opts.lloyd_iterations = k.parse()?;
             }
             let mut stats = None;
             let (m, t) = try_time(repeat, || {

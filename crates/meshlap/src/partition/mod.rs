@@ -72,6 +72,17 @@ pub enum PartitionError {
     /// The requested patch size is too small to hold a triangle.
     #[error("patch size must be at least 3 vertices, got {0}")]
     PatchSizeTooSmall(usize),
+    /// More Lloyd steps than [`PartitionMethod::MAX_LLOYD_ITERATIONS`].
+    ///
+    /// Each step is two breadth-first searches over the whole graph, and the cells
+    /// hardly move after a few; the codec uses two.
+    #[error("Lloyd steps must be at most {max}, got {got}")]
+    LloydIterations {
+        /// Steps asked for.
+        got: usize,
+        /// The largest accepted.
+        max: usize,
+    },
     /// A vertex belongs to no face.
     #[error("vertex {vertex} belongs to no face; clean the mesh first")]
     IsolatedVertex {
@@ -166,6 +177,8 @@ impl PartitionMethod {
     /// five take the partition of Igea from about 107 to 68 ms for 0.3 % more
     /// geometry bits at the same error (BENCHMARKS.md, Compression).
     pub const LLOYD_ITERATIONS_FAST: usize = 2;
+    /// Most Lloyd steps [`partition`] accepts.
+    pub const MAX_LLOYD_ITERATIONS: usize = 100;
 }
 
 /// Patch sizes and edge cut of a [`Partition`].
@@ -301,6 +314,12 @@ pub fn partition(topo: &VertexGraph, opts: &PartitionOptions) -> Result<Partitio
     let p_size = opts.patch_size;
     if p_size < 3 {
         return Err(PartitionError::PatchSizeTooSmall(p_size));
+    }
+    if opts.lloyd_iterations > PartitionMethod::MAX_LLOYD_ITERATIONS {
+        return Err(PartitionError::LloydIterations {
+            got: opts.lloyd_iterations,
+            max: PartitionMethod::MAX_LLOYD_ITERATIONS,
+        });
     }
     let n = topo.n_vertices();
     let faces = topo.faces();
@@ -879,5 +898,31 @@ mod tests {
                 assert_eq!(t.map(|l| sub.vertices[l as usize]), mesh.faces[f as usize]);
             }
         }
+    }
+
+    /// The Lloyd step count is an option: fewer steps give other (valid) cells, and
+    /// more than the limit is an error naming it.
+    #[test]
+    fn lloyd_steps_are_an_option_with_a_limit() {
+        let mesh = builtin::icosphere(4).unwrap();
+        let topo = Topology::new(&mesh).unwrap();
+        let with = |k: usize| PartitionOptions {
+            lloyd_iterations: k,
+            ..lloyd(40)
+        };
+        let five = partition(topo.graph(), &with(5)).unwrap();
+        let two = partition(topo.graph(), &with(2)).unwrap();
+        check_invariants(&mesh, &topo, &two);
+        assert_eq!(
+            five.patch_of(),
+            partition(topo.graph(), &lloyd(40)).unwrap().patch_of(),
+            "the default is five steps"
+        );
+        assert_ne!(five.patch_of(), two.patch_of());
+        let max = PartitionMethod::MAX_LLOYD_ITERATIONS;
+        assert!(partition(topo.graph(), &with(max)).is_ok());
+        let e = partition(topo.graph(), &with(max + 1)).unwrap_err();
+        assert!(matches!(e, PartitionError::LloydIterations { got, .. } if got == max + 1));
+        assert!(e.to_string().contains("at most 100"), "{e}");
     }
 }
