@@ -174,8 +174,9 @@ impl PartitionMethod {
     /// [`Self::LLOYD_ITERATIONS_FAST`]).
     pub const LLOYD_ITERATIONS: usize = 5;
     /// Lloyd steps of the `.mlz` codec's patches from format 9 on: two steps instead of
-    /// five take the partition of Igea from about 107 to 68 ms for 0.3 % more
-    /// geometry bits at the same error (BENCHMARKS.md, Compression).
+    /// five take about a third off the partition, which every encode and decode runs
+    /// before any basis, for slightly more geometry bits at the same error
+    /// (BENCHMARKS.md, Compression).
     pub const LLOYD_ITERATIONS_FAST: usize = 2;
     /// Most Lloyd steps [`partition`] accepts.
     pub const MAX_LLOYD_ITERATIONS: usize = 100;

@@ -41,8 +41,8 @@
 //! (Lloyd-relaxed graph Voronoi cells: integer arithmetic from the connectivity, an
 //! edge cut close to METIS's in a fraction of its time; BENCHMARKS.md), after five
 //! relaxation steps in versions 7 and 8 and two from version 9 on (the partition is
-//! part of every encode and decode, before any basis: two steps take Igea's from
-//! about 107 to 68 ms for 0.3 % more geometry bits at the same error); versions
+//! part of every encode and decode, before any basis: two steps take about a third
+//! off it for slightly more geometry bits at the same error; BENCHMARKS.md); versions
 //! 4–6 used METIS k-way with a fixed seed, and are still decoded with it. Basis cost grows as `n·P²` (a dense eigendecomposition per patch); with
 //! inter-patch prediction the rate hardly depends on `P`, so the default, 100, is
 //! chosen for speed (larger patches lower the error by a few per cent at several
