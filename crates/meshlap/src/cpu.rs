@@ -16,12 +16,15 @@
 //! (`spectral::partial::solve`; its solve without a tree split has an AVX2 build of
 //! its own and no AVX-512 one).
 //!
-//! **Same bits on every build.** Rust keeps IEEE semantics whatever the target
-//! features: no build reassociates a sum or fuses a multiply and an add the source
-//! does not fuse (`mul_add` is correctly rounded in hardware and in the C library's
-//! `fma`), so a wider register changes how many lanes run at once, never a result.
-//! Tested: `meshlap-cli`'s `tests/portable.rs` compresses, decodes and assembles on
-//! all three builds and compares the bytes.
+//! **Same bits.** Rust keeps IEEE semantics whatever the target features: no build
+//! reassociates a sum or fuses a multiply and an add the source does not fuse
+//! (`mul_add` is correctly rounded in hardware and in the C library's `fma`), so the
+//! AVX-512 build changes how many lanes run at once, never a result of the AVX2 one.
+//! The codec's kernels and the geometric operators' lanes are the same bits on the
+//! portable build too (tested: `meshlap-cli`'s `tests/portable.rs` compresses, decodes
+//! and assembles on all three builds and compares the bytes); the thin products'
+//! portable build rounds each product before the add, as `thin_products` says, so
+//! the eigensolvers differ from it at rounding level.
 //!
 //! [`avx2_fma`] and [`avx512`] say which build runs: the CPU's features, detected once,
 //! unless the environment says otherwise when the process first asks (read once and
