@@ -2,7 +2,7 @@
 //! AVX2 + FMA, or the portable one.
 //!
 //! The kernels are written once, as portable Rust (some with AVX2 intrinsics in a
-//! [`Kernel::avx2_fma`] variant), and compiled three times by [`dispatch`]: for the
+//! `Kernel::avx2_fma` variant), and compiled three times by `dispatch`: for the
 //! baseline x86-64 target (SSE2), with `#[target_feature(enable = "avx2,fma")]`, and
 //! with AVX-512 (`avx512f`, `avx512vl`, `avx512dq`, `avx512bw`) added to those, where
 //! LLVM vectorises the portable loops over 512-bit registers (the AVX2 intrinsics stay
@@ -115,7 +115,7 @@ pub fn avx512() -> bool {
     avx2_fma() && cpu_has_avx512() && !avx512_forbidden()
 }
 
-/// The build [`dispatch`] runs: `"avx512"`, `"avx2+fma"` or `"portable"` (for reports).
+/// The build meshlap's kernel dispatch runs: `"avx512"`, `"avx2+fma"` or `"portable"` (for reports).
 pub fn build_name() -> &'static str {
     if avx512() {
         "avx512"
