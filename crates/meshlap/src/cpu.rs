@@ -115,7 +115,8 @@ pub fn avx512() -> bool {
     avx2_fma() && cpu_has_avx512() && !avx512_forbidden()
 }
 
-/// The build meshlap's kernel dispatch runs: `"avx512"`, `"avx2+fma"` or `"portable"` (for reports).
+/// The build meshlap's kernel dispatch runs: `"avx512"`, `"avx2+fma"` or `"portable"`
+/// (for reports).
 pub fn build_name() -> &'static str {
     if avx512() {
         "avx512"
