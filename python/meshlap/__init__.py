@@ -579,7 +579,8 @@ def partition(
     cells: an edge cut close to METIS's in a fraction of the time, more spread in the
     sizes; the compressor's partition since ``.mlz`` format 7). ``lloyd_iterations``:
     the Lloyd relaxation steps (``None``: the library's default, 5; at most 100; the
-    compressor takes 2 from ``.mlz`` format 9); ``meshlap.PartitionError`` (a ``ValueError``) above the limit."""
+    compressor takes 2 from ``.mlz`` format 9); ``meshlap.PartitionError`` (a
+    ``ValueError``) above the limit."""
     v, f = _mesh(V, F)
     steps = None if lloyd_iterations is None else int(lloyd_iterations)
     labels, stats = _meshlap.partition(v, f, int(patch_size), int(seed), str(method), steps)
