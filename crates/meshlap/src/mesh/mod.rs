@@ -5,6 +5,7 @@
 
 pub mod builtin;
 pub mod clean;
+pub(crate) mod component_labels;
 pub mod edit;
 pub mod graph;
 pub mod nonmanifold;

@@ -103,29 +103,27 @@ impl Scratch {
 
 /// Step 1: seeds spread over each component's vertices in index order, ascending.
 /// Components are numbered in the order of their lowest vertex and found by a
-/// union-find over the edges in index order (one sequential pass over the adjacency,
-/// where a depth-first search jumps across it).
+/// concurrent union-find over the edges ([`component_labels`], in parallel over the
+/// vertices; the numbering does not depend on the order).
+///
+/// [`component_labels`]: crate::mesh::component_labels::component_labels
 fn initial_seeds(n: usize, nbrs: &Graph<'_>, k: usize) -> Vec<u32> {
-    let mut uf = crate::mesh::topology::UnionFind::new(n);
-    for v in 0..n as u32 {
-        for &w in nbrs.of(v) {
-            if w > v {
-                uf.union(v as usize, w as usize);
-            }
-        }
-    }
     // Component numbers by lowest vertex, and each component's size.
-    let mut comp = vec![NONE; n];
-    let mut number = vec![NONE; n];
-    let mut sizes: Vec<usize> = Vec::new();
-    for v in 0..n {
-        let r = uf.find(v);
-        if number[r] == NONE {
-            number[r] = sizes.len() as u32;
-            sizes.push(0);
-        }
-        comp[v] = number[r];
-        sizes[number[r] as usize] += 1;
+    let (comp, count) = crate::mesh::component_labels::component_labels(n, |sink| {
+        (0..n as u32)
+            .into_par_iter()
+            .with_min_len(1 << 11)
+            .for_each(|v| {
+                for &w in nbrs.of(v) {
+                    if w > v {
+                        sink(v, w);
+                    }
+                }
+            });
+    });
+    let mut sizes = vec![0usize; count];
+    for &c in &comp {
+        sizes[c as usize] += 1;
     }
     // Each component's vertices ascending, packed one component after the other.
     let mut start: Vec<usize> = Vec::with_capacity(sizes.len() + 1);

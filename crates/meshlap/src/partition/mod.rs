@@ -58,7 +58,7 @@
 mod lloyd;
 
 use crate::mesh::graph::VertexGraph;
-use crate::mesh::topology::{Topology, UnionFind};
+use crate::mesh::topology::Topology;
 use crate::mesh::TriMesh;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -516,25 +516,17 @@ fn make_every_vertex_interior(
 /// Step 4: labels the connected components of the interior faces of every patch
 /// (every vertex has an interior face by now). Labels are `0..count`.
 fn split_face_components(part: &[u32], faces: &[[u32; 3]], n: usize) -> Vec<u32> {
-    let mut uf = UnionFind::new(n);
-    for t in faces {
-        if interior(part, t) {
-            uf.union(t[0] as usize, t[1] as usize);
-            uf.union(t[0] as usize, t[2] as usize);
-        }
-    }
-    let mut root_label = vec![u32::MAX; n];
-    let mut next = 0u32;
-    (0..n)
-        .map(|v| {
-            let r = uf.find(v);
-            if root_label[r] == u32::MAX {
-                root_label[r] = next;
-                next += 1;
+    // Numbered by lowest vertex (the labels' order breaks ties in
+    // `merge_fragments`), the same whatever the thread count.
+    crate::mesh::component_labels::component_labels(n, |sink| {
+        faces.par_iter().with_min_len(1 << 11).for_each(|t| {
+            if interior(part, t) {
+                sink(t[0], t[1]);
+                sink(t[0], t[2]);
             }
-            root_label[r]
-        })
-        .collect()
+        });
+    })
+    .0
 }
 
 /// Step 5: merges components smaller than `min_fragment` into the neighbour sharing
