@@ -7,7 +7,6 @@ use super::spectral::{self, SpectralEncoder, SpectralParams, SpectralStats, CACH
 use super::{CodecError, GeometryMode};
 use crate::mesh::graph::VertexGraph;
 use crate::mesh::topology::Topology;
-use std::borrow::Cow;
 
 const MODE_SPECTRAL: u8 = 0;
 const MODE_SPATIAL: u8 = 1;
@@ -24,27 +23,22 @@ pub(super) struct GeometrySection {
 
 /// The geometry coders of one mesh, in the decoded vertex order.
 pub(super) struct Coders<'a> {
+    topo: &'a Topology,
     positions: &'a [[f64; 3]],
     spectral: Option<SpectralEncoder<'a>>,
-    /// The spatial coder's half-edges (given, or built beside the spectral set-up),
-    /// plan and parameters.
-    spatial: Option<(Cow<'a, Topology>, spatial::Plan, SpatialParams)>,
+    spatial: Option<(spatial::Plan, SpatialParams)>,
     /// The spatial section at the fixed step, coded during the set-up.
     spatial_fixed: Option<Result<GeometrySection, CodecError>>,
 }
 
 impl<'a> Coders<'a> {
-    /// Sets up the coders of `modes` for the decoded connectivity (`faces`, its
-    /// vertex graph `graph`, and its half-edges `topo` if they are built already) and
-    /// the positions in its vertex order. The spectral coder's set-up (partition,
-    /// bases, prediction) is long, starts with the partition and needs the graph
-    /// only; the spatial coder's half-edges (when `topo` is `None`), its plan and, at
-    /// a `fixed_step`, its whole encode run beside it on the other thread.
-    #[allow(clippy::too_many_arguments)] // the connectivity's three forms, the coders' set-up
+    /// Sets up the coders of `modes` for the decoded connectivity `topo` and the
+    /// positions in its vertex order. The spectral coder's set-up (partition, bases,
+    /// prediction) is long and starts with the partition; the spatial
+    /// coder's plan — and, at a `fixed_step`, its whole encode — runs beside it on
+    /// the other thread.
     pub fn new(
-        graph: &'a VertexGraph,
-        faces: &[[u32; 3]],
-        topo: Option<&'a Topology>,
+        topo: &'a Topology,
         positions: &'a [[f64; 3]],
         modes: &[GeometryMode],
         spectral_params: SpectralParams,
@@ -63,7 +57,7 @@ impl<'a> Coders<'a> {
                             None => CACHE_BYTES,
                         };
                         SpectralEncoder::with_cache_budget(
-                            graph,
+                            topo.graph(),
                             positions,
                             spectral_params,
                             budget,
@@ -72,30 +66,20 @@ impl<'a> Coders<'a> {
                     .transpose()
             },
             || {
-                modes
-                    .contains(&GeometryMode::Spatial)
-                    .then(|| {
-                        let topo = match topo {
-                            Some(t) => Cow::Borrowed(t),
-                            None => Cow::Owned(
-                                Topology::from_faces(graph.n_vertices(), faces)
-                                    .map_err(CodecError::Mesh)?,
-                            ),
-                        };
-                        let plan = spatial::Plan::new(&topo);
-                        let fixed = fixed_step.map(|step| {
-                            spatial_section(&topo, positions, &plan, &spatial_params, step)
-                        });
-                        Ok::<_, CodecError>((topo, plan, fixed))
-                    })
-                    .transpose()
+                modes.contains(&GeometryMode::Spatial).then(|| {
+                    let plan = spatial::Plan::new(topo);
+                    let fixed = fixed_step
+                        .map(|step| spatial_section(topo, positions, &plan, &spatial_params, step));
+                    (plan, fixed)
+                })
             },
         );
-        let (spatial, spatial_fixed) = match spatial_pre? {
-            Some((topo, plan, fixed)) => (Some((topo, plan, spatial_params)), fixed),
+        let (spatial, spatial_fixed) = match spatial_pre {
+            Some((plan, fixed)) => (Some((plan, spatial_params)), fixed),
             None => (None, None),
         };
         Ok(Coders {
+            topo,
             positions,
             spectral: spectral?,
             spatial,
@@ -127,8 +111,8 @@ impl<'a> Coders<'a> {
                     stats: s.stats,
                 })
             }
-            (GeometryMode::Spatial, _, Some((topo, plan, params))) => {
-                spatial_section(topo, self.positions, plan, params, step)
+            (GeometryMode::Spatial, _, Some((plan, params))) => {
+                spatial_section(self.topo, self.positions, plan, params, step)
             }
             _ => Err(CodecError::Internal("geometry mode without its encoder")),
         }

@@ -60,7 +60,6 @@ pub use error::{CodecError, NonManifold, ParameterError};
 pub use spatial::SpatialParams;
 pub use spectral::{Keep, SpectralParams, SpectralStats};
 
-use crate::mesh::graph::VertexGraph;
 use crate::mesh::topology::Topology;
 use crate::mesh::{TriMesh, VertexId};
 use container::{ByteReader, SectionKind};
@@ -368,35 +367,15 @@ fn compress_cow(
         crate::mem::release_free_memory();
     }
     let positions: Vec<[f64; 3]> = order.iter().map(|&v| mesh.positions[v as usize]).collect();
+    let dtopo = Topology::from_faces(n, &faces).map_err(CodecError::Mesh)?;
     let diag = mesh.bbox_diagonal().max(f64::MIN_POSITIVE);
     let modes = opts.mode.coders();
-    // The spectral coder needs the decoded order's vertex graph only, the spatial
-    // one its half-edges (which contain the same graph). With both coders and more
-    // than one thread, the graph alone is built first and the half-edges beside the
-    // spectral set-up; otherwise the half-edges once. The same file either way.
-    let both = modes.contains(&GeometryMode::Spectral) && modes.contains(&GeometryMode::Spatial);
-    let (graph_alone, dtopo) = if both && rayon::current_num_threads() > 1 {
-        let graph = VertexGraph::from_faces(n, &faces).map_err(CodecError::Mesh)?;
-        (Some(graph), None)
-    } else {
-        (
-            None,
-            Some(Topology::from_faces(n, &faces).map_err(CodecError::Mesh)?),
-        )
-    };
-    let graph = match (&graph_alone, &dtopo) {
-        (Some(g), _) => g,
-        (None, Some(t)) => t.graph(),
-        (None, None) => return Err(CodecError::Internal("no decoded-order connectivity")),
-    };
     let fixed_step = match opts.quantization {
         Quantization::Bits(q) => Some(diag * (-q).exp2()),
         Quantization::TargetBpv(_) => None,
     };
     let mut coders = geometry::Coders::new(
-        graph,
-        &faces,
-        dtopo.as_ref(),
+        &dtopo,
         &positions,
         modes,
         opts.spectral,
