@@ -11,7 +11,9 @@
 //! `spectral::factored_evd`, bit-identical on every build; in the AVX2 and AVX-512
 //! builds the inverse iteration's and the QL iteration's row steps are intrinsics,
 //! the same IEEE operations per lane as the portable steps), the codec's predictor,
-//! the blocked reduction's symmetric products, the geometric operators' per-face lanes,
+//! the blocked reduction's symmetric products and its divide and conquer's secular
+//! equation and eigenvector kernels (`spectral::tridiagonal_dc`), the geometric
+//! operators' per-face lanes,
 //! the SDL's row weights and the shift-invert solves of the partial eigensolver
 //! (`spectral::partial::solve`; its solve without a tree split has an AVX2 build of
 //! its own and no AVX-512 one).

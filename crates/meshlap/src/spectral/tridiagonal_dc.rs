@@ -30,6 +30,13 @@
 //!    `ẑ_i² = −∏_j (d_i − λ_j) / ∏_{j≠i} (d_i − d_j)` (Gu & Eisenstat), so that the
 //!    eigenvectors `(d_i − λ_j)⁻¹ ẑ_i` (normalised) of the rank-one update are
 //!    orthogonal to working accuracy whatever the gaps (`dlaed3`).
+//!
+//!    Steps 4 and 5 divide once per pole and root, O(k²) divisions per merge: their
+//!    loops (the kernels `PoleSums`, `Lowner` and `Normalise`) run through
+//!    meshlap's CPU dispatch ([`crate::cpu`]), where they vectorise over four lanes
+//!    (AVX2, AVX-512);
+//!    the baseline x86-64 build divides one lane at a time there. The same bits on
+//!    every build.
 //! 6. The undeflated eigenvectors of `T` are `Q` times those, as two matrix products
 //!    (`faer::linalg::matmul::matmul` with `par`), each only over the rows of its half
 //!    and the columns nonzero there; the deflated ones stay where they are, or move
@@ -515,30 +522,30 @@ fn merge(
         }
     } else {
         let mut what: Vec<f64> = (0..k).map(|i| s[i * k + i]).collect();
-        for j in 0..k {
-            let c = &s[j * k..(j + 1) * k];
-            let dj = dlamda[j];
-            for i in 0..k {
-                if i != j {
-                    what[i] *= c[i] / (dlamda[i] - dj);
-                }
-            }
-        }
+        crate::cpu::dispatch(Lowner {
+            s,
+            dlamda: &dlamda,
+            what: &mut what,
+        });
         for (wh, wi) in what.iter_mut().zip(&w) {
             *wh = (-*wh).sqrt().copysign(*wi);
         }
-        let normalise = |c: &mut [f64]| {
-            let v: Vec<f64> = what.iter().zip(c.iter()).map(|(a, b)| a / b).collect();
-            let inv = 1.0 / v.iter().map(|x| x * x).sum::<f64>().sqrt();
-            for (ci, &ii) in c.iter_mut().zip(&indxc[..k]) {
-                *ci = v[ii] * inv;
-            }
+        let normalise = |c: &mut [f64], v: &mut Vec<f64>| {
+            v.resize(k, 0.0);
+            crate::cpu::dispatch(Normalise {
+                what: &what,
+                c,
+                v,
+                order: &indxc[..k],
+            });
         };
         if par.degree() > 1 && k >= PAR_ROOTS {
             use rayon::prelude::*;
-            s.par_chunks_mut(k).for_each(normalise);
+            s.par_chunks_mut(k)
+                .for_each_with(Vec::new(), |v, c| normalise(c, v));
         } else {
-            s.chunks_mut(k).for_each(normalise);
+            let mut v = Vec::new();
+            s.chunks_mut(k).for_each(|c| normalise(c, &mut v));
         }
     }
     let s = MatRef::from_column_major_slice(&*s, k, k);
@@ -565,6 +572,84 @@ fn merge(
     indxq.iter_mut().enumerate().for_each(|(i, x)| *x = i);
     indxq.sort_by(|&a, &b| d[a].total_cmp(&d[b]));
     Ok(())
+}
+
+/// Löwner's products of `dlaed3`: `ŵ_i ← ŵ_i ∏_{j≠i} δ_ij / (λ̂_i − λ̂_j)`, where
+/// column j of `s` (k×k, column-major) holds `δ_ij = λ̂_i − λ_j` from the secular
+/// equation and `ŵ_i` starts as `δ_ii`. Each `ŵ_i` takes its factors in the order
+/// of j, so the loops over i vectorise with the same bits on every build
+/// ([`crate::cpu::dispatch`]).
+struct Lowner<'a> {
+    s: &'a [f64],
+    dlamda: &'a [f64],
+    what: &'a mut [f64],
+}
+
+impl crate::cpu::Kernel for Lowner<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn portable(self) {
+        let k = self.dlamda.len();
+        for j in 0..k {
+            let c = &self.s[j * k..(j + 1) * k];
+            let dj = self.dlamda[j];
+            let (w0, w1) = self.what.split_at_mut(j);
+            for ((wi, ci), li) in w0.iter_mut().zip(&c[..j]).zip(&self.dlamda[..j]) {
+                *wi *= ci / (li - dj);
+            }
+            for ((wi, ci), li) in w1[1..]
+                .iter_mut()
+                .zip(&c[j + 1..])
+                .zip(&self.dlamda[j + 1..])
+            {
+                *wi *= ci / (li - dj);
+            }
+        }
+    }
+}
+
+/// One eigenvector of `D + ρ ẑ ẑᵀ` from its column `c` of `δ_i = λ̂_i − λ`
+/// (`dlaed3`): `v_i = ẑ_i / δ_i`, normalised, written back into `c` in the order
+/// `order` (the grouped columns of `Q`). The norm is summed in four lanes, so that
+/// the divisions and the sum vectorise ([`crate::cpu::dispatch`]); `v` is k entries of
+/// workspace.
+struct Normalise<'a> {
+    what: &'a [f64],
+    c: &'a mut [f64],
+    v: &'a mut [f64],
+    order: &'a [usize],
+}
+
+impl crate::cpu::Kernel for Normalise<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn portable(self) {
+        let Normalise { what, c, v, order } = self;
+        let mut lanes = [0.0f64; 4];
+        let k4 = what.len() / 4 * 4;
+        for ((vc, wc), cc) in v[..k4]
+            .chunks_exact_mut(4)
+            .zip(what[..k4].chunks_exact(4))
+            .zip(c[..k4].chunks_exact(4))
+        {
+            for l in 0..4 {
+                let x = wc[l] / cc[l];
+                vc[l] = x;
+                lanes[l] += x * x;
+            }
+        }
+        for i in k4..what.len() {
+            let x = what[i] / c[i];
+            v[i] = x;
+            lanes[0] += x * x;
+        }
+        let inv = 1.0 / ((lanes[0] + lanes[1]) + (lanes[2] + lanes[3])).sqrt();
+        for (ci, &ii) in c.iter_mut().zip(order) {
+            *ci = v[ii] * inv;
+        }
+    }
 }
 
 /// Merges two index lists, each ascending in `d`, into one (`dlamrg`).
@@ -702,10 +787,19 @@ fn secular_root(i: usize, d: &[f64], z: &[f64], delta: &mut [f64], rho: f64) -> 
         // The last root, in (d[n−1], d[n−1] + ρ).
         let ii = n - 2;
         let midpt = rho / 2.0;
-        for (dl, dj) in delta.iter_mut().zip(d) {
-            *dl = (dj - d[i]) - midpt;
+        // δ_j = (d_j − d_i) − ρ/2 and ψ = Σ_{j<n−2} z_j²/δ_j.
+        let (psi, _, _) = pole_sums(
+            &d[..n - 2],
+            &z[..n - 2],
+            &mut delta[..n - 2],
+            d[i],
+            midpt,
+            0.0,
+            0.0,
+        );
+        for j in n - 2..n {
+            delta[j] = (d[j] - d[i]) - midpt;
         }
-        let psi: f64 = (0..n - 2).map(|j| z[j] * z[j] / delta[j]).sum();
         let c = rhoinv + psi;
         let w = c + z[ii] * z[ii] / delta[ii] + z[n - 1] * z[n - 1] / delta[n - 1];
         let del = d[n - 1] - d[n - 2];
@@ -787,11 +881,20 @@ fn secular_root(i: usize, d: &[f64], z: &[f64], delta: &mut [f64], rho: f64) -> 
     let ip1 = i + 1;
     let del = d[ip1] - d[i];
     let midpt = del / 2.0;
-    for (dl, dj) in delta.iter_mut().zip(d) {
-        *dl = (dj - d[i]) - midpt;
+    // δ_j = (d_j − d_i) − del/2, ψ = Σ_{j<i} z_j²/δ_j and φ = Σ_{j>i+1} z_j²/δ_j.
+    let (psi, _, _) = pole_sums(&d[..i], &z[..i], &mut delta[..i], d[i], midpt, 0.0, 0.0);
+    let (phi, _, _) = pole_sums(
+        &d[i + 2..],
+        &z[i + 2..],
+        &mut delta[i + 2..],
+        d[i],
+        midpt,
+        0.0,
+        0.0,
+    );
+    for j in i..i + 2 {
+        delta[j] = (d[j] - d[i]) - midpt;
     }
-    let psi: f64 = (0..i).map(|j| z[j] * z[j] / delta[j]).sum();
-    let phi: f64 = (i + 2..n).map(|j| z[j] * z[j] / delta[j]).sum();
     let c = rhoinv + psi + phi;
     let w = c + z[i] * z[i] / delta[i] + z[ip1] * z[ip1] / delta[ip1];
     let orgati = w > 0.0;
@@ -962,7 +1065,9 @@ fn secular_root(i: usize, d: &[f64], z: &[f64], delta: &mut [f64], rho: f64) -> 
 /// sums `Σ z_j²/δ_j`, `Σ (z_j/δ_j)²` and `Σ w_j z_j²/δ_j` with weights
 /// `w_j = w₀ + step·j`. With `w_j` the number of `dlaed4`'s partial sums that contain
 /// term j, the last is the sum of those partial sums (its error bound `ERRETM`; all
-/// terms of a run have one sign). Four lanes, so that the divisions vectorise.
+/// terms of a run have one sign). Four lanes, so that the divisions vectorise: through
+/// [`crate::cpu::dispatch`], since the baseline x86-64 build (SSE2) divides one lane
+/// at a time here; the same bits on every build.
 #[inline]
 fn pole_sums(
     d: &[f64],
@@ -973,39 +1078,76 @@ fn pole_sums(
     w0: f64,
     step: f64,
 ) -> (f64, f64, f64) {
-    let (mut s, mut ds, mut e) = ([0.0f64; 4], [0.0f64; 4], [0.0f64; 4]);
-    let mut wl = [w0, w0 + step, w0 + 2.0 * step, w0 + 3.0 * step];
-    let n4 = d.len() / 4 * 4;
-    for ((dc, zc), delc) in d[..n4]
-        .chunks_exact(4)
-        .zip(z[..n4].chunks_exact(4))
-        .zip(delta[..n4].chunks_exact_mut(4))
-    {
-        for l in 0..4 {
-            let dl = (dc[l] - origin) - tau;
-            delc[l] = dl;
-            let t = zc[l] / dl;
-            let u = zc[l] * t;
-            s[l] += u;
-            ds[l] += t * t;
-            e[l] += wl[l] * u;
-            wl[l] += 4.0 * step;
+    crate::cpu::dispatch(PoleSums {
+        d,
+        z,
+        delta,
+        origin,
+        tau,
+        w0,
+        step,
+    })
+}
+
+/// The arguments of [`pole_sums`], as a kernel of [`crate::cpu::dispatch`].
+struct PoleSums<'a> {
+    d: &'a [f64],
+    z: &'a [f64],
+    delta: &'a mut [f64],
+    origin: f64,
+    tau: f64,
+    w0: f64,
+    step: f64,
+}
+
+impl crate::cpu::Kernel for PoleSums<'_> {
+    type Output = (f64, f64, f64);
+
+    #[inline(always)]
+    fn portable(self) -> (f64, f64, f64) {
+        let PoleSums {
+            d,
+            z,
+            delta,
+            origin,
+            tau,
+            w0,
+            step,
+        } = self;
+        let (mut s, mut ds, mut e) = ([0.0f64; 4], [0.0f64; 4], [0.0f64; 4]);
+        let mut wl = [w0, w0 + step, w0 + 2.0 * step, w0 + 3.0 * step];
+        let n4 = d.len() / 4 * 4;
+        for ((dc, zc), delc) in d[..n4]
+            .chunks_exact(4)
+            .zip(z[..n4].chunks_exact(4))
+            .zip(delta[..n4].chunks_exact_mut(4))
+        {
+            for l in 0..4 {
+                let dl = (dc[l] - origin) - tau;
+                delc[l] = dl;
+                let t = zc[l] / dl;
+                let u = zc[l] * t;
+                s[l] += u;
+                ds[l] += t * t;
+                e[l] += wl[l] * u;
+                wl[l] += 4.0 * step;
+            }
         }
+        for j in n4..d.len() {
+            let dl = (d[j] - origin) - tau;
+            delta[j] = dl;
+            let t = z[j] / dl;
+            let u = z[j] * t;
+            s[0] += u;
+            ds[0] += t * t;
+            e[0] += (w0 + step * j as f64) * u;
+        }
+        (
+            (s[0] + s[1]) + (s[2] + s[3]),
+            (ds[0] + ds[1]) + (ds[2] + ds[3]),
+            (e[0] + e[1]) + (e[2] + e[3]),
+        )
     }
-    for j in n4..d.len() {
-        let dl = (d[j] - origin) - tau;
-        delta[j] = dl;
-        let t = z[j] / dl;
-        let u = z[j] * t;
-        s[0] += u;
-        ds[0] += t * t;
-        e[0] += (w0 + step * j as f64) * u;
-    }
-    (
-        (s[0] + s[1]) + (s[2] + s[3]),
-        (ds[0] + ds[1]) + (ds[2] + ds[3]),
-        (e[0] + e[1]) + (e[2] + e[3]),
-    )
 }
 
 /// `dlaed5`: the `i`-th eigenvalue of `diag(d) + ρ z zᵀ` for two entries; `delta`
@@ -1550,5 +1692,85 @@ mod tests {
         let e: Vec<f64> = wts.iter().map(|w| -w).collect();
         let (lam, _) = check(&d, &e, Par::Seq);
         assert!(lam[0].abs() < 1e-12 && lam[0] >= -1e-12);
+    }
+
+    /// The dispatched kernels of the secular equation and of `dlaed3` (the build
+    /// `crate::cpu::dispatch` picks on this CPU) give the bits of their portable
+    /// build, on runs of every length modulo the four lanes and of both signs.
+    #[test]
+    fn dispatched_kernels_match_their_portable_build() {
+        use crate::cpu::{dispatch, Kernel};
+        let mut r = SplitMix64::new(41);
+        for k in [1usize, 2, 3, 4, 5, 7, 8, 9, 31, 64, 130] {
+            let mut d: Vec<f64> = (0..k).map(|_| r.next_signed() * 4.0).collect();
+            d.sort_by(f64::total_cmp);
+            let z: Vec<f64> = (0..k).map(|_| r.next_signed()).collect();
+            for (origin, tau, w0, step) in [(d[0], 1e-3, k as f64, -1.0), (-0.5, 0.25, 1.0, 1.0)] {
+                let (mut dp, mut dd) = (vec![0.0; k], vec![0.0; k]);
+                let p = PoleSums {
+                    d: &d,
+                    z: &z,
+                    delta: &mut dp,
+                    origin,
+                    tau,
+                    w0,
+                    step,
+                }
+                .portable();
+                let q = dispatch(PoleSums {
+                    d: &d,
+                    z: &z,
+                    delta: &mut dd,
+                    origin,
+                    tau,
+                    w0,
+                    step,
+                });
+                assert_eq!(
+                    [p.0, p.1, p.2].map(f64::to_bits),
+                    [q.0, q.1, q.2].map(f64::to_bits)
+                );
+                assert!(dp.iter().zip(&dd).all(|(a, b)| a.to_bits() == b.to_bits()));
+            }
+            let s: Vec<f64> = (0..k * k).map(|_| r.next_signed() + 2.0).collect();
+            let lam: Vec<f64> = (0..k).map(|i| i as f64 + r.next_f64() * 0.5).collect();
+            let w0: Vec<f64> = (0..k).map(|_| r.next_signed()).collect();
+            let (mut wp, mut wd) = (w0.clone(), w0.clone());
+            Lowner {
+                s: &s,
+                dlamda: &lam,
+                what: &mut wp,
+            }
+            .portable();
+            dispatch(Lowner {
+                s: &s,
+                dlamda: &lam,
+                what: &mut wd,
+            });
+            assert!(wp.iter().zip(&wd).all(|(a, b)| a.to_bits() == b.to_bits()));
+            let order: Vec<usize> = (0..k).rev().collect();
+            let (mut cp, mut cd) = (s[..k].to_vec(), s[..k].to_vec());
+            let (mut vp, mut vd) = (vec![0.0; k], vec![0.0; k]);
+            Normalise {
+                what: &w0,
+                c: &mut cp,
+                v: &mut vp,
+                order: &order,
+            }
+            .portable();
+            dispatch(Normalise {
+                what: &w0,
+                c: &mut cd,
+                v: &mut vd,
+                order: &order,
+            });
+            assert!(cp.iter().zip(&cd).all(|(a, b)| a.to_bits() == b.to_bits()));
+            // And it is `ẑ_i / δ_i`, normalised, in the given order.
+            let v: Vec<f64> = (0..k).map(|i| w0[i] / s[i]).collect();
+            let vn = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+            for (j, &i) in order.iter().enumerate() {
+                assert!((cp[j] - v[i] / vn).abs() <= 1e-15 * (1.0 + v[i].abs() / vn));
+            }
+        }
     }
 }
