@@ -11,10 +11,37 @@ ROOT = Path(__file__).resolve().parent.parent
 MESHES = ROOT.parent / "shared" / "data" / "meshes"
 THREADS = int(os.environ.get("BENCH_THREADS", "2"))
 
+# The peers' own BLAS kernel. Some machines of this workplace set OPENBLAS_CORETYPE and
+# OPENBLAS_L2_SIZE (older OpenBLAS builds failed on their processors); with them the
+# current OpenBLAS in numpy's wheel runs an older kernel than the CPU's (Haswell's AVX2
+# instead of SkylakeX's AVX-512 on the 2026-12-02 Zen 5 host), which slows numpy and
+# flatters every ratio against it. OpenBLAS reads them once, when numpy is first
+# imported, so a script that finds them set starts again without them (whatever it has
+# imported so far). BENCH_KEEP_OPENBLAS_ENV=1 keeps them, to measure their effect.
+_FORCED = ("OPENBLAS_CORETYPE", "OPENBLAS_L2_SIZE")
+if any(v in os.environ for v in _FORCED) and os.environ.get("BENCH_KEEP_OPENBLAS_ENV") != "1":
+    _env = {k: v for k, v in os.environ.items() if k not in _FORCED}
+    sys.stdout.flush()
+    os.execve(sys.executable, sys.orig_argv, _env)
+
 # Same threads on both sides: our rayon pool and the peers' BLAS.
 os.environ["RAYON_NUM_THREADS"] = str(THREADS)
 for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[var] = str(THREADS)
+
+
+def blas_kernel():
+    """The peers' BLAS as threadpoolctl sees it: library, version, kernel, threads."""
+    import numpy  # noqa: F401  (loads OpenBLAS)
+    from threadpoolctl import threadpool_info
+    return "; ".join(
+        f"{i.get('internal_api')} {i.get('version')}, kernel {i.get('architecture')}, "
+        f"{i.get('num_threads')} threads"
+        for i in threadpool_info() if i.get("user_api") == "blas")
+
+
+print(f"peers' BLAS: {blas_kernel()} (OPENBLAS_CORETYPE "
+      f"{os.environ.get('OPENBLAS_CORETYPE', 'unset')})", flush=True)
 
 
 def build():

@@ -51,7 +51,13 @@ for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "RAYON
 def ensure_venv():
     """Re-executes inside bench/.venv-python, creating it first if needed."""
     py = VENV / "bin" / "python"
+    # The peers' own BLAS kernel: without OPENBLAS_CORETYPE / OPENBLAS_L2_SIZE, which
+    # force an older one where this workplace sets them (see bench/common.py).
+    forced = ("OPENBLAS_CORETYPE", "OPENBLAS_L2_SIZE")
+    env = {k: v for k, v in os.environ.items() if k not in forced}
     if Path(sys.prefix).resolve() == VENV.resolve():
+        if len(env) != len(os.environ):
+            os.execve(str(py), [str(py), *sys.argv], env)
         return
     if not py.exists():
         subprocess.run([sys.executable, "-m", "venv", str(VENV)], check=True)
@@ -67,7 +73,7 @@ def ensure_venv():
         check=True,
         env={**os.environ, "CARGO_TARGET_DIR": str(ROOT / "target"), "MATURIN_PEP517_ARGS": "--profile " + PROFILE},
     )
-    os.execv(str(py), [str(py), *sys.argv])
+    os.execve(str(py), [str(py), *sys.argv], env)
 
 
 def rounds(a, b, n):
@@ -158,9 +164,14 @@ def main():
 
     import numpy as np
     import scipy.sparse.linalg as spla
-    from threadpoolctl import threadpool_limits
+    from threadpoolctl import threadpool_info, threadpool_limits
 
     import meshlap
+
+    for i in threadpool_info():
+        if i.get("user_api") == "blas":
+            print(f"peers' BLAS: {i.get('internal_api')} {i.get('version')}, kernel "
+                  f"{i.get('architecture')}", flush=True)
 
     meshlap.set_threads(THREADS)
     n_rounds = args.rounds or (3 if args.small else 5)
