@@ -1,7 +1,7 @@
 """Dense symmetric eigendecomposition: meshlap vs numpy (LAPACK dsyevd via OpenBLAS).
 
 Run: bench/.venv/bin/python bench/dense_evd.py [--sizes 500,1000,2000,2903]
-     [--threads 1,2] [--rounds 3] [--repeat 3] [--warmup 1] [--kinds kirchhoff,sql,tutte]
+     [--threads 1,2] [--rounds 3] [--repeat 3] [--warmup 4] [--kinds kirchhoff,sql,tutte]
 Honours CARGO_TARGET_DIR. Creates nothing outside a temporary directory.
 
 Matrices: breadth-first patches of the Stanford bunny (n = 500, 1000, 2000, as
@@ -23,9 +23,13 @@ Threads: ours RAYON_NUM_THREADS (faer's fixed 2-way split runs on that pool, so 
 thread runs both halves in turn), numpy via threadpoolctl.
 Timing: ROUNDS rounds alternating the sides (ours, numpy, ours, numpy, ...), REPEAT
 timed runs per side per round after WARMUP untimed ones on each side (ours runs in a
-fresh process every round, numpy in this one: without the warm-up our first call paid
-the process's thread start-up and first page faults while numpy's was warm); medians
-of the per-round medians.
+fresh process every round, numpy in this one, warm). A fresh process pays its thread
+start-up and, over its first few calls, the page faults of its heaps growing to their
+peak (one heap per thread that allocates): at n = 500 on 2 threads the first six basis
+calls of a process took 20–30 ms and the later ones 11–16 ms, with about 2,200 page
+faults per repeat over the first four repeats and 140 after (2026-12-02). Hence four
+untimed calls per side by default (one before that date); the first-call cost is the
+CLI's, not the dense ED's. Medians of the per-round medians.
 """
 import argparse
 import os
@@ -68,7 +72,7 @@ def main():
     ap.add_argument("--threads", default="1,2")
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--warmup", type=int, default=1)
+    ap.add_argument("--warmup", type=int, default=4)
     ap.add_argument("--kinds", default="kirchhoff,sql,tutte")
     args = ap.parse_args()
     sizes = [int(s) for s in args.sizes.split(",")]

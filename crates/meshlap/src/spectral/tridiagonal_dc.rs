@@ -32,11 +32,10 @@
 //!    orthogonal to working accuracy whatever the gaps (`dlaed3`).
 //!
 //!    Steps 4 and 5 divide once per pole and root, O(k²) divisions per merge: their
-//!    loops (the kernels `PoleSums`, `Lowner` and `Normalise`) run through
-//!    meshlap's CPU dispatch ([`crate::cpu`]), where they vectorise over four lanes
-//!    (AVX2, AVX-512);
-//!    the baseline x86-64 build divides one lane at a time there. The same bits on
-//!    every build.
+//!    loops (the kernels `PoleSums`, `Lowner` and `Normalise`) run through meshlap's
+//!    CPU dispatch ([`crate::cpu`]), where they vectorise over four lanes (AVX2,
+//!    AVX-512); the baseline x86-64 build divides one lane at a time there. The same
+//!    bits on every build.
 //! 6. The undeflated eigenvectors of `T` are `Q` times those, as two matrix products
 //!    (`faer::linalg::matmul::matmul` with `par`), each only over the rows of its half
 //!    and the columns nonzero there; the deflated ones stay where they are, or move
@@ -574,11 +573,12 @@ fn merge(
     Ok(())
 }
 
-/// Löwner's products of `dlaed3`: `ŵ_i ← ŵ_i ∏_{j≠i} δ_ij / (λ̂_i − λ̂_j)`, where
-/// column j of `s` (k×k, column-major) holds `δ_ij = λ̂_i − λ_j` from the secular
-/// equation and `ŵ_i` starts as `δ_ii`. Each `ŵ_i` takes its factors in the order
-/// of j, so the loops over i vectorise with the same bits on every build
-/// ([`crate::cpu::dispatch`]).
+/// Löwner's products of `dlaed3`: `ŵ_i ← ŵ_i ∏_{j≠i} (d_i − λ_j) / (d_i − d_j)`,
+/// where `d` are the undeflated poles (`dlamda`), column j of `s` (k×k,
+/// column-major) holds `d_i − λ_j` for the j-th root `λ_j` of the secular equation,
+/// and `ŵ_i` starts as `d_i − λ_i`; the caller then takes `ẑ_i = ±√(−ŵ_i)`. Each
+/// `ŵ_i` takes its factors in the order of j, so the loops over i vectorise with the
+/// same bits on every build ([`crate::cpu::dispatch`]).
 struct Lowner<'a> {
     s: &'a [f64],
     dlamda: &'a [f64],
@@ -609,11 +609,11 @@ impl crate::cpu::Kernel for Lowner<'_> {
     }
 }
 
-/// One eigenvector of `D + ρ ẑ ẑᵀ` from its column `c` of `δ_i = λ̂_i − λ`
-/// (`dlaed3`): `v_i = ẑ_i / δ_i`, normalised, written back into `c` in the order
-/// `order` (the grouped columns of `Q`). The norm is summed in four lanes, so that
-/// the divisions and the sum vectorise ([`crate::cpu::dispatch`]); `v` is k entries of
-/// workspace.
+/// One eigenvector of `D + ρ ẑ ẑᵀ` (`dlaed3`) from its column `c`, which holds
+/// `d_i − λ` for its root λ: `v_i = ẑ_i / (d_i − λ)`, normalised, written back into
+/// `c` in the order `order` (`c_j ← v_{order_j} / ‖v‖`, the grouped columns of `Q`).
+/// The norm is summed in four lanes, so that the divisions and the sum vectorise
+/// ([`crate::cpu::dispatch`]); `v` is k entries of workspace.
 struct Normalise<'a> {
     what: &'a [f64],
     c: &'a mut [f64],
