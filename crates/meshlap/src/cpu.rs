@@ -13,10 +13,9 @@
 //! the same IEEE operations per lane as the portable steps), the codec's predictor,
 //! the blocked reduction's symmetric products and its divide and conquer's secular
 //! equation and eigenvector kernels (`spectral::tridiagonal_dc`), the geometric
-//! operators' per-face lanes,
-//! the SDL's row weights and the shift-invert solves of the partial eigensolver
-//! (`spectral::partial::solve`; its solve without a tree split has an AVX2 build of
-//! its own and no AVX-512 one).
+//! operators' per-face lanes, the SDL's row weights and the shift-invert solves of the
+//! partial eigensolver (`spectral::partial::solve`; its solve without a tree split has
+//! an AVX2 build of its own and no AVX-512 one).
 //!
 //! **Same bits.** Rust keeps IEEE semantics whatever the target features: no build
 //! reassociates a sum or fuses a multiply and an add the source does not fuse
