@@ -261,7 +261,8 @@ fn one_ring_col_ptr(topo: &Topology) -> Vec<usize> {
 /// every column. `column(j, off)` writes the off-diagonal entries of column j into `off`
 /// (one per neighbour, in the order of [`Topology::neighbors`], entry `k` for
 /// neighbour `neighbors(j)[k]` via edge `neighbor_edges(j)[k]`) and returns the
-/// diagonal entry; the diagonal is then merged into place.
+/// diagonal entry; the diagonal is then merged into place. `column` must write every
+/// entry of `off`: it arrives holding an earlier column's values, not zeros.
 pub(crate) fn one_ring_columns(
     topo: &Topology,
     column: impl Fn(usize, &mut [f64]) -> f64 + Sync,
@@ -275,13 +276,17 @@ pub(crate) fn one_ring_columns(
         .into_par_iter()
         .map(|(s, e, rows, vals)| {
             let mut ok = true;
-            let mut off = Vec::new();
+            // Grown to the largest degree met, never cleared: `column` writes every
+            // entry of its slice (no memset per column).
+            let mut buf = Vec::new();
             let mut p = 0;
             for j in s..e {
                 let nb = topo.neighbors(crate::VertexId(j as u32));
-                off.clear();
-                off.resize(nb.len(), 0.0);
-                let diag = column(j, &mut off);
+                if buf.len() < nb.len() {
+                    buf.resize(nb.len(), 0.0);
+                }
+                let off = &mut buf[..nb.len()];
+                let diag = column(j, off);
                 // Rows: neighbours below j, j, neighbours above j.
                 let split = count_below(nb, j);
                 let mut prev: Option<usize> = None;

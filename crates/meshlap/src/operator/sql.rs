@@ -31,8 +31,6 @@
 use super::{degree_map_checked, degrees_checked, OperatorError};
 use crate::mesh::{topology::Topology, EdgeId, MeshError, VertexId};
 use crate::SparseMatrix;
-use rayon::prelude::*;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Which boundary diagonal the SQL uses; see the module documentation.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
@@ -103,66 +101,68 @@ pub fn sql_diagonal(topo: &Topology, d: &[f64], convention: BoundaryDiagonal) ->
     diag
 }
 
-/// Assembles the SQL `S = D − W` of `topo` with the given boundary diagonal.
+/// Assembles the SQL `S = D − W` of `topo` (n×n, symmetric, sign convention
+/// `F = D − W`) with the given boundary diagonal.
 ///
-/// The edge weights are computed in parallel in edge order (sequential reads of the
-/// edge arrays), then the matrix is filled column by column
-/// (`assemble::one_ring_columns`) with the boundary diagonal of vertex j
-/// summed over its boundary edges in edge order — so the result equals, bit for bit,
-/// `diag` from [`sql_diagonal`] minus `W` from [`sql_edge_weights`].
+/// Two passes, both in parallel. Per face, in face order (sequential reads of the
+/// faces), each half-edge's opposite vertex gives `1/d_k` to its own side of its edge
+/// (`assemble::per_face_edge_sides`: an interior edge's two sides are its two
+/// opposite vertices, a boundary edge's are `[1/d_k, 0]`). Then the matrix is filled
+/// column by column (`assemble::one_ring_columns`): entry (i, j) is
+/// `−(1/d_j + 1/d_i − ½(s₀ + s₁))` from the edge's sides, or `−(1/d_j + 1/d_i − s₀)`
+/// when the second side is 0 (a boundary edge: every `1/d` is positive), and the
+/// boundary diagonal of vertex j is summed over its boundary edges in neighbour order
+/// (which is the edge order of j's edges). Both sums of two are commutative in IEEE
+/// arithmetic, so the result equals, bit for bit, `diag` from [`sql_diagonal`] minus
+/// `W` from [`sql_edge_weights`] (tested), without a per-edge weight array and without
+/// its random reads of the half-edge arrays in edge order.
+///
+/// Errors on an isolated vertex and on a non-manifold edge (the first in edge order).
 pub fn sql(topo: &Topology, convention: BoundaryDiagonal) -> Result<SparseMatrix, OperatorError> {
     let inv = degree_map_checked(topo, |d| 1.0 / d)?;
-    let non_manifold = AtomicBool::new(false);
-    // Whether any edge is a boundary edge: a closed mesh's columns then skip the
-    // boundary test of each entry.
-    let has_boundary = AtomicBool::new(false);
-    let w: Vec<f64> = (0..topo.n_edges())
-        .into_par_iter()
-        .with_min_len(4096)
-        .map(|e| {
-            let e = EdgeId(e as u32);
-            let [a, b] = topo.edge(e);
-            // The expressions of `sql_edge_weight`, with 1/d precomputed (same bits).
-            let base = inv[a as usize] + inv[b as usize];
-            let h = topo.edge_half_edge(e);
-            let inv_k = inv[topo.opposite_vertex(h) as usize];
-            match topo.edge_face_count(e) {
-                1 => {
-                    has_boundary.store(true, Ordering::Relaxed);
-                    base - inv_k
-                }
-                2 => base - 0.5 * (inv_k + inv[topo.opposite_vertex(topo.twin(h)) as usize]),
-                _ => {
-                    non_manifold.store(true, Ordering::Relaxed);
-                    f64::NAN
-                }
-            }
-        })
-        .collect();
-    if non_manifold.load(Ordering::Relaxed) {
+    if topo.non_manifold_edges().next().is_some() {
         // Name the first non-manifold edge, in edge order, as the sequential build did.
         sql_edge_weights(topo, &degrees_checked(topo)?)?;
     }
-    let has_boundary = has_boundary.load(Ordering::Relaxed);
+    let faces = topo.faces();
+    // Half-edge 3f + m runs t[m] → t[m + 1]; its opposite vertex is t[m + 2].
+    let (sides, _) = super::assemble::per_face_edge_sides(
+        topo,
+        0.0f64,
+        |a, b| a + b,
+        |range, out| {
+            out.extend(faces[range].iter().map(|t| {
+                let [a, b, c] = t.map(|v| inv[v as usize]);
+                ([c, a, b], [(); 3])
+            }));
+            Ok::<_, std::convert::Infallible>(())
+        },
+    )
+    .unwrap_or_else(|never| match never {});
     let sign = match convention {
         BoundaryDiagonal::ZeroRowSum => 1.0,
         BoundaryDiagonal::AsPrinted => -1.0,
     };
     Ok(super::assemble::one_ring_columns(topo, |j, off| {
         let v = VertexId(j as u32);
+        let inv_j = inv[j];
         let mut diag = 1.0;
         for ((o, &i), &e) in off
             .iter_mut()
             .zip(topo.neighbors(v))
             .zip(topo.neighbor_edges(v))
         {
-            let e = EdgeId(e);
-            *o = -w[e.idx()];
-            if has_boundary && topo.is_boundary_edge(e) {
-                // As in `sql_diagonal`: ±½(1/d_i − 1/d_k), i the other endpoint, k the
-                // opposite vertex; `sign · delta` is exact (a sign flip).
-                let inv_k = inv[topo.opposite_vertex(topo.edge_half_edge(e)) as usize];
-                diag += sign * (0.5 * (inv[i as usize] - inv_k));
+            let [s0, s1] = sides[e as usize];
+            let inv_i = inv[i as usize];
+            let base = inv_j + inv_i;
+            if s1 == 0.0 {
+                // A boundary edge, s0 = 1/d_k of its opposite vertex k. As in
+                // `sql_diagonal`: ±½(1/d_i − 1/d_k), i the other endpoint; `sign ·
+                // delta` is exact (a sign flip).
+                *o = -(base - s0);
+                diag += sign * (0.5 * (inv_i - s0));
+            } else {
+                *o = -(base - 0.5 * (s0 + s1));
             }
         }
         diag
@@ -247,6 +247,49 @@ mod tests {
                     .map(|&e| w[e as usize])
                     .sum();
                 assert!((s - diag[v]).abs() < 1e-14, "{name} vertex {v}");
+            }
+        }
+    }
+
+    #[test]
+    fn assembly_equals_diagonal_minus_edge_weights_bit_for_bit() {
+        // The column fill from per-face sides against the per-edge formulas of
+        // `sql_edge_weight` and `sql_diagonal`, placed by the reference assembly; on
+        // closed meshes, meshes with boundary and real ones, with both diagonals.
+        let mut all: Vec<(&str, Topology)> =
+            meshes().into_iter().map(|(n, m)| (n, topo(&m))).collect();
+        for name in ["cow.obj", "teapot.obj", "beetle.obj", "woody.obj"] {
+            let path = format!("{}/../../tests/data/{name}", env!("CARGO_MANIFEST_DIR"));
+            let input = crate::input::open(&path, &crate::input::OpenOptions::default()).unwrap();
+            all.push((name, input.topology));
+        }
+        for (name, t) in all {
+            let d = degrees_checked(&t).unwrap();
+            let Ok(w) = sql_edge_weights(&t, &d) else {
+                // A non-manifold edge: both refuse it.
+                assert!(sql(&t, BoundaryDiagonal::ZeroRowSum).is_err(), "{name}");
+                continue;
+            };
+            for convention in [BoundaryDiagonal::ZeroRowSum, BoundaryDiagonal::AsPrinted] {
+                let diag = sql_diagonal(&t, &d, convention);
+                let want = crate::operator::assemble::reference::one_ring_matrix(
+                    &t,
+                    |i| diag[i],
+                    |_, _, e| -w[e],
+                );
+                let got = sql(&t, convention).unwrap();
+                assert_eq!(
+                    got.symbolic().col_ptr(),
+                    want.symbolic().col_ptr(),
+                    "{name}"
+                );
+                assert_eq!(
+                    got.symbolic().row_idx(),
+                    want.symbolic().row_idx(),
+                    "{name}"
+                );
+                let bits = |a: &[f64]| a.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(got.val()), bits(want.val()), "{name} {convention:?}");
             }
         }
     }
