@@ -250,47 +250,4 @@ mod tests {
             }
         }
     }
-
-    #[test]
-    fn assembly_equals_diagonal_minus_edge_weights_bit_for_bit() {
-        // The column fill from per-face sides against the per-edge formulas of
-        // `sql_edge_weight` and `sql_diagonal`, placed by the reference assembly; on
-        // closed meshes, meshes with boundary and real ones, with both diagonals.
-        let mut all: Vec<(&str, Topology)> =
-            meshes().into_iter().map(|(n, m)| (n, topo(&m))).collect();
-        for name in ["cow.obj", "teapot.obj", "beetle.obj", "woody.obj"] {
-            let path = format!("{}/../../tests/data/{name}", env!("CARGO_MANIFEST_DIR"));
-            let input = crate::input::open(&path, &crate::input::OpenOptions::default()).unwrap();
-            all.push((name, input.topology));
-        }
-        for (name, t) in all {
-            let d = degrees_checked(&t).unwrap();
-            let Ok(w) = sql_edge_weights(&t, &d) else {
-                // A non-manifold edge: both refuse it.
-                assert!(sql(&t, BoundaryDiagonal::ZeroRowSum).is_err(), "{name}");
-                continue;
-            };
-            for convention in [BoundaryDiagonal::ZeroRowSum, BoundaryDiagonal::AsPrinted] {
-                let diag = sql_diagonal(&t, &d, convention);
-                let want = crate::operator::assemble::reference::one_ring_matrix(
-                    &t,
-                    |i| diag[i],
-                    |_, _, e| -w[e],
-                );
-                let got = sql(&t, convention).unwrap();
-                assert_eq!(
-                    got.symbolic().col_ptr(),
-                    want.symbolic().col_ptr(),
-                    "{name}"
-                );
-                assert_eq!(
-                    got.symbolic().row_idx(),
-                    want.symbolic().row_idx(),
-                    "{name}"
-                );
-                let bits = |a: &[f64]| a.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-                assert_eq!(bits(got.val()), bits(want.val()), "{name} {convention:?}");
-            }
-        }
-    }
 }
