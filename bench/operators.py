@@ -15,13 +15,18 @@ What each side includes:
   on its own ("topology") and a second ratio counts it into our time.
 Timing: ROUNDS alternated rounds (ours, peer, ours, peer, ...), medians of the
 per-round figures. Per round the peer runs 5 times in this (long-lived) process; ours
-runs WARMUP + 5 times in a fresh `meshlap-bench` process, and two figures are taken
-from it: the **first call** (what one CLI command pays: the process' heap is new, so
-every array it writes is page-faulted in) and the **warm** median of the last 5 (the
-steady state of a process that assembles repeatedly, like the peer's timeit). The
-first WARMUP calls of a process get faster call by call (on igea's SQL about 6.5,
-4.5, 3.9, 3.5 ms, then 3.3 ms from the fifth on) as the allocator's heaps settle, so
-a median that includes them is neither figure.
+runs WARMUP + TIMED times in a fresh `meshlap-bench` process, and two figures are
+taken from it: the **first call** (what one CLI command pays: the process' heap is
+new, so every array it writes is page-faulted in) and the **warm** median of the last
+TIMED (the steady state of a process that assembles repeatedly, like the peer's
+timeit in this long-lived process). The first calls of a process get faster call by
+call, so a median that includes them is neither figure. On the first hosts four
+calls sufficed (igea's SQL about 6.5, 4.5, 3.9, 3.5 ms, then 3.3 ms from the fifth
+on: the allocator's heaps settling). On the AMD Zen 5 VM of 2026-12-02 a fresh
+process stays slow for 50–300 ms whatever it runs, with no further page faults
+(`perf stat`), and with or without its rayon workers pinned to separate CPUs: igea's
+KL took 3.27 ms over calls 5–9 and 2.24 ms over calls 40–59, the cotan 7.28 and
+5.58 ms. Hence 40 calls of warm-up.
 
 Bandwidth bound: bytes an operator writes = its final CSC arrays in faer's layout,
 `SparseColMat<usize, f64>`: 8 B values + 8 B row indices (usize on 64-bit) per
@@ -117,8 +122,9 @@ def check_same_matrices(path, V, F, n):
 
 
 ROUNDS = 3
-# Untimed calls before the warm figure (see the module docstring).
-WARMUP = 4
+# Untimed calls before the warm figure, and timed calls (see the module docstring).
+WARMUP = 40
+TIMED = 10
 
 
 def write_rates(mib=128, repeat=5):
@@ -179,10 +185,10 @@ def main():
         # operator, round by round, so that both see the same load.
         for _ in range(ROUNDS):
             rates.append(write_rates())
-            times = meshlap_bench("topology", path, "--repeat", WARMUP + 5)["topology"]["times"]
+            times = meshlap_bench("topology", path, "--repeat", WARMUP + TIMED)["topology"]["times"]
             t_ours["topology"].append(statistics.median(times[WARMUP:]))
             for name in ours_all:
-                times = meshlap_bench("operators", path, "--repeat", WARMUP + 5, "--kind", name)[name]["times"]
+                times = meshlap_bench("operators", path, "--repeat", WARMUP + TIMED, "--kind", name)[name]["times"]
                 t_first[name].append(times[0])
                 t_ours[name].append(statistics.median(times[WARMUP:]))
                 if name in peers:
