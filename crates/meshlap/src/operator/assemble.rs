@@ -382,7 +382,9 @@ pub(crate) enum RingEntries<'a> {
 /// copies each block's rows into the final array and sums the values in a per-worker
 /// dense accumulator of n entries, read out (and zeroed) in the rows' order, adding
 /// each `coeff(j, k)·column_k` with [`add_column`]. (Sorting each column's ~19 rows by
-/// rank instead cost a fifth of the time.)
+/// rank instead cost a fifth of the time.) Both passes read the neighbour lists of
+/// j's neighbours, in an order no hardware prefetcher follows, so each asks for them a
+/// few columns ahead ([`prefetch_rings`]; igea's SSTL and T² about 6 % faster).
 pub(crate) fn two_ring_matrix(
     topo: &Topology,
     order: RingOrder,
@@ -407,6 +409,7 @@ pub(crate) fn two_ring_matrix(
                 let mut ok = true;
                 let columns = cnt.len();
                 for (c, j) in cnt.iter_mut().zip(b * BLOCK..) {
+                    prefetch_rings(topo, j);
                     let nb = nbr(j);
                     // Candidates: j, N(j) and N(k) for k ∈ N(j).
                     let bound =
@@ -493,6 +496,7 @@ pub(crate) fn two_ring_matrix(
                 assert_eq!(found.len(), rows.len(), "two-ring block length");
                 let mut p0 = 0;
                 for j in s..e {
+                    prefetch_rings(topo, j);
                     let nb = nbr(j);
                     let split = match order {
                         RingOrder::Ascending => count_below(nb, j),
@@ -518,6 +522,31 @@ pub(crate) fn two_ring_matrix(
     // SAFETY: each block's slices have the length of its row list (asserted), and
     // every column wrote all `len` of its rows and values; the columns cover [0, nnz).
     unsafe { finish(n, col_ptr, row_idx, val, sorted) }
+}
+
+/// How many columns ahead [`prefetch_rings`] asks for the neighbour lists.
+const RING_AHEAD: usize = 8;
+
+/// Before column j of a two-ring pass: prefetches the adjacency offsets of the
+/// neighbours of column `j + 2·RING_AHEAD` and the neighbour lists of those of column
+/// `j + RING_AHEAD` (their offsets are in cache by then). Hints only: no effect on any
+/// value.
+#[inline(always)]
+fn prefetch_rings(topo: &Topology, j: usize) {
+    let (off, adj) = (topo.adjacency_offsets(), topo.adjacency());
+    let n = off.len() - 1;
+    if j + 2 * RING_AHEAD < n {
+        for &k in topo.neighbors(crate::VertexId((j + 2 * RING_AHEAD) as u32)) {
+            crate::mem::prefetch(&off[k as usize]);
+        }
+    }
+    if j + RING_AHEAD < n {
+        for &k in topo.neighbors(crate::VertexId((j + RING_AHEAD) as u32)) {
+            if let Some(x) = adj.get(off[k as usize] as usize) {
+                crate::mem::prefetch(x);
+            }
+        }
+    }
 }
 
 /// Adds `c · column_k` (entries `dk` at row k, `off` at the rows `nb_k` = N(k)) into

@@ -245,7 +245,7 @@ fn decide_all(nbrs: &Graph<'_>, ws: &[u32], lab: &[u32], open: &[u8], decided: &
 #[inline(always)]
 fn prefetch_ahead<T>(nbrs: &Graph<'_>, list: &[u32], i: usize, per_vertex: &[T]) {
     if let Some(&x) = list.get(i + 2 * AHEAD) {
-        prefetch(&nbrs.off[x as usize]);
+        crate::mem::prefetch(&nbrs.off[x as usize]);
     }
     if let Some(&x) = list.get(i + AHEAD) {
         let (a, b) = (
@@ -253,34 +253,19 @@ fn prefetch_ahead<T>(nbrs: &Graph<'_>, list: &[u32], i: usize, per_vertex: &[T])
             nbrs.off[x as usize + 1] as usize,
         );
         if a < b {
-            prefetch(&nbrs.adj[a]);
-            prefetch(&nbrs.adj[b - 1]);
+            crate::mem::prefetch(&nbrs.adj[a]);
+            crate::mem::prefetch(&nbrs.adj[b - 1]);
         }
     }
     if let Some(&x) = list.get(i + AHEAD / 2) {
         for &u in nbrs.of(x) {
-            prefetch(&per_vertex[u as usize]);
+            crate::mem::prefetch(&per_vertex[u as usize]);
         }
     }
 }
 
 /// How far ahead in a list of vertices [`prefetch_ahead`] looks.
 const AHEAD: usize = 16;
-
-/// Asks the CPU to bring `x`'s cache line closer (x86-64; elsewhere nothing). A hint:
-/// no effect on any value.
-#[inline(always)]
-fn prefetch<T>(x: &T) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        // SAFETY: SSE is part of x86-64, and a prefetch reads nothing the program
-        // sees, of an address that is a valid reference here.
-        unsafe { _mm_prefetch::<_MM_HINT_T0>((x as *const T).cast::<i8>()) };
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = x;
-}
 
 /// One level of a breadth-first search: the neighbours `w` of the vertices `v` of
 /// `front` with `marks[w]` still [`NONE`] and `admit(v, w)` into `next`, marked
