@@ -384,7 +384,7 @@ pub(crate) enum RingEntries<'a> {
 /// each `coeff(j, k)·column_k` with [`add_column`]. (Sorting each column's ~19 rows by
 /// rank instead cost a fifth of the time.) Both passes read the neighbour lists of
 /// j's neighbours, in an order no hardware prefetcher follows, so each asks for them a
-/// few columns ahead ([`prefetch_rings`]; igea's SSTL and T² about 6 % faster).
+/// few columns ahead ([`prefetch_rings`]).
 pub(crate) fn two_ring_matrix(
     topo: &Topology,
     order: RingOrder,
