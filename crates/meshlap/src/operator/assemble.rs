@@ -384,7 +384,8 @@ pub(crate) enum RingEntries<'a> {
 /// each `coeff(j, k)·column_k` with [`add_column`]. (Sorting each column's ~19 rows by
 /// rank instead cost a fifth of the time.) Both passes read the neighbour lists of
 /// j's neighbours, in an order no hardware prefetcher follows, so each asks for them a
-/// few columns ahead ([`prefetch_rings`]).
+/// few columns ahead ([`prefetch_rings`]); the second pass also asks for the
+/// accumulator's entries at those neighbours (its rows cluster around them).
 pub(crate) fn two_ring_matrix(
     topo: &Topology,
     order: RingOrder,
@@ -497,6 +498,11 @@ pub(crate) fn two_ring_matrix(
                 let mut p0 = 0;
                 for j in s..e {
                     prefetch_rings(topo, j);
+                    if j + RING_AHEAD < n {
+                        for &k in nbr(j + RING_AHEAD) {
+                            crate::mem::prefetch(&acc[k as usize]);
+                        }
+                    }
                     let nb = nbr(j);
                     let split = match order {
                         RingOrder::Ascending => count_below(nb, j),
