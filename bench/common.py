@@ -40,8 +40,9 @@ def blas_kernel():
         for i in threadpool_info() if i.get("user_api") == "blas")
 
 
+# On stderr: a script's stdout may be data (fairing_cold.py's workers print JSON).
 print(f"peers' BLAS: {blas_kernel()} (OPENBLAS_CORETYPE "
-      f"{os.environ.get('OPENBLAS_CORETYPE', 'unset')})", flush=True)
+      f"{os.environ.get('OPENBLAS_CORETYPE', 'unset')})", file=sys.stderr, flush=True)
 
 
 def build():
