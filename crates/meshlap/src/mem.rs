@@ -21,12 +21,52 @@
 /// Buffers from this size on are advised to use huge pages.
 const ADVISE_FROM: usize = 4 << 20;
 
-/// `vec![zero; n]` (for a zero `zero`, fresh zeroed memory from the allocator, not
-/// yet touched), advised to use transparent huge pages when it is large.
-pub(crate) fn zeroed_vec<T: Clone>(zero: T, n: usize) -> Vec<T> {
-    let v = vec![zero; n];
-    if std::mem::size_of_val(v.as_slice()) >= ADVISE_FROM {
-        advise_huge(v.as_ptr() as usize, std::mem::size_of_val(v.as_slice()));
+/// `vec![zero; n]`, advised to use transparent huge pages when it is large.
+///
+/// The advice must come before the first touch of the pages: a page already faulted
+/// in stays a 4 KiB page. glibc's `calloc` serves a block from its heap (every block
+/// below [`MMAP_THRESHOLD_BYTES`] under [`keep_freed_memory`]) by clearing it with one
+/// `memset` on the calling thread, fresh pages included, so `vec![0; n]` followed by
+/// the advice would fault every page in 4 KiB at a time, serially. Such a block is
+/// therefore allocated without clearing, advised, then filled by the rayon pool (each
+/// worker faults in its own part, in 2 MiB pages). A block from the threshold on is
+/// mapped on its own, fresh and lazily zeroed by the kernel: `calloc` does not touch
+/// it, so it is advised after the allocation and left untouched.
+pub(crate) fn zeroed_vec<T: Clone + Send + Sync>(zero: T, n: usize) -> Vec<T> {
+    use rayon::prelude::*;
+    let bytes = n.saturating_mul(std::mem::size_of::<T>());
+    if bytes < ADVISE_FROM {
+        return vec![zero; n];
+    }
+    if bytes >= MMAP_THRESHOLD_BYTES {
+        let v = vec![zero; n];
+        advise_huge(v.as_ptr() as usize, bytes);
+        return v;
+    }
+    let mut v = advised_capacity::<T>(n);
+    v.spare_capacity_mut()[..n]
+        .par_chunks_mut((FILL_CHUNK / std::mem::size_of::<T>().max(1)).max(1))
+        .for_each(|c| {
+            for e in c {
+                e.write(zero.clone());
+            }
+        });
+    // SAFETY: the capacity is at least n and elements 0..n were written above.
+    unsafe { v.set_len(n) };
+    v
+}
+
+/// Bytes per task of [`zeroed_vec`]'s parallel fill.
+const FILL_CHUNK: usize = 1 << 20;
+
+/// An empty vector with room for `cap` elements, advised to use transparent huge
+/// pages when that room is large, for an output written front to back by pushes
+/// (which then fault its pages in 2 MiB at a time).
+pub(crate) fn advised_capacity<T>(cap: usize) -> Vec<T> {
+    let v = Vec::with_capacity(cap);
+    let bytes = cap.saturating_mul(std::mem::size_of::<T>());
+    if bytes >= ADVISE_FROM {
+        advise_huge(v.as_ptr() as usize, bytes);
     }
     v
 }

@@ -49,7 +49,7 @@ impl CsrMatrix {
 
     /// The entries compressed by columns (rows ascending in each), row indices as
     /// `index` makes them.
-    fn by_columns<T: Copy + Default>(
+    fn by_columns<T: Copy + Default + Send + Sync>(
         &self,
         index: impl Fn(usize) -> T,
     ) -> (Vec<usize>, Vec<T>, Vec<f64>) {
@@ -371,17 +371,15 @@ impl CsrMatrix {
 
 /// An empty vector with room for `cap` values, advised to use huge pages when large
 /// (the arrays a product streams: fewer TLB misses, fewer page faults while filling).
-fn storage<T: Copy + Default>(cap: usize) -> Vec<T> {
-    let mut v = crate::mem::zeroed_vec(T::default(), cap);
-    v.clear();
-    v
+fn storage<T>(cap: usize) -> Vec<T> {
+    crate::mem::advised_capacity(cap)
 }
 
 /// Counting-sort transposition of compressed storage: `n_outer` lists (entries
 /// `range(o)`, inner index `inner(p)` and value `val[p]` of entry p) over `n_inner`
 /// inner positions become `n_inner` lists over the outer positions, each ascending.
 /// Returns the pointers, the indices (as `index` makes them) and the values.
-fn transpose_storage<T: Copy + Default>(
+fn transpose_storage<T: Copy + Default + Send + Sync>(
     n_inner: usize,
     n_outer: usize,
     range: impl Fn(usize) -> Range<usize>,
