@@ -12,7 +12,7 @@
 //!   recorded in [`BicgInfo::plateau_at`] (the solve goes on). The paper observed
 //!   plateaus on Igea and Isis at λ = 100.
 
-use super::krylov::{self, Criterion, Sums};
+use super::krylov::{self, with_columns, Criterion, Sums};
 use super::{csr::CHUNK, BiLinOp, Fused, Info, InputError, Jacobi, Params, Workspace, MAX_COLUMNS};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -191,24 +191,26 @@ fn bicg_on_worker(
             .zip(r.par_chunks(CHUNK * k).zip(rt.par_chunks(CHUNK * k)))
             .enumerate()
             .map(|(blk, ((ps, pts), (rs, rts)))| {
-                let mut s = Sums::<2>::default();
-                for row in 0..ps.len() / k {
-                    let di = dinv.map_or(1.0, |d| d[blk * CHUNK + row]);
-                    for c in 0..k {
-                        let j = row * k + c;
-                        if first {
-                            // β = 0 and the blocks hold no values yet.
-                            ps[j] = di * rs[j];
-                            pts[j] = di * rts[j];
-                        } else if act[c] {
-                            ps[j] = di * rs[j] + beta[c] * ps[j];
-                            pts[j] = di * rts[j] + beta[c] * pts[j];
+                with_columns!(k, K => {
+                    let mut s = Sums::<2>::default();
+                    for row in 0..ps.len() / K {
+                        let di = dinv.map_or(1.0, |d| d[blk * CHUNK + row]);
+                        for c in 0..K {
+                            let j = row * K + c;
+                            if first {
+                                // β = 0 and the blocks hold no values yet.
+                                ps[j] = di * rs[j];
+                                pts[j] = di * rts[j];
+                            } else if act[c] {
+                                ps[j] = di * rs[j] + beta[c] * ps[j];
+                                pts[j] = di * rts[j] + beta[c] * pts[j];
+                            }
+                            s.v[0][c] += ps[j] * ps[j];
+                            s.v[1][c] += pts[j] * pts[j];
                         }
-                        s.v[0][c] += ps[j] * ps[j];
-                        s.v[1][c] += pts[j] * pts[j];
                     }
-                }
-                s
+                    s
+                })
             })
             .reduce(Sums::default, Sums::add);
         op.apply_fused(p, q, k, Fused::new(pt, &mut denom, &mut qq));
@@ -233,26 +235,28 @@ fn bicg_on_worker(
             )
             .enumerate()
             .map(|(blk, (((xs, rs), rts), ((ps, qs), qts)))| {
-                let mut s = Sums::<5>::default();
-                for row in 0..xs.len() / k {
-                    let di = dinv.map_or(1.0, |d| d[blk * CHUNK + row]);
-                    let (mut dx2, mut x2) = (0.0, 0.0);
-                    for c in 0..k {
-                        let j = row * k + c;
-                        let dx = alpha[c] * ps[j];
-                        krylov::advance(&mut xs[j], dx, &mut s.v[XX][c], &mut x2, &mut dx2);
-                        let rv = rs[j] - alpha[c] * qs[j];
-                        let rtv = rts[j] - alpha[c] * qts[j];
-                        rs[j] = rv;
-                        rts[j] = rtv;
-                        s.v[RR][c] += rv * rv;
-                        s.v[RHO][c] += rtv * di * rv;
-                        s.v[ZZ][c] += rv * rv * di * di;
-                        s.v[RTRT][c] += rtv * rtv;
+                with_columns!(k, K => {
+                    let mut s = Sums::<5>::default();
+                    for row in 0..xs.len() / K {
+                        let di = dinv.map_or(1.0, |d| d[blk * CHUNK + row]);
+                        let (mut dx2, mut x2) = (0.0, 0.0);
+                        for c in 0..K {
+                            let j = row * K + c;
+                            let dx = alpha[c] * ps[j];
+                            krylov::advance(&mut xs[j], dx, &mut s.v[XX][c], &mut x2, &mut dx2);
+                            let rv = rs[j] - alpha[c] * qs[j];
+                            let rtv = rts[j] - alpha[c] * qts[j];
+                            rs[j] = rv;
+                            rts[j] = rtv;
+                            s.v[RR][c] += rv * rv;
+                            s.v[RHO][c] += rtv * di * rv;
+                            s.v[ZZ][c] += rv * rv * di * di;
+                            s.v[RTRT][c] += rtv * rtv;
+                        }
+                        s.moving += crit.moving(dx2, x2);
                     }
-                    s.moving += crit.moving(dx2, x2);
-                }
-                s
+                    s
+                })
             })
             .reduce(Sums::default, Sums::add);
         for c in krylov::live(active) {

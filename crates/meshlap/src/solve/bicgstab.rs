@@ -12,7 +12,7 @@
 //! fused with `tᵀs` and `‖t‖²`; and one pass updating x and r that accumulates every
 //! norm of the stopping test and the next ρ. Five n×k work blocks (s overwrites r).
 
-use super::krylov::{self, Criterion, Sums};
+use super::krylov::{self, with_columns, Criterion, Sums};
 use super::{csr::CHUNK, Fused, Info, InputError, LinOp, Params, Workspace, MAX_COLUMNS};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -183,22 +183,24 @@ fn bicgstab_on_worker(
                     .zip(rh.par_chunks(CHUNK * k)),
             )
             .map(|((xs, rs), ((ps, ts), rhs))| {
-                let mut s = Sums::<4>::default();
-                for row in 0..xs.len() / k {
-                    let (mut dx2, mut x2) = (0.0, 0.0);
-                    for c in 0..k {
-                        let j = row * k + c;
-                        let dx = alpha[c] * ps[j] + omega[c] * rs[j];
-                        s.v[STEP][c] += dx * dx;
-                        krylov::advance(&mut xs[j], dx, &mut s.v[XX][c], &mut x2, &mut dx2);
-                        let rv = rs[j] - omega[c] * ts[j];
-                        rs[j] = rv;
-                        s.v[RR][c] += rv * rv;
-                        s.v[RHO][c] += rhs[j] * rv;
+                with_columns!(k, K => {
+                    let mut s = Sums::<4>::default();
+                    for row in 0..xs.len() / K {
+                        let (mut dx2, mut x2) = (0.0, 0.0);
+                        for c in 0..K {
+                            let j = row * K + c;
+                            let dx = alpha[c] * ps[j] + omega[c] * rs[j];
+                            s.v[STEP][c] += dx * dx;
+                            krylov::advance(&mut xs[j], dx, &mut s.v[XX][c], &mut x2, &mut dx2);
+                            let rv = rs[j] - omega[c] * ts[j];
+                            rs[j] = rv;
+                            s.v[RR][c] += rv * rv;
+                            s.v[RHO][c] += rhs[j] * rv;
+                        }
+                        s.moving += crit.moving(dx2, x2);
                     }
-                    s.moving += crit.moving(dx2, x2);
-                }
-                s
+                    s
+                })
             })
             .reduce(Sums::default, Sums::add);
         for c in krylov::live(active) {

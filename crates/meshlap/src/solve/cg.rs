@@ -12,7 +12,7 @@
 //! starts from; after the last, one pass into a spent work block recomputes the
 //! residuals reported.
 
-use super::krylov::{self, Criterion, Sums};
+use super::krylov::{self, with_columns, Criterion, Sums};
 use super::{csr::CHUNK, Fused, Info, InputError, Jacobi, LinOp, Params, Workspace, MAX_COLUMNS};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -151,22 +151,24 @@ fn cg_on_worker(
             .zip(p.par_chunks(CHUNK * k).zip(q.par_chunks(CHUNK * k)))
             .enumerate()
             .map(|(blk, ((xs, rs), (ps, qs)))| {
-                let mut s = Sums::<4>::default();
-                for row in 0..xs.len() / k {
-                    let (mut dx2, mut x2) = (0.0, 0.0);
-                    let di = dinv.map_or(1.0, |d| d[blk * CHUNK + row]);
-                    for c in 0..k {
-                        let j = row * k + c;
-                        let dx = alpha[c] * ps[j];
-                        krylov::advance(&mut xs[j], dx, &mut s.v[XX][c], &mut x2, &mut dx2);
-                        rs[j] -= alpha[c] * qs[j];
-                        s.v[RR][c] += rs[j] * rs[j];
-                        s.v[RZ][c] += rs[j] * rs[j] * di;
-                        s.v[PP][c] += ps[j] * ps[j];
+                with_columns!(k, K => {
+                    let mut s = Sums::<4>::default();
+                    for row in 0..xs.len() / K {
+                        let (mut dx2, mut x2) = (0.0, 0.0);
+                        let di = dinv.map_or(1.0, |d| d[blk * CHUNK + row]);
+                        for c in 0..K {
+                            let j = row * K + c;
+                            let dx = alpha[c] * ps[j];
+                            krylov::advance(&mut xs[j], dx, &mut s.v[XX][c], &mut x2, &mut dx2);
+                            rs[j] -= alpha[c] * qs[j];
+                            s.v[RR][c] += rs[j] * rs[j];
+                            s.v[RZ][c] += rs[j] * rs[j] * di;
+                            s.v[PP][c] += ps[j] * ps[j];
+                        }
+                        s.moving += crit.moving(dx2, x2);
                     }
-                    s.moving += crit.moving(dx2, x2);
-                }
-                s
+                    s
+                })
             })
             .reduce(Sums::default, Sums::add);
         let mut beta = [0.0f64; MAX_COLUMNS];
@@ -188,15 +190,17 @@ fn cg_on_worker(
             .zip(r.par_chunks(CHUNK * k))
             .enumerate()
             .for_each(|(blk, (ps, rs))| {
-                for row in 0..ps.len() / k {
-                    let di = dinv.map_or(1.0, |d| d[blk * CHUNK + row]);
-                    for c in 0..k {
-                        if active[c] {
-                            let j = row * k + c;
-                            ps[j] = rs[j] * di + beta[c] * ps[j];
+                with_columns!(k, K => {
+                    for row in 0..ps.len() / K {
+                        let di = dinv.map_or(1.0, |d| d[blk * CHUNK + row]);
+                        for c in 0..K {
+                            if active[c] {
+                                let j = row * K + c;
+                                ps[j] = rs[j] * di + beta[c] * ps[j];
+                            }
                         }
                     }
-                }
+                })
             });
     }
     krylov::finish(&mut info, op, x, b, k, start, q);

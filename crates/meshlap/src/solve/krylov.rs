@@ -154,6 +154,61 @@ pub(crate) fn advance(x: &mut f64, dx: f64, xx: &mut f64, x2: &mut f64, dx2: &mu
     *x = xo + dx;
 }
 
+/// Evaluates `$body` with `$K` a constant equal to `$k` (1 ..= [`MAX_COLUMNS`]; any
+/// other count is a run-time value): the
+/// passes over n×k blocks are written once, with their column loops `0..K`, and
+/// compiled once per column count. With K known, each column loop is unrolled and the
+/// per-column sums of a pass stay in registers; with k read at run time they live in
+/// memory, and every entry's additions wait on a store and a load of the same sum
+/// (measured in BENCHMARKS.md, "Implicit fairing"). The arithmetic, and so the
+/// result, is the same either way.
+macro_rules! with_columns {
+    ($k:expr, $K:ident => $body:expr) => {
+        match $k {
+            1 => {
+                const $K: usize = 1;
+                $body
+            }
+            2 => {
+                const $K: usize = 2;
+                $body
+            }
+            3 => {
+                const $K: usize = 3;
+                $body
+            }
+            4 => {
+                const $K: usize = 4;
+                $body
+            }
+            5 => {
+                const $K: usize = 5;
+                $body
+            }
+            6 => {
+                const $K: usize = 6;
+                $body
+            }
+            7 => {
+                const $K: usize = 7;
+                $body
+            }
+            8 => {
+                const $K: usize = 8;
+                $body
+            }
+            k => {
+                // Other counts (the solvers never pass them; a caller of
+                // `LinOp::residual` may): the same body with k read at run time.
+                #[allow(non_snake_case)]
+                let $K: usize = k;
+                $body
+            }
+        }
+    };
+}
+pub(crate) use with_columns;
+
 /// Which of the (at most [`MAX_COLUMNS`]) columns are still iterating.
 pub(crate) type Active = [bool; MAX_COLUMNS];
 

@@ -86,24 +86,26 @@ pub(crate) fn residual_rows(
     d: Option<&[f64]>,
     k: usize,
 ) -> ResidualSums {
-    let mut s = ResidualSums::default();
-    for row in 0..r.len() / k {
-        let di = d.map_or(1.0, |d| d[row]);
-        for c in 0..k {
-            let j = row * k + c;
-            let (bv, rv) = (b[j], b[j] - r[j]);
-            r[j] = rv;
-            let zv = rv * di;
-            if let Some(z) = z.as_deref_mut() {
-                z[j] = zv;
+    super::krylov::with_columns!(k, K => {
+        let mut s = ResidualSums::default();
+        for row in 0..r.len() / K {
+            let di = d.map_or(1.0, |d| d[row]);
+            for c in 0..K {
+                let j = row * K + c;
+                let (bv, rv) = (b[j], b[j] - r[j]);
+                r[j] = rv;
+                let zv = rv * di;
+                if let Some(z) = z.as_deref_mut() {
+                    z[j] = zv;
+                }
+                s.rr[c] += rv * rv;
+                s.bb[c] += bv * bv;
+                s.rz[c] += rv * zv;
+                s.zz[c] += zv * zv;
             }
-            s.rr[c] += rv * rv;
-            s.bb[c] += bv * bv;
-            s.rz[c] += rv * zv;
-            s.zz[c] += zv * zv;
         }
-    }
     s
+    })
 }
 
 /// Runs `rows(first_row, b, r, z, d)` over chunks of [`CHUNK`] rows in parallel and
