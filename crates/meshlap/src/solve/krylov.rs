@@ -155,13 +155,13 @@ pub(crate) fn advance(x: &mut f64, dx: f64, xx: &mut f64, x2: &mut f64, dx2: &mu
 }
 
 /// Evaluates `$body` with `$K` a constant equal to `$k` (1 ..= [`MAX_COLUMNS`]; any
-/// other count is a run-time value): the
-/// passes over n×k blocks are written once, with their column loops `0..K`, and
-/// compiled once per column count. With K known, each column loop is unrolled and the
-/// per-column sums of a pass stay in registers; with k read at run time they live in
-/// memory, and every entry's additions wait on a store and a load of the same sum
-/// (measured in BENCHMARKS.md, "Implicit fairing"). The arithmetic, and so the
-/// result, is the same either way.
+/// other count is a run-time value): the passes over n×k blocks are written once,
+/// with their column loops `0..K`, and compiled once per column count. With K known,
+/// each column loop is unrolled and the per-column sums of a pass stay in registers;
+/// with k read at run time they live in memory, and every entry's additions wait on a
+/// store and a load of the same sum (measured in BENCHMARKS.md, "Implicit fairing
+/// solvers and the paper's Table 1"). The arithmetic, and so the result, is the same
+/// either way.
 macro_rules! with_columns {
     ($k:expr, $K:ident => $body:expr) => {
         match $k {

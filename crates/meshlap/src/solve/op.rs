@@ -104,7 +104,7 @@ pub(crate) fn residual_rows(
                 s.zz[c] += zv * zv;
             }
         }
-    s
+        s
     })
 }
 
@@ -354,6 +354,38 @@ mod tests {
             }
         }
         CsrMatrix::from_csc(&crate::SparseMatrix::try_new_from_triplets(n, n, &trip).unwrap())
+    }
+
+    #[test]
+    fn residual_pass_is_the_same_at_every_column_count() {
+        // Each column count compiles its own pass (`with_columns`); all of them must
+        // give b − Ax and the sums of a plain computation.
+        let n = 9;
+        let a = lower_bidiagonal(n);
+        let d: Vec<f64> = (0..n).map(|i| 0.5 + i as f64).collect();
+        for k in 1..=MAX_COLUMNS {
+            let x: Vec<f64> = (0..n * k).map(|i| (i as f64 * 0.3).cos()).collect();
+            let b: Vec<f64> = (0..n * k).map(|i| (i as f64 * 0.7).sin()).collect();
+            let (mut r, mut z, mut ax) = (vec![0.0; n * k], vec![0.0; n * k], vec![0.0; n * k]);
+            let s = a.residual(&b, &x, &mut r, k, Some(&d), Some(&mut z));
+            a.apply(&x, &mut ax, k);
+            for c in 0..k {
+                let (mut rr, mut bb, mut rz, mut zz) = (0.0, 0.0, 0.0, 0.0);
+                for i in 0..n {
+                    let j = i * k + c;
+                    let rv = b[j] - ax[j];
+                    assert_eq!(r[j], rv, "k = {k}");
+                    assert_eq!(z[j], rv * d[i], "k = {k}");
+                    rr += rv * rv;
+                    bb += b[j] * b[j];
+                    rz += rv * rv * d[i];
+                    zz += rv * d[i] * rv * d[i];
+                }
+                for (got, want) in [(s.rr[c], rr), (s.bb[c], bb), (s.rz[c], rz), (s.zz[c], zz)] {
+                    assert!((got - want).abs() <= 1e-14 * want.abs().max(1.0), "k = {k}");
+                }
+            }
+        }
     }
 
     #[test]
