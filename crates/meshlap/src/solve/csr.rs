@@ -287,8 +287,8 @@ impl CsrMatrix {
     /// `α·I + β·A` (square A; the diagonal is added to the pattern where missing).
     pub fn shifted(&self, alpha: &[f64], beta: f64) -> CsrMatrix {
         let mut row_ptr = vec![0usize; self.nrows + 1];
-        let mut col = storage::<u32>(self.nnz() + self.nrows);
-        let mut val = storage::<f64>(self.nnz() + self.nrows);
+        let mut col = crate::mem::advised_capacity::<u32>(self.nnz() + self.nrows);
+        let mut val = crate::mem::advised_capacity::<f64>(self.nnz() + self.nrows);
         for i in 0..self.nrows {
             let mut placed = false;
             for p in self.row_range(i) {
@@ -367,12 +367,6 @@ impl CsrMatrix {
             vals,
         )
     }
-}
-
-/// An empty vector with room for `cap` values, advised to use huge pages when large
-/// (the arrays a product streams: fewer TLB misses, fewer page faults while filling).
-fn storage<T>(cap: usize) -> Vec<T> {
-    crate::mem::advised_capacity(cap)
 }
 
 /// Counting-sort transposition of compressed storage: `n_outer` lists (entries

@@ -164,39 +164,14 @@ pub(crate) fn advance(x: &mut f64, dx: f64, xx: &mut f64, x2: &mut f64, dx2: &mu
 /// either way.
 macro_rules! with_columns {
     ($k:expr, $K:ident => $body:expr) => {
+        $crate::solve::krylov::with_columns!(@arms $k, $K, $body, [1 2 3 4 5 6 7 8])
+    };
+    (@arms $k:expr, $K:ident, $body:expr, [$($n:literal)*]) => {
         match $k {
-            1 => {
-                const $K: usize = 1;
+            $($n => {
+                const $K: usize = $n;
                 $body
-            }
-            2 => {
-                const $K: usize = 2;
-                $body
-            }
-            3 => {
-                const $K: usize = 3;
-                $body
-            }
-            4 => {
-                const $K: usize = 4;
-                $body
-            }
-            5 => {
-                const $K: usize = 5;
-                $body
-            }
-            6 => {
-                const $K: usize = 6;
-                $body
-            }
-            7 => {
-                const $K: usize = 7;
-                $body
-            }
-            8 => {
-                const $K: usize = 8;
-                $body
-            }
+            })*
             k => {
                 // Other counts (the solvers never pass them; a caller of
                 // `LinOp::residual` may): the same body with k read at run time.
@@ -207,6 +182,8 @@ macro_rules! with_columns {
         }
     };
 }
+// The arms above list 1 ..= MAX_COLUMNS.
+const _: () = assert!(MAX_COLUMNS == 8);
 pub(crate) use with_columns;
 
 /// Which of the (at most [`MAX_COLUMNS`]) columns are still iterating.
