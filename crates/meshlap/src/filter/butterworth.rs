@@ -97,7 +97,8 @@ pub fn butterworth(
         infos.push(SolveInfo::Direct {
             info: Info {
                 iterations: vec![0; 3],
-                residuals: relative_residuals(&q, x, &b, 3),
+                residuals: relative_residuals(&q, x, &b, 3)
+                    .map_err(|e| FilterError::Solve(e.into()))?,
                 history: vec![Vec::new(); 3],
                 seconds: factorization.solve_seconds,
             },

@@ -314,7 +314,7 @@ impl ImplicitSolver {
                 // Residuals of the original system, comparable with BiCG's; a work
                 // block of the finished solve is the scratch.
                 let [scratch] = ws.blocks::<1>(b.len());
-                info.residuals = original.residual(b, x, scratch, k, None, None).relative(k);
+                info.residuals = original.residual(b, x, scratch, k, None, None)?.relative(k);
                 info.seconds = start.elapsed().as_secs_f64();
                 SolveInfo::Iterative(info)
             }
@@ -359,7 +359,7 @@ fn direct_solve(
     Ok(SolveInfo::Direct {
         info: Info {
             iterations: vec![0; k],
-            residuals: relative_residuals(a, x, b, k),
+            residuals: relative_residuals(a, x, b, k)?,
             history: vec![Vec::new(); k],
             seconds: factorization.solve_seconds,
         },

@@ -143,9 +143,9 @@ fn bicg_on_worker(
     // p̃ are set from r and r̃ by the first iteration, which has β = 0).
     let mut sums = Sums::<5>::default();
     let s0 = match dinv {
-        None => op.residual(b, x, r, k, None, Some(rt)),
+        None => op.residual(b, x, r, k, None, Some(rt))?,
         Some(d) => {
-            let s0 = op.residual(b, x, r, k, Some(d), None);
+            let s0 = op.residual(b, x, r, k, Some(d), None)?;
             krylov::copy(rt, r);
             s0
         }
@@ -280,7 +280,7 @@ fn bicg_on_worker(
     if params.record_history {
         info.info.history = history;
     }
-    krylov::finish(&mut info.info, op, x, b, k, start, q);
+    krylov::finish(&mut info.info, op, x, b, k, start, q)?;
     if active.iter().any(|&a| a) {
         return Err(BicgError::NoConvergence {
             info: Box::new(info),

@@ -88,7 +88,7 @@ fn bicgstab_on_worker(
     let n = op.dim();
     let [r, rh, p, v, t] = ws.blocks::<5>(n * k);
     // r = b − Ax, r̂ = r, ‖r‖², ‖b‖²: one pass.
-    let s0 = op.residual(b, x, r, k, None, Some(rh));
+    let s0 = op.residual(b, x, r, k, None, Some(rh))?;
     krylov::zero(p);
     krylov::zero(v);
     let bnorm = krylov::norms_of_b(&s0, k);
@@ -222,7 +222,7 @@ fn bicgstab_on_worker(
             rho[c] = sums.v[RHO][c];
         }
     }
-    krylov::finish(&mut info, op, x, b, k, start, t);
+    krylov::finish(&mut info, op, x, b, k, start, t)?;
     if active.iter().any(|&a| a) {
         return Err(BicgstabError::NoConvergence {
             info: Box::new(info),

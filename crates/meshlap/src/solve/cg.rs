@@ -104,7 +104,7 @@ fn cg_on_worker(
     };
     let [r, p, q] = ws.blocks::<3>(n * k);
     // r = b − Bx, p = M⁻¹r, ‖r‖², rᵀM⁻¹r and ‖b‖² per column: one pass.
-    let s0 = op.residual(b, x, r, k, dinv, Some(p));
+    let s0 = op.residual(b, x, r, k, dinv, Some(p))?;
     let mut rz = s0.rz[..k].to_vec();
     let bnorm = krylov::norms_of_b(&s0, k);
     let mut active = krylov::all_active(k);
@@ -123,7 +123,7 @@ fn cg_on_worker(
     let mut it = 0;
     while active.iter().any(|&a| a) {
         if it >= params.max_iterations {
-            krylov::finish(&mut info, op, x, b, k, start, q);
+            krylov::finish(&mut info, op, x, b, k, start, q)?;
             return Err(CgError::NoConvergence {
                 info: Box::new(info),
             });
@@ -203,7 +203,7 @@ fn cg_on_worker(
                 })
             });
     }
-    krylov::finish(&mut info, op, x, b, k, start, q);
+    krylov::finish(&mut info, op, x, b, k, start, q)?;
     Ok(info)
 }
 

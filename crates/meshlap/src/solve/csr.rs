@@ -206,6 +206,9 @@ impl CsrMatrix {
     /// `y = A x` for an n×k row-major block, in parallel over row chunks, with the
     /// reductions of `fused` in the same pass (at most [`MAX_COLUMNS`] columns then).
     pub(crate) fn product(&self, x: &[f64], y: &mut [f64], k: usize, fused: Option<Fused<'_>>) {
+        if k == 0 {
+            return;
+        }
         let zero = || ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]);
         match fused {
             None => y

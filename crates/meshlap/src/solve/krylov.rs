@@ -105,9 +105,10 @@ pub(crate) fn finish(
     k: usize,
     start: Instant,
     scratch: &mut [f64],
-) {
-    info.residuals = op.residual(b, x, scratch, k, None, None).relative(k);
+) -> Result<(), InputError> {
+    info.residuals = op.residual(b, x, scratch, k, None, None)?.relative(k);
     info.seconds = start.elapsed().as_secs_f64();
+    Ok(())
 }
 
 /// `‖b_c‖` per column from the sums of a residual pass, at least the smallest

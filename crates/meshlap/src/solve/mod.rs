@@ -44,7 +44,10 @@ pub use cg::{cg, CgError};
 pub use csr::CsrMatrix;
 pub use direct::{CholeskySolver, DirectError, DirectInfo, LuSolver, SymbolicCholesky, SymbolicLu};
 pub use krylov::Workspace;
-pub use op::{BiLinOp, CsrWithTranspose, Diagonal, FnOperator, Fused, Jacobi, LinOp, ResidualSums};
+pub use op::{
+    check_residual, BiLinOp, CsrWithTranspose, Diagonal, FnOperator, Fused, Jacobi, LinOp,
+    ResidualSums,
+};
 
 use serde::Serialize;
 
@@ -224,6 +227,16 @@ pub enum InputError {
         /// Values of the right-hand side.
         want: usize,
     },
+    /// A work block or weight vector has the wrong length.
+    #[error("the {what} has {len} values, {want} expected")]
+    Block {
+        /// Which argument.
+        what: &'static str,
+        /// Values given.
+        len: usize,
+        /// Values expected.
+        want: usize,
+    },
     /// The tolerance is not positive and finite.
     #[error("the tolerance must be positive and finite, got {0}")]
     Tolerance(f64),
@@ -317,9 +330,17 @@ pub fn shifted_system(f: &crate::SparseMatrix, mass: Option<&[f64]>, lambda: f64
 
 /// Relative residuals `‖B x_c − b_c‖/‖b_c‖` of the n×k blocks `x`, `b`, recomputed
 /// from scratch (absolute residuals for zero columns of `b`).
-pub fn relative_residuals(op: &(impl LinOp + ?Sized), x: &[f64], b: &[f64], k: usize) -> Vec<f64> {
+///
+/// # Errors
+/// [`InputError`] for k outside 1 ..= [`MAX_COLUMNS`] or blocks that are not n×k.
+pub fn relative_residuals(
+    op: &(impl LinOp + ?Sized),
+    x: &[f64],
+    b: &[f64],
+    k: usize,
+) -> Result<Vec<f64>, InputError> {
     let mut r = vec![0.0; b.len()];
-    op.residual(b, x, &mut r, k, None, None).relative(k)
+    Ok(op.residual(b, x, &mut r, k, None, None)?.relative(k))
 }
 
 #[cfg(test)]

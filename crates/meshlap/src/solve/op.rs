@@ -136,12 +136,55 @@ pub(crate) fn residual_chunks(
         .reduce(ResidualSums::default, ResidualSums::add)
 }
 
+/// Checks the arguments of [`LinOp::residual`] for an n×n operator: 1 ≤ k ≤
+/// [`MAX_COLUMNS`], `b`, `x`, `r` (and `z`) of n·k values, `d` of n.
+pub fn check_residual(
+    n: usize,
+    b: &[f64],
+    x: &[f64],
+    r: &[f64],
+    k: usize,
+    d: Option<&[f64]>,
+    z: Option<&[f64]>,
+) -> Result<(), InputError> {
+    super::krylov::check_sizes(n, b, x, k)?;
+    let blocks = [
+        ("residual", Some(r.len())),
+        ("scaled residual", z.map(<[f64]>::len)),
+    ];
+    for (what, len) in blocks {
+        match len {
+            Some(len) if len != n * k => {
+                return Err(InputError::Block {
+                    what,
+                    len,
+                    want: n * k,
+                });
+            }
+            _ => {}
+        }
+    }
+    match d {
+        Some(d) if d.len() != n => Err(InputError::Block {
+            what: "row weights",
+            len: d.len(),
+            want: n,
+        }),
+        _ => Ok(()),
+    }
+}
+
 /// A square linear operator applied to n×k blocks stored row-major (entry (i, c) at
 /// index `i·k + c`).
 pub trait LinOp: Sync {
     /// n.
     fn dim(&self) -> usize;
-    /// `y = A x` for the n×k blocks `x` and `y`.
+    /// `y = A x` for the n×k blocks `x` and `y` (n·k values each).
+    ///
+    /// # Panics
+    /// A matrix kernel may panic when `x` or `y` does not hold n·k values: it is the
+    /// innermost loop of every solver, which checks the sizes once before it starts
+    /// ([`check_residual`] checks them for a direct caller). k = 0 does nothing.
     fn apply(&self, x: &[f64], y: &mut [f64], k: usize);
     /// `y = A x` and the reductions of `fused`; the default makes a second pass over
     /// `y`, a matrix kernel fuses them into the product.
@@ -155,6 +198,11 @@ pub trait LinOp: Sync {
     /// given: everything a Krylov solver needs before its first iteration, or to
     /// report its final residuals. The default applies `A` and makes one more pass;
     /// a matrix kernel does it all in one pass over the matrix and the blocks.
+    ///
+    /// # Errors
+    /// [`InputError`] when k is 0 or above [`MAX_COLUMNS`] (the sums hold at most
+    /// that many columns), or when a block or `d` has the wrong length
+    /// ([`check_residual`]); nothing is written then.
     fn residual(
         &self,
         b: &[f64],
@@ -163,9 +211,12 @@ pub trait LinOp: Sync {
         k: usize,
         d: Option<&[f64]>,
         z: Option<&mut [f64]>,
-    ) -> ResidualSums {
+    ) -> Result<ResidualSums, InputError> {
+        check_residual(self.dim(), b, x, r, k, d, z.as_deref())?;
         self.apply(x, r, k);
-        residual_chunks(b, r, z, d, k, |_, b, r, z, d| residual_rows(b, r, z, d, k))
+        Ok(residual_chunks(b, r, z, d, k, |_, b, r, z, d| {
+            residual_rows(b, r, z, d, k)
+        }))
     }
 }
 
@@ -199,8 +250,9 @@ impl LinOp for CsrMatrix {
         k: usize,
         d: Option<&[f64]>,
         z: Option<&mut [f64]>,
-    ) -> ResidualSums {
-        self.residual_pass(b, x, r, k, d, z)
+    ) -> Result<ResidualSums, InputError> {
+        check_residual(self.dim(), b, x, r, k, d, z.as_deref())?;
+        Ok(self.residual_pass(b, x, r, k, d, z))
     }
 }
 
@@ -252,8 +304,8 @@ impl LinOp for CsrWithTranspose {
         k: usize,
         d: Option<&[f64]>,
         z: Option<&mut [f64]>,
-    ) -> ResidualSums {
-        self.a.residual_pass(b, x, r, k, d, z)
+    ) -> Result<ResidualSums, InputError> {
+        self.a.residual(b, x, r, k, d, z)
     }
 }
 
@@ -367,7 +419,9 @@ mod tests {
             let x: Vec<f64> = (0..n * k).map(|i| (i as f64 * 0.3).cos()).collect();
             let b: Vec<f64> = (0..n * k).map(|i| (i as f64 * 0.7).sin()).collect();
             let (mut r, mut z, mut ax) = (vec![0.0; n * k], vec![0.0; n * k], vec![0.0; n * k]);
-            let s = a.residual(&b, &x, &mut r, k, Some(&d), Some(&mut z));
+            let s = a
+                .residual(&b, &x, &mut r, k, Some(&d), Some(&mut z))
+                .unwrap();
             a.apply(&x, &mut ax, k);
             for c in 0..k {
                 let (mut rr, mut bb, mut rz, mut zz) = (0.0, 0.0, 0.0, 0.0);
@@ -386,6 +440,60 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn residual_reports_bad_sizes_instead_of_panicking() {
+        let n = 5;
+        let a = lower_bidiagonal(n);
+        let generic = FnOperator {
+            dim: n,
+            apply: |x: &[f64], y: &mut [f64], k| a.apply(x, y, k),
+        };
+        let ops: [&dyn LinOp; 2] = [&a, &generic];
+        for op in ops {
+            // Column counts the sums cannot hold.
+            for k in [0, MAX_COLUMNS + 1] {
+                let (b, x, mut r) = (vec![1.0; n * k], vec![0.0; n * k], vec![7.0; n * k]);
+                let got = op.residual(&b, &x, &mut r, k, None, None);
+                assert_eq!(got, Err(InputError::Columns { k }));
+                assert!(r.iter().all(|&v| v == 7.0), "nothing written");
+                assert_eq!(
+                    super::super::relative_residuals(op, &x, &b, k),
+                    Err(InputError::Columns { k })
+                );
+            }
+            // Blocks and weights of the wrong length.
+            let k = 2;
+            let (b, x) = (vec![1.0; n * k], vec![0.0; n * k]);
+            let (mut r, mut short) = (vec![0.0; n * k], vec![0.0; n * k - 1]);
+            let d = vec![1.0; n + 1];
+            let block = |what, len, want| Err(InputError::Block { what, len, want });
+            assert_eq!(
+                op.residual(&b, &x, &mut short, k, None, None),
+                block("residual", n * k - 1, n * k)
+            );
+            let mut z = vec![0.0; 3];
+            assert_eq!(
+                op.residual(&b, &x, &mut r, k, None, Some(&mut z)),
+                block("scaled residual", 3, n * k)
+            );
+            assert_eq!(
+                op.residual(&b, &x, &mut r, k, Some(&d), None),
+                block("row weights", n + 1, n)
+            );
+            assert!(matches!(
+                op.residual(&b[1..], &x, &mut r, k, None, None),
+                Err(InputError::RightHandSide { .. })
+            ));
+            assert!(matches!(
+                op.residual(&b, &x[1..], &mut r, k, None, None),
+                Err(InputError::InitialGuess { .. })
+            ));
+            assert!(op.residual(&b, &x, &mut r, k, None, None).is_ok());
+        }
+        // A product over no columns does nothing.
+        a.apply(&[], &mut [], 0);
     }
 
     #[test]
@@ -447,11 +555,15 @@ mod tests {
         for weights in [None, Some(&d[..])] {
             let (mut r1, mut z1) = (vec![0.0; n * k], vec![0.0; n * k]);
             let (mut r2, mut z2) = (vec![0.0; n * k], vec![0.0; n * k]);
-            let s1 = a.residual(&b, &x, &mut r1, k, weights, Some(&mut z1));
-            let s2 = generic.residual(&b, &x, &mut r2, k, weights, Some(&mut z2));
+            let s1 = a
+                .residual(&b, &x, &mut r1, k, weights, Some(&mut z1))
+                .unwrap();
+            let s2 = generic
+                .residual(&b, &x, &mut r2, k, weights, Some(&mut z2))
+                .unwrap();
             assert_eq!((&r1, &z1), (&r2, &z2), "same entries, bit for bit");
             let mut r3 = vec![0.0; n * k];
-            let s3 = a.residual(&b, &x, &mut r3, k, weights, None);
+            let s3 = a.residual(&b, &x, &mut r3, k, weights, None).unwrap();
             assert_eq!(r3, r1);
             for j in 0..n * k {
                 assert_eq!(r1[j], b[j] - ax[j]);
