@@ -536,7 +536,8 @@ def smooth(
     ((I + λF)x′ = x, Desbrun 1999; Zhang 2004 §4.10; λ = 30, 1 step by default),
     ``explicit``, ``taubin``, ``butterworth``, ``ideal`` (see ``meshlap smooth``).
     ``None`` takes the library's default; the solver ``auto`` is CG for a symmetric F
-    and BiCG otherwise.
+    and BiCG otherwise (on an F with a diagonal symmetrizer S, as the TL, BiCG uses
+    ``(I + λF)ᵀ = S(I + λF)S⁻¹``: both products in one pass, no transpose stored).
 
     Returns ``(V′, info)``: float64 (n, 3) and a dict with ``iterations`` per
     coordinate column, ``residuals``, ``solves`` (each with ``history``: the relative

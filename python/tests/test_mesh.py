@@ -92,6 +92,23 @@ def test_implicit_smoothing_equals_scipy_solve(sphere):
     assert hist[0][-1] < 1e-12 < hist[0][0] and max(info["residuals"]) < 1e-11
 
 
+def test_bicg_on_the_tutte_system_equals_scipy_solve(sphere):
+    # The TL is not symmetric; BiCG solves (I + λT)x = b through its symmetrizer D
+    # ((I + λT)ᵀ = D(I + λT)D⁻¹), and must agree with a direct solve and with LU.
+    rng = np.random.default_rng(5)
+    V, F = sphere
+    V = V + 0.01 * rng.standard_normal(V.shape)
+    T = meshlap.operator(V, F, "tutte")
+    assert abs(T - T.T).max() > 1e-3
+    lam = 30.0
+    ref = spla.spsolve((sp.eye_array(len(V)) + lam * T).tocsc(), V)
+    Vb, info = meshlap.smooth(V, F, "implicit", "tutte", lam=lam, solver="bicg", stop="strong", tol=1e-12)
+    assert info["solver"] == "bicg" and max(info["residuals"]) < 1e-11
+    np.testing.assert_allclose(Vb, ref, atol=1e-9)
+    Vl, _ = meshlap.smooth(V, F, "implicit", "tutte", lam=lam, solver="lu")
+    np.testing.assert_allclose(Vl, ref, atol=1e-10)
+
+
 def test_smooth_default_operator_is_the_librarys():
     import inspect
 

@@ -9,7 +9,8 @@
 //! [`ImplicitSolver`] is the stateful solver and the one route to every solver kind
 //! (geometry-central's pattern): it assembles the system once for an operator and a
 //! solver kind and keeps everything the kind needs across solves — the CSR matrix, its
-//! transpose for BiCG, the Jacobi preconditioner, the symmetrized system for `cg-sym`,
+//! transpose for BiCG (or, when F has a symmetrizer S, S itself: `Aᵀ = S A S⁻¹`, so
+//! BiCG multiplies by A twice in one pass and stores no transpose), the Jacobi preconditioner, the symmetrized system for `cg-sym`,
 //! the Cholesky or LU factorization, and the iterative solvers' buffers. On
 //! [`ImplicitSolver::set_lambda`] the direct kinds refactor numerically, reusing the
 //! symbolic analysis. [`implicit_fairing`] is the one-shot function.
@@ -34,8 +35,8 @@ use super::{FilterError, FilterKind};
 pub use crate::operator::symmetrize::{is_symmetric, symmetrizer};
 use crate::solve::{
     bicg, bicgstab, cg, check_sizes, relative_residuals, CholeskySolver, CsrMatrix,
-    CsrWithTranspose, DirectError, DirectInfo, Info, InputError, Jacobi, LinOp, LuSolver, Params,
-    SolveError, SolveInfo, Workspace,
+    CsrWithSymmetrizer, CsrWithTranspose, DirectError, DirectInfo, Info, InputError, Jacobi, LinOp,
+    LuSolver, Params, SolveError, SolveInfo, Workspace,
 };
 use crate::SparseMatrix;
 use rayon::prelude::*;
@@ -108,8 +109,11 @@ enum Prepared {
         a: CsrMatrix,
         jacobi: Option<Jacobi>,
     },
-    /// BiCG on `I + λF` and its transpose.
+    /// BiCG on `I + λF` and its transpose (F without a symmetrizer).
     Bicg(CsrWithTranspose),
+    /// BiCG on `I + λF` with a symmetrizer S of F (`S(I + λF)` symmetric): no
+    /// transpose; both products in one pass over the matrix.
+    BicgSym(CsrWithSymmetrizer),
     /// CG on `S(I + λF)`; `I + λF` kept for the residuals of the original system.
     CgSym {
         a: CsrMatrix,
@@ -159,10 +163,13 @@ impl ImplicitSolver {
         if kind.needs_symmetric() && !is_symmetric(f) {
             return Err(FilterError::NeedsSymmetric { solver: kind });
         }
-        let s = if kind == SolverKind::CgSym {
-            Some(symmetrizer(f).ok_or(FilterError::NoSymmetrizer { what: "cg-sym" })?)
-        } else {
-            None
+        let s = match kind {
+            SolverKind::CgSym => {
+                Some(symmetrizer(f).ok_or(FilterError::NoSymmetrizer { what: "cg-sym" })?)
+            }
+            // BiCG uses a symmetrizer when F has one (`Aᵀ = S A S⁻¹`: no transpose).
+            SolverKind::Bicg => symmetrizer(f),
+            _ => None,
         };
         let f = CsrMatrix::from_csc(f);
         let prepared = Self::prepare(&f, lambda, kind, s)?;
@@ -202,7 +209,11 @@ impl ImplicitSolver {
                     jacobi: Some(jacobi),
                 }
             }
-            (SolverKind::Bicg, _) => Prepared::Bicg(CsrWithTranspose::new(b)),
+            (SolverKind::Bicg, Some(s)) => Prepared::BicgSym(
+                CsrWithSymmetrizer::checked_by_caller(b, s)
+                    .map_err(|e| FilterError::Solve(e.into()))?,
+            ),
+            (SolverKind::Bicg, None) => Prepared::Bicg(CsrWithTranspose::new(b)),
             (SolverKind::Bicgstab, _) => Prepared::Bicgstab(b),
             (SolverKind::Cholesky, _) => {
                 let chol = CholeskySolver::new(&b.to_csc()).map_err(direct)?;
@@ -234,6 +245,7 @@ impl ImplicitSolver {
             _ => {
                 let s = match &self.prepared {
                     Prepared::CgSym { s, .. } => Some(s.clone()),
+                    Prepared::BicgSym(op) => Some(op.symmetrizer().to_vec()),
                     _ => None,
                 };
                 self.prepared = Self::prepare(&self.f, lambda, self.kind, s)?;
@@ -265,6 +277,7 @@ impl ImplicitSolver {
             | Prepared::Cholesky(a, _)
             | Prepared::Lu(a, _) => a,
             Prepared::Bicg(op) => op.matrix(),
+            Prepared::BicgSym(op) => op.matrix(),
         }
     }
 
@@ -301,6 +314,9 @@ impl ImplicitSolver {
                 SolveInfo::Iterative(cg(a, b, x, k, params, jacobi.as_ref(), ws)?)
             }
             Prepared::Bicg(op) => SolveInfo::Bicg(bicg(op, b, x, k, &(*params).into(), None, ws)?),
+            Prepared::BicgSym(op) => {
+                SolveInfo::Bicg(bicg(op, b, x, k, &(*params).into(), None, ws)?)
+            }
             Prepared::CgSym { a, original, s } => {
                 // The solve's time includes forming Sb and the final residuals of the
                 // original system.

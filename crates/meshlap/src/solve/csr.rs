@@ -16,6 +16,45 @@ use std::ops::Range;
 /// Rows per parallel task.
 pub(crate) const CHUNK: usize = 4096;
 
+/// Where the entries of an n×k block lie in a row-major array: entry (i, c) at
+/// `i·stride + offset + c`. A block of its own is [`Layout::dense`]; BiCG keeps two
+/// n×k blocks side by side in one n×2k block ([`Layout::half`]), so that a gather of
+/// row j reads both from one place.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Layout {
+    pub(crate) stride: usize,
+    pub(crate) offset: usize,
+}
+
+impl Layout {
+    /// An n×k block of its own.
+    pub(crate) const fn dense(k: usize) -> Self {
+        Layout {
+            stride: k,
+            offset: 0,
+        }
+    }
+    /// The left (`half` = 0) or right (1) n×k half of an n×2k block.
+    pub(crate) const fn half(k: usize, half: usize) -> Self {
+        Layout {
+            stride: 2 * k,
+            offset: half * k,
+        }
+    }
+}
+
+/// Reductions fused into a product `y = A x`, per column c < k:
+/// `Σ_i weight_i·w(i, c)·y(i, c)` (weights 1 when `None`) and `Σ_i y(i, c)²`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Reduce<'a> {
+    pub(crate) w: &'a [f64],
+    pub(crate) at: Layout,
+    pub(crate) weights: Option<&'a [f64]>,
+}
+
+/// Per-column sums of a fused product: (`Σ weight·w·y`, `Σ y²`).
+pub(crate) type Acc = ([f64; MAX_COLUMNS], [f64; MAX_COLUMNS]);
+
 /// An n×m CSR matrix (`f64` values, `u32` column indices).
 #[derive(Clone, Debug, PartialEq)]
 pub struct CsrMatrix {
@@ -113,6 +152,29 @@ impl CsrMatrix {
         self.val.len() * 12 + self.row_ptr.len() * 8
     }
 
+    /// The arrays a product walks.
+    pub(crate) fn rows(&self) -> Rows<'_, f64> {
+        Rows {
+            ncols: self.ncols,
+            row_ptr: &self.row_ptr,
+            col: &self.col,
+            val: &self.val,
+        }
+    }
+
+    /// Row i's stored entries `(column, value)`, columns ascending.
+    pub fn row_entries(&self, i: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
+        self.row_range(i)
+            .map(|p| (self.col[p] as usize, self.val[p]))
+    }
+
+    /// Entry (i, j), `None` where not stored (a binary search of row i).
+    pub fn entry(&self, i: usize, j: usize) -> Option<f64> {
+        let r = self.row_range(i);
+        let at = self.col[r.clone()].binary_search(&(j as u32)).ok()?;
+        Some(self.val[r.start + at])
+    }
+
     /// The diagonal (0 where not stored).
     pub fn diagonal(&self) -> Vec<f64> {
         (0..self.nrows)
@@ -124,114 +186,40 @@ impl CsrMatrix {
             .collect()
     }
 
-    /// Rows `start..start + ys.len()/k` of `y = A x` (n×k row-major blocks) into `ys`,
-    /// adding `Σ w·y` and `Σ y²` of those rows to `acc` per column when `w` is given.
-    /// Three columns (a mesh's coordinates) take [`Self::rows3`].
-    #[inline(always)]
-    fn product_rows(
+    /// `y = A x` for the `M·k` columns of x laid out as `xl` into y laid out as `yl`
+    /// (n rows each), in parallel over row chunks, with the reductions of `red` over
+    /// the first k columns in the same pass (k ≤ [`MAX_COLUMNS`] then). Returns the
+    /// sums (0 without `red`). See [`product_with`].
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn product_with<const M: usize>(
         &self,
         x: &[f64],
-        start: usize,
-        ys: &mut [f64],
+        xl: Layout,
+        y: &mut [f64],
+        yl: Layout,
         k: usize,
-        w: Option<&[f64]>,
-        acc: &mut ([f64; MAX_COLUMNS], [f64; MAX_COLUMNS]),
-    ) {
-        if k == 3 && x.len() >= 3 * self.ncols {
-            return self.rows3(x, start, ys, w, acc);
-        }
-        let nr = ys.len() / k;
-        for r in 0..nr {
-            let i = start + r;
-            let (s, e) = (self.row_ptr[i], self.row_ptr[i + 1]);
-            for c in 0..k {
-                let mut a = 0.0;
-                for p in s..e {
-                    a += self.val[p] * x[self.col[p] as usize * k + c];
-                }
-                ys[k * r + c] = a;
-            }
-            if let Some(w) = w {
-                for c in 0..k {
-                    let yv = ys[k * r + c];
-                    acc.0[c] += w[k * i + c] * yv;
-                    acc.1[c] += yv * yv;
-                }
-            }
-        }
-    }
-
-    /// [`Self::product_rows`] for k = 3: each entry read once for the three columns,
-    /// the gathers from `x` without bounds checks (the caller checks
-    /// `x.len() ≥ 3·ncols`; every stored column index is below ncols by construction).
-    #[inline(always)]
-    fn rows3(
-        &self,
-        x: &[f64],
-        start: usize,
-        ys: &mut [f64],
-        w: Option<&[f64]>,
-        acc: &mut ([f64; MAX_COLUMNS], [f64; MAX_COLUMNS]),
-    ) {
-        let nr = ys.len() / 3;
-        let rp = &self.row_ptr[start..start + nr + 1];
-        let (col, val) = (&self.col[..], &self.val[..]);
-        for r in 0..nr {
-            let (s, e) = (rp[r], rp[r + 1]);
-            let (mut a0, mut a1, mut a2) = (0.0, 0.0, 0.0);
-            for (&v, &c) in val[s..e].iter().zip(&col[s..e]) {
-                let j = 3 * c as usize;
-                // SAFETY: c < ncols (an invariant of every constructor) and
-                // x.len() ≥ 3·ncols, so j + 2 < x.len().
-                unsafe {
-                    a0 += v * *x.get_unchecked(j);
-                    a1 += v * *x.get_unchecked(j + 1);
-                    a2 += v * *x.get_unchecked(j + 2);
-                }
-            }
-            ys[3 * r] = a0;
-            ys[3 * r + 1] = a1;
-            ys[3 * r + 2] = a2;
-            if let Some(w) = w {
-                let i = start + r;
-                let yv = [a0, a1, a2];
-                for c in 0..3 {
-                    acc.0[c] += w[3 * i + c] * yv[c];
-                    acc.1[c] += yv[c] * yv[c];
-                }
-            }
-        }
+        red: Option<Reduce<'_>>,
+    ) -> Acc {
+        product_with::<M, f64>(self.rows(), x, xl, y, yl, k, red)
     }
 
     /// `y = A x` for an n×k row-major block, in parallel over row chunks, with the
     /// reductions of `fused` in the same pass (at most [`MAX_COLUMNS`] columns then).
     pub(crate) fn product(&self, x: &[f64], y: &mut [f64], k: usize, fused: Option<Fused<'_>>) {
-        if k == 0 {
-            return;
-        }
-        let zero = || ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]);
+        let dense = Layout::dense(k);
         match fused {
-            None => y
-                .par_chunks_mut(CHUNK * k)
-                .enumerate()
-                .for_each(|(b, ys)| self.product_rows(x, b * CHUNK, ys, k, None, &mut zero())),
+            None => {
+                self.product_with::<1>(x, dense, y, dense, k, None);
+            }
             Some(Fused { w, dot, norm2 }) => {
-                let total = y
-                    .par_chunks_mut(CHUNK * k)
-                    .enumerate()
-                    .map(|(b, ys)| {
-                        let mut acc = zero();
-                        self.product_rows(x, b * CHUNK, ys, k, Some(w), &mut acc);
-                        acc
-                    })
-                    .reduce(zero, |a, b| {
-                        (
-                            std::array::from_fn(|c| a.0[c] + b.0[c]),
-                            std::array::from_fn(|c| a.1[c] + b.1[c]),
-                        )
-                    });
-                dot[..k].copy_from_slice(&total.0[..k]);
-                norm2[..k].copy_from_slice(&total.1[..k]);
+                let red = Reduce {
+                    w,
+                    at: dense,
+                    weights: None,
+                };
+                let (d, q) = self.product_with::<1>(x, dense, y, dense, k, Some(red));
+                dot[..k].copy_from_slice(&d[..k]);
+                norm2[..k].copy_from_slice(&q[..k]);
             }
         }
     }
@@ -250,7 +238,8 @@ impl CsrMatrix {
     ) -> ResidualSums {
         residual_chunks(b, r, z, d, k, |first, bs, rs, zs, ds| {
             let mut acc = ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]);
-            self.product_rows(x, first, rs, k, None, &mut acc);
+            let dense = Layout::dense(k);
+            product_rows::<1, f64>(self.rows(), x, dense, first, rs, dense, k, None, &mut acc);
             residual_rows(bs, rs, zs, ds, k)
         })
     }
@@ -369,6 +358,270 @@ impl CsrMatrix {
             ),
             vals,
         )
+    }
+}
+
+/// The arrays a product walks: row pointers, column indices (every one below
+/// ncols) and values of an n×ncols matrix; a value is one number or a pair
+/// ([`Values`]).
+#[derive(Clone, Copy)]
+pub(crate) struct Rows<'a, T> {
+    pub(crate) ncols: usize,
+    pub(crate) row_ptr: &'a [usize],
+    pub(crate) col: &'a [u32],
+    pub(crate) val: &'a [T],
+}
+
+/// The stored value of an entry: one number for both halves of a product over two
+/// blocks side by side, or a pair (A's and Aᵀ's entry of [`PairedCsr`]).
+pub(crate) trait Values: Copy + Send + Sync {
+    /// The values for the left and the right half.
+    fn halves(self) -> (f64, f64);
+}
+
+impl Values for f64 {
+    #[inline(always)]
+    fn halves(self) -> (f64, f64) {
+        (self, self)
+    }
+}
+
+impl Values for (f64, f64) {
+    #[inline(always)]
+    fn halves(self) -> (f64, f64) {
+        self
+    }
+}
+
+/// Rows `start..` of `y = A x` into `ys`, the chunk of y's array that holds them:
+/// entry (i, c) of x at `xl`, of y at `yl` (relative to the chunk), for the `M·k`
+/// columns c < M·k. An entry's value applies to both halves, or its pair's first to
+/// the first k columns and its second to the next k (M = 2: two n×k blocks side by
+/// side, each index read once for both, and one gather of row j bringing both
+/// halves). With `red`, adds `weight_i·w(i, c)·y(i, c)` and `y(i, c)²` of the first k
+/// columns to `acc`. Up to [`MAX_COLUMNS`] columns per block the count is a
+/// compile-time constant (`with_columns`): the sums stay in registers and the gathers
+/// have no bounds checks (the caller, [`product_with`], checks the lengths once).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn product_rows<const M: usize, T: Values>(
+    rows: Rows<'_, T>,
+    x: &[f64],
+    xl: Layout,
+    start: usize,
+    ys: &mut [f64],
+    yl: Layout,
+    k: usize,
+    red: Option<Reduce<'_>>,
+    acc: &mut Acc,
+) {
+    let nr = ys.len() / yl.stride;
+    let (rp, col, val) = (rows.row_ptr, rows.col, rows.val);
+    let pick = |v: (f64, f64), c: usize| if c < k { v.0 } else { v.1 };
+    if k > MAX_COLUMNS {
+        // More columns than the solvers take (a direct `apply`): k read at run time.
+        for r in 0..nr {
+            let i = start + r;
+            for c in 0..M * k {
+                let mut a = 0.0;
+                for p in rp[i]..rp[i + 1] {
+                    a += pick(val[p].halves(), c) * x[col[p] as usize * xl.stride + xl.offset + c];
+                }
+                ys[r * yl.stride + yl.offset + c] = a;
+            }
+        }
+        return;
+    }
+    super::krylov::with_columns!(k, K => {
+        for r in 0..nr {
+            let i = start + r;
+            let mut a = [0.0; 2 * MAX_COLUMNS];
+            let (s, e) = (rp[i], rp[i + 1]);
+            for (&v, &jc) in val[s..e].iter().zip(&col[s..e]) {
+                let (v, j) = (v.halves(), jc as usize * xl.stride + xl.offset);
+                for c in 0..M * K {
+                    let v = if c < K { v.0 } else { v.1 };
+                    // SAFETY: jc < ncols (an invariant of every constructor), and
+                    // product_with checked x.len() ≥ ncols·xl.stride and
+                    // xl.offset + M·k ≤ xl.stride, so j + c < x.len().
+                    unsafe {
+                        a[c] += v * *x.get_unchecked(j + c);
+                    }
+                }
+            }
+            let y0 = r * yl.stride + yl.offset;
+            ys[y0..y0 + M * K].copy_from_slice(&a[..M * K]);
+            if let Some(Reduce { w, at, weights }) = red {
+                let wi = weights.map_or(1.0, |s| s[i]);
+                let w0 = i * at.stride + at.offset;
+                for c in 0..K {
+                    acc.0[c] += wi * w[w0 + c] * a[c];
+                    acc.1[c] += a[c] * a[c];
+                }
+            }
+        }
+    })
+}
+
+/// `y = A x` over the arrays `rows` ([`product_rows`]), in parallel over chunks of
+/// [`CHUNK`] rows; the sums of `red`.
+///
+/// # Panics
+/// When x or y is too short for n rows of its layout, or a layout's columns do not
+/// fit in its stride (the solvers' blocks always fit).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn product_with<const M: usize, T: Values>(
+    rows: Rows<'_, T>,
+    x: &[f64],
+    xl: Layout,
+    y: &mut [f64],
+    yl: Layout,
+    k: usize,
+    red: Option<Reduce<'_>>,
+) -> Acc {
+    let zero = || ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]);
+    let nrows = rows.row_ptr.len() - 1;
+    if k == 0 {
+        return zero();
+    }
+    assert!(xl.offset + M * k <= xl.stride && x.len() >= rows.ncols * xl.stride);
+    assert!(yl.offset + M * k <= yl.stride && y.len() == nrows * yl.stride);
+    if let Some(r) = red {
+        assert!(k <= MAX_COLUMNS && r.at.offset + k <= r.at.stride);
+        assert!(r.w.len() >= nrows * r.at.stride);
+        assert!(r.weights.is_none_or(|s| s.len() >= nrows));
+    }
+    let chunks = y.par_chunks_mut(CHUNK * yl.stride).enumerate();
+    match red {
+        None => {
+            chunks.for_each(|(b, ys)| {
+                product_rows::<M, T>(rows, x, xl, b * CHUNK, ys, yl, k, None, &mut zero())
+            });
+            zero()
+        }
+        Some(red) => chunks
+            .map(|(b, ys)| {
+                let mut acc = zero();
+                product_rows::<M, T>(rows, x, xl, b * CHUNK, ys, yl, k, Some(red), &mut acc);
+                acc
+            })
+            .reduce(zero, super::op::add_pairs),
+    }
+}
+
+/// A square matrix and its transpose over the union of their patterns: row i holds,
+/// for every j where `a_ij` or `a_ji` is stored, the pair `(a_ij, a_ji)` (0 for the
+/// one that is not). BiCG's two products `Ap` and `Aᵀp̃` are then one pass over one
+/// pattern, each gather of row j reading `[p_j | p̃_j]` from one place.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct PairedCsr {
+    ncols: usize,
+    row_ptr: Vec<usize>,
+    col: Vec<u32>,
+    val: Vec<(f64, f64)>,
+}
+
+impl PairedCsr {
+    /// Merges each row of `a` with the same row of `at` (= Aᵀ; both with ascending
+    /// columns), O(nnz).
+    pub(crate) fn new(a: &CsrMatrix, at: &CsrMatrix) -> Self {
+        let n = a.nrows;
+        let merged = |i: usize, mut out: Option<(&mut [u32], &mut [(f64, f64)])>| -> usize {
+            let (ra, rt) = (a.row_range(i), at.row_range(i));
+            let (mut p, mut q, mut m) = (ra.start, rt.start, 0);
+            while p < ra.end || q < rt.end {
+                let ja = if p < ra.end { a.col[p] } else { u32::MAX };
+                let jt = if q < rt.end { at.col[q] } else { u32::MAX };
+                let j = ja.min(jt);
+                let va = if ja == j { a.val[p] } else { 0.0 };
+                let vt = if jt == j { at.val[q] } else { 0.0 };
+                p += usize::from(ja == j);
+                q += usize::from(jt == j);
+                if let Some((c, v)) = out.as_mut() {
+                    c[m] = j;
+                    v[m] = (va, vt);
+                }
+                m += 1;
+            }
+            m
+        };
+        let counts: Vec<usize> = (0..n).into_par_iter().map(|i| merged(i, None)).collect();
+        let mut row_ptr = Vec::with_capacity(n + 1);
+        row_ptr.push(0);
+        for c in &counts {
+            row_ptr.push(row_ptr.last().copied().unwrap_or(0) + c);
+        }
+        let total = row_ptr[n];
+        let mut col = vec![0u32; total];
+        let mut val = vec![(0.0, 0.0); total];
+        // Split the output arrays at the row boundaries and fill the rows in parallel.
+        let mut parts = Vec::with_capacity(n);
+        let (mut cs, mut vs) = (&mut col[..], &mut val[..]);
+        for c in &counts {
+            let (c0, c1) = std::mem::take(&mut cs).split_at_mut(*c);
+            let (v0, v1) = std::mem::take(&mut vs).split_at_mut(*c);
+            parts.push((c0, v0));
+            cs = c1;
+            vs = v1;
+        }
+        parts.into_par_iter().enumerate().for_each(|(i, (c, v))| {
+            merged(i, Some((c, v)));
+        });
+        PairedCsr {
+            ncols: a.ncols,
+            row_ptr,
+            col,
+            val,
+        }
+    }
+
+    fn rows(&self) -> Rows<'_, (f64, f64)> {
+        Rows {
+            ncols: self.ncols,
+            row_ptr: &self.row_ptr,
+            col: &self.col,
+            val: &self.val,
+        }
+    }
+
+    /// [`product_with`] with both halves: the left n×k half of `x` (n×2k, layout
+    /// `xl`) times A, the right half times Aᵀ, into y's halves; the sums of `red`.
+    pub(crate) fn product_both(
+        &self,
+        x: &[f64],
+        xl: Layout,
+        y: &mut [f64],
+        yl: Layout,
+        k: usize,
+        red: Option<Reduce<'_>>,
+    ) -> Acc {
+        product_with::<2, (f64, f64)>(self.rows(), x, xl, y, yl, k, red)
+    }
+
+    /// `y = Aᵀ x` for n×k row-major blocks (the second values of the pattern).
+    pub(crate) fn transpose_product(&self, x: &[f64], y: &mut [f64], k: usize) {
+        /// An entry's pair read for its second value (Aᵀ's entry).
+        #[repr(transparent)]
+        #[derive(Clone, Copy)]
+        struct Second((f64, f64));
+        impl Values for Second {
+            #[inline(always)]
+            fn halves(self) -> (f64, f64) {
+                (self.0 .1, self.0 .1)
+            }
+        }
+        // SAFETY: `Second` is `repr(transparent)` over `(f64, f64)`: the same layout,
+        // so the slice may be read as one of `Second`.
+        let val: &[Second] =
+            unsafe { std::slice::from_raw_parts(self.val.as_ptr().cast(), self.val.len()) };
+        let rows = Rows {
+            ncols: self.ncols,
+            row_ptr: &self.row_ptr,
+            col: &self.col,
+            val,
+        };
+        let dense = Layout::dense(k);
+        product_with::<1, Second>(rows, x, dense, y, dense, k, None);
     }
 }
 

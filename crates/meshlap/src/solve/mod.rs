@@ -45,8 +45,8 @@ pub use csr::CsrMatrix;
 pub use direct::{CholeskySolver, DirectError, DirectInfo, LuSolver, SymbolicCholesky, SymbolicLu};
 pub use krylov::Workspace;
 pub use op::{
-    check_residual, BiLinOp, CsrWithTranspose, Diagonal, FnOperator, Fused, Jacobi, LinOp,
-    ResidualSums,
+    check_residual, BiLinOp, CsrWithSymmetrizer, CsrWithTranspose, Diagonal, FnOperator, Fused,
+    Jacobi, LinOp, ResidualSums,
 };
 
 use serde::Serialize;
@@ -258,6 +258,23 @@ pub enum InputError {
         row: usize,
         /// The entry.
         value: f64,
+    },
+    /// An entry of a symmetrizer is not positive and finite.
+    #[error("symmetrizer entry {row} is {value}; it must be positive and finite")]
+    Symmetrizer {
+        /// Row.
+        row: usize,
+        /// The entry.
+        value: f64,
+    },
+    /// `s_i a_ij ≠ s_j a_ji`: the diagonal given does not make the matrix symmetric.
+    /// Use [`CsrWithTranspose`] for a matrix without a symmetrizer.
+    #[error("the symmetrizer does not make entries ({row}, {col}) and ({col}, {row}) equal")]
+    NotSymmetrizable {
+        /// Row of the entry.
+        row: usize,
+        /// Column of the entry.
+        col: usize,
     },
     /// Not the name of a stopping criterion.
     #[error("unknown stopping criterion `{0}` (weak, weak-vertex, strong)")]

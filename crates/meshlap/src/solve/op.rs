@@ -9,7 +9,7 @@
 //! `LinOp` only). The operators of [`crate::operator`] use the sign `F = D − W`
 //! (positive semi-definite); the systems solved here are `M + λF`.
 
-use super::csr::CHUNK;
+use super::csr::{Layout, PairedCsr, Reduce, CHUNK};
 use super::krylov::{col_dots, col_norms2};
 use super::{CsrMatrix, InputError, MAX_COLUMNS};
 use rayon::prelude::*;
@@ -224,6 +224,93 @@ pub trait LinOp: Sync {
 pub trait BiLinOp: LinOp {
     /// `y = Aᵀ x` for the n×k blocks `x` and `y`.
     fn apply_transpose(&self, x: &[f64], y: &mut [f64], k: usize);
+
+    /// A positive diagonal `S` (n values) with `S·A` symmetric, that is `Aᵀ = S A S⁻¹`,
+    /// when the operator has one: for the Tutte system `I + λT` with `T = D⁻¹K`, S is
+    /// the degree matrix D. BiCG then keeps its shadow vectors scaled by `S⁻¹` and
+    /// multiplies them by A, in the same pass as p ([`Self::apply_both`]), instead of
+    /// multiplying by Aᵀ. `None` (the default): BiCG uses [`Self::apply_transpose`].
+    fn symmetrizer(&self) -> Option<&[f64]> {
+        None
+    }
+
+    /// BiCG's two products on one n×2k block `pp` (row-major) whose row i is
+    /// `[p_i | p̃_i]`: writes the rows `[(Ap)_i | (Aᵀp̃)_i]` to `qq` (n×2k),
+    /// `dot[c] = p̃_cᵀ(Ap)_c` and `norm2[c] = ‖(Ap)_c‖²` for c < k (k ≤
+    /// [`MAX_COLUMNS`]). With a [`Self::symmetrizer`] S the right half holds
+    /// `p̂ = S⁻¹p̃` and receives `A p̂ = S⁻¹Aᵀp̃`, and `dot[c] = Σ_i s_i p̂_ic (Ap)_ic`
+    /// (the same `p̃ᵀAp`). The default copies the halves into blocks of their own and
+    /// back; the matrix types read the interleaved rows in place (one gather of row j
+    /// brings both halves).
+    fn apply_both(&self, pp: &[f64], qq: &mut [f64], k: usize, dot: &mut [f64], norm2: &mut [f64]) {
+        apply_both_separately(self, pp, qq, k, dot, norm2)
+    }
+}
+
+/// [`BiLinOp::apply_both`] through blocks of their own: the halves of `pp` copied
+/// out, two products, the results copied into `qq`.
+fn apply_both_separately(
+    op: &(impl BiLinOp + ?Sized),
+    pp: &[f64],
+    qq: &mut [f64],
+    k: usize,
+    dot: &mut [f64],
+    norm2: &mut [f64],
+) {
+    let n = op.dim();
+    let half = |b: &[f64], h: usize| -> Vec<f64> {
+        (0..n * k)
+            .map(|j| b[(j / k) * 2 * k + h * k + j % k])
+            .collect()
+    };
+    let (p, pt) = (half(pp, 0), half(pp, 1));
+    let (mut q, mut qt) = (vec![0.0; n * k], vec![0.0; n * k]);
+    match op.symmetrizer() {
+        Some(s) => {
+            op.apply(&p, &mut q, k);
+            op.apply(&pt, &mut qt, k);
+            let (d, q2) = weighted_sums(s, &pt, &q, k);
+            dot[..k].copy_from_slice(&d[..k]);
+            norm2[..k].copy_from_slice(&q2[..k]);
+        }
+        None => {
+            op.apply_fused(&p, &mut q, k, Fused::new(&pt, dot, norm2));
+            op.apply_transpose(&pt, &mut qt, k);
+        }
+    }
+    for j in 0..n * k {
+        let (i, c) = (j / k, j % k);
+        qq[i * 2 * k + c] = q[j];
+        qq[i * 2 * k + k + c] = qt[j];
+    }
+}
+
+/// `(Σ_i s_i w_ic y_ic, Σ_i y_ic²)` per column of n×k blocks (k ≤ [`MAX_COLUMNS`]).
+fn weighted_sums(
+    s: &[f64],
+    w: &[f64],
+    y: &[f64],
+    k: usize,
+) -> ([f64; MAX_COLUMNS], [f64; MAX_COLUMNS]) {
+    let mut acc = ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]);
+    for ((yr, wr), si) in y.chunks(k).zip(w.chunks(k)).zip(s) {
+        for c in 0..k {
+            acc.0[c] += si * wr[c] * yr[c];
+            acc.1[c] += yr[c] * yr[c];
+        }
+    }
+    acc
+}
+
+/// The sums of two row ranges of a pair of per-column reductions.
+pub(crate) fn add_pairs(
+    a: ([f64; MAX_COLUMNS], [f64; MAX_COLUMNS]),
+    b: ([f64; MAX_COLUMNS], [f64; MAX_COLUMNS]),
+) -> ([f64; MAX_COLUMNS], [f64; MAX_COLUMNS]) {
+    (
+        std::array::from_fn(|c| a.0[c] + b.0[c]),
+        std::array::from_fn(|c| a.1[c] + b.1[c]),
+    )
 }
 
 /// An operator that knows its diagonal (for [`Jacobi`] preconditioning).
@@ -252,6 +339,13 @@ impl LinOp for CsrMatrix {
         z: Option<&mut [f64]>,
     ) -> Result<ResidualSums, InputError> {
         check_residual(self.dim(), b, x, r, k, d, z.as_deref())?;
+        if self.ncols() != self.nrows() {
+            return Err(InputError::Block {
+                what: "operator's column count",
+                len: self.ncols(),
+                want: self.nrows(),
+            });
+        }
         Ok(self.residual_pass(b, x, r, k, d, z))
     }
 }
@@ -262,19 +356,36 @@ impl Diagonal for CsrMatrix {
     }
 }
 
-/// A CSR matrix stored together with its transpose, so that both products stream a
-/// matrix row by row: the [`BiLinOp`] of BiCG.
+/// A square CSR matrix stored together with its transpose, so that both products
+/// stream row by row: the [`BiLinOp`] of BiCG for a matrix without a symmetrizer.
+/// The transpose is kept merged with A over the union of their patterns (row i: the
+/// pairs `(a_ij, a_ji)`), so that BiCG's two products are one pass
+/// ([`BiLinOp::apply_both`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct CsrWithTranspose {
     a: CsrMatrix,
-    at: CsrMatrix,
+    t: Transposed,
+}
+
+/// How [`CsrWithTranspose`] keeps `Aᵀ`.
+#[derive(Clone, Debug, PartialEq)]
+enum Transposed {
+    /// Merged with A (a square A).
+    Paired(PairedCsr),
+    /// On its own (a rectangular A: no solver takes it, but the products work).
+    Separate(CsrMatrix),
 }
 
 impl CsrWithTranspose {
     /// Stores `a` and computes its transpose (O(nnz)).
     pub fn new(a: CsrMatrix) -> Self {
         let at = a.transpose();
-        CsrWithTranspose { a, at }
+        let t = if a.nrows() == a.ncols() {
+            Transposed::Paired(PairedCsr::new(&a, &at))
+        } else {
+            Transposed::Separate(at)
+        };
+        CsrWithTranspose { a, t }
     }
     /// The matrix `A`.
     pub fn matrix(&self) -> &CsrMatrix {
@@ -311,11 +422,167 @@ impl LinOp for CsrWithTranspose {
 
 impl BiLinOp for CsrWithTranspose {
     fn apply_transpose(&self, x: &[f64], y: &mut [f64], k: usize) {
-        self.at.product(x, y, k, None)
+        match &self.t {
+            Transposed::Paired(p) => p.transpose_product(x, y, k),
+            Transposed::Separate(at) => at.product(x, y, k, None),
+        }
+    }
+    /// One pass over the merged pattern: A on the left half (with the sums), Aᵀ on
+    /// the right.
+    fn apply_both(&self, pp: &[f64], qq: &mut [f64], k: usize, dot: &mut [f64], norm2: &mut [f64]) {
+        let Transposed::Paired(paired) = &self.t else {
+            return apply_both_separately(self, pp, qq, k, dot, norm2);
+        };
+        let whole = Layout::dense(2 * k);
+        let red = Reduce {
+            w: pp,
+            at: Layout::half(k, 1),
+            weights: None,
+        };
+        let (d, q) = paired.product_both(pp, whole, qq, whole, k, Some(red));
+        dot[..k].copy_from_slice(&d[..k]);
+        norm2[..k].copy_from_slice(&q[..k]);
     }
 }
 
 impl Diagonal for CsrWithTranspose {
+    fn diagonal(&self) -> Vec<f64> {
+        self.a.diagonal()
+    }
+}
+
+/// A CSR matrix `A` (n×n) stored with a positive diagonal `S` such that `S·A` is
+/// symmetric, so that `Aᵀ = S A S⁻¹`: the [`BiLinOp`] of BiCG for a system similar to
+/// a symmetric one, such as the Tutte system `I + λT` (`T = D⁻¹K`, sign `F = D − W`,
+/// S = D: `D(I + λT) = D + λK`). BiCG multiplies by A only, twice in one pass over
+/// the matrix ([`BiLinOp::apply_both`]); no transpose is stored.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CsrWithSymmetrizer {
+    a: CsrMatrix,
+    s: Vec<f64>,
+}
+
+impl CsrWithSymmetrizer {
+    /// Relative tolerance of the check `s_i a_ij = s_j a_ji`.
+    pub const TOLERANCE: f64 = 1e-8;
+
+    /// Stores `a` with its symmetrizer `s` after checking both (O(nnz log d), d the
+    /// longest row).
+    ///
+    /// # Errors
+    /// [`InputError::Block`] when `s` does not have n values or `a` is not square;
+    /// [`InputError::Symmetrizer`] for an entry of `s` that is not positive and
+    /// finite; [`InputError::NotSymmetrizable`] for an entry with `s_i a_ij ≠ s_j a_ji`
+    /// beyond [`Self::TOLERANCE`] (relative), or stored on one side of the diagonal
+    /// only. For an operator of [`crate::operator`], [`crate::operator::symmetrize::symmetrizer`]
+    /// finds s when it exists.
+    pub fn new(a: CsrMatrix, s: Vec<f64>) -> Result<Self, InputError> {
+        let n = a.nrows();
+        if a.ncols() != n || s.len() != n {
+            return Err(InputError::Block {
+                what: "symmetrizer",
+                len: s.len(),
+                want: a.ncols().max(n),
+            });
+        }
+        if let Some(row) = s.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
+            return Err(InputError::Symmetrizer { row, value: s[row] });
+        }
+        let bad = (0..n).into_par_iter().find_map_any(|i| {
+            a.row_entries(i).find_map(|(j, v)| {
+                let left = s[i] * v;
+                let right = s[j] * a.entry(j, i).unwrap_or(0.0);
+                ((left - right).abs() > Self::TOLERANCE * (left.abs() + right.abs()))
+                    .then_some((i, j))
+            })
+        });
+        match bad {
+            Some((row, col)) => Err(InputError::NotSymmetrizable { row, col }),
+            None => Ok(CsrWithSymmetrizer { a, s }),
+        }
+    }
+    /// Stores `a` with `s` without the check of [`Self::new`], for a symmetrizer the
+    /// caller has already checked against the matrix (`ImplicitSolver` takes s from
+    /// [`crate::operator::symmetrize::symmetrizer`], which checks every stored entry
+    /// of F; `S(I + λF)` is then symmetric too). Lengths are still checked.
+    pub(crate) fn checked_by_caller(a: CsrMatrix, s: Vec<f64>) -> Result<Self, InputError> {
+        if a.ncols() != a.nrows() || s.len() != a.nrows() {
+            return Err(InputError::Block {
+                what: "symmetrizer",
+                len: s.len(),
+                want: a.nrows(),
+            });
+        }
+        Ok(CsrWithSymmetrizer { a, s })
+    }
+    /// The matrix `A`.
+    pub fn matrix(&self) -> &CsrMatrix {
+        &self.a
+    }
+    /// The symmetrizer `S` (n values).
+    pub fn symmetrizer(&self) -> &[f64] {
+        &self.s
+    }
+}
+
+impl LinOp for CsrWithSymmetrizer {
+    fn dim(&self) -> usize {
+        self.a.nrows()
+    }
+    fn apply(&self, x: &[f64], y: &mut [f64], k: usize) {
+        self.a.product(x, y, k, None)
+    }
+    fn apply_fused(&self, x: &[f64], y: &mut [f64], k: usize, fused: Fused<'_>) {
+        self.a.product(x, y, k, Some(fused))
+    }
+    fn residual(
+        &self,
+        b: &[f64],
+        x: &[f64],
+        r: &mut [f64],
+        k: usize,
+        d: Option<&[f64]>,
+        z: Option<&mut [f64]>,
+    ) -> Result<ResidualSums, InputError> {
+        self.a.residual(b, x, r, k, d, z)
+    }
+}
+
+impl BiLinOp for CsrWithSymmetrizer {
+    /// `y = S A S⁻¹ x` (two scalings around one product; BiCG does not call it).
+    fn apply_transpose(&self, x: &[f64], y: &mut [f64], k: usize) {
+        if k == 0 {
+            return;
+        }
+        let s = &self.s;
+        let scaled: Vec<f64> = x
+            .par_iter()
+            .enumerate()
+            .map(|(j, v)| v / s[j / k])
+            .collect();
+        self.a.product(&scaled, y, k, None);
+        y.par_iter_mut()
+            .enumerate()
+            .for_each(|(j, v)| *v *= s[j / k]);
+    }
+    fn symmetrizer(&self) -> Option<&[f64]> {
+        Some(&self.s)
+    }
+    /// One pass over A for both halves (the n×2k block as 2k columns).
+    fn apply_both(&self, pp: &[f64], qq: &mut [f64], k: usize, dot: &mut [f64], norm2: &mut [f64]) {
+        let whole = Layout::dense(2 * k);
+        let red = Reduce {
+            w: pp,
+            at: Layout::half(k, 1),
+            weights: Some(&self.s),
+        };
+        let (d, q) = self.a.product_with::<2>(pp, whole, qq, whole, k, Some(red));
+        dot[..k].copy_from_slice(&d[..k]);
+        norm2[..k].copy_from_slice(&q[..k]);
+    }
+}
+
+impl Diagonal for CsrWithSymmetrizer {
     fn diagonal(&self) -> Vec<f64> {
         self.a.diagonal()
     }
@@ -494,6 +761,189 @@ mod tests {
         }
         // A product over no columns does nothing.
         a.apply(&[], &mut [], 0);
+    }
+
+    /// A non-symmetric tridiagonal n×n matrix with a symmetrizer: `a_ij = c_ij / s_i`
+    /// for a symmetric c.
+    fn similar_to_symmetric(n: usize) -> (CsrMatrix, Vec<f64>) {
+        let s: Vec<f64> = (0..n).map(|i| 1.0 + (i % 4) as f64).collect();
+        let mut trip = Vec::new();
+        for i in 0..n {
+            trip.push(faer::sparse::Triplet::new(i, i, (4.0 + i as f64) / s[i]));
+            if i + 1 < n {
+                let c = -1.0 - 0.1 * i as f64;
+                trip.push(faer::sparse::Triplet::new(i, i + 1, c / s[i]));
+                trip.push(faer::sparse::Triplet::new(i + 1, i, c / s[i + 1]));
+            }
+        }
+        let m = crate::SparseMatrix::try_new_from_triplets(n, n, &trip).unwrap();
+        (CsrMatrix::from_csc(&m), s)
+    }
+
+    #[test]
+    fn a_symmetrizer_is_checked() {
+        let (a, s) = similar_to_symmetric(6);
+        assert!(CsrWithSymmetrizer::new(a.clone(), s.clone()).is_ok());
+        assert!(matches!(
+            CsrWithSymmetrizer::new(a.clone(), s[1..].to_vec()),
+            Err(InputError::Block { .. })
+        ));
+        for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            let mut t = s.clone();
+            t[2] = bad;
+            assert!(matches!(
+                CsrWithSymmetrizer::new(a.clone(), t),
+                Err(InputError::Symmetrizer { row: 2, .. })
+            ));
+        }
+        // Scaling one entry of s breaks the symmetry of its two off-diagonal pairs.
+        let mut t = s.clone();
+        t[3] *= 1.5;
+        assert!(matches!(
+            CsrWithSymmetrizer::new(a.clone(), t),
+            Err(InputError::NotSymmetrizable { .. })
+        ));
+        // An entry stored on one side of the diagonal only.
+        assert!(matches!(
+            CsrWithSymmetrizer::new(lower_bidiagonal(6), vec![1.0; 6]),
+            Err(InputError::NotSymmetrizable { .. })
+        ));
+    }
+
+    /// `[a | b]` row by row: an n×2k block from two n×k blocks.
+    fn interleave(a: &[f64], b: &[f64], k: usize) -> Vec<f64> {
+        a.chunks(k)
+            .zip(b.chunks(k))
+            .flat_map(|(u, v)| u.iter().chain(v).copied())
+            .collect()
+    }
+
+    /// A BiLinOp with the trait's default `apply_both` over the given operator's
+    /// products.
+    struct Defaults<'a, T: BiLinOp>(&'a T);
+    impl<T: BiLinOp> LinOp for Defaults<'_, T> {
+        fn dim(&self) -> usize {
+            self.0.dim()
+        }
+        fn apply(&self, x: &[f64], y: &mut [f64], k: usize) {
+            self.0.apply(x, y, k)
+        }
+    }
+    impl<T: BiLinOp> BiLinOp for Defaults<'_, T> {
+        fn apply_transpose(&self, x: &[f64], y: &mut [f64], k: usize) {
+            self.0.apply_transpose(x, y, k)
+        }
+        fn symmetrizer(&self) -> Option<&[f64]> {
+            self.0.symmetrizer()
+        }
+    }
+
+    #[test]
+    fn both_products_on_interleaved_rows_match_separate_products() {
+        // More rows than one parallel chunk, every column count; the symmetrized and
+        // the transposed operator, each against plain products and the trait default.
+        let n = CHUNK + 77;
+        let (a, s) = similar_to_symmetric(n);
+        let sym = CsrWithSymmetrizer::new(a.clone(), s.clone()).unwrap();
+        let trans = CsrWithTranspose::new(a.clone());
+        let at = a.transpose();
+        for k in 1..=MAX_COLUMNS {
+            let p: Vec<f64> = (0..n * k).map(|i| (i as f64 * 0.37).sin()).collect();
+            let pt: Vec<f64> = (0..n * k).map(|i| (i as f64 * 0.11).cos()).collect();
+            let pp = interleave(&p, &pt, k);
+            let (mut q, mut qt, mut qh) = (vec![0.0; n * k], vec![0.0; n * k], vec![0.0; n * k]);
+            a.apply(&p, &mut q, k);
+            at.apply(&pt, &mut qt, k);
+            a.apply(&pt, &mut qh, k);
+            let want_q2: Vec<f64> = (0..k)
+                .map(|c| (0..n).map(|i| q[i * k + c].powi(2)).sum())
+                .collect();
+            let dot = |w: &dyn Fn(usize) -> f64, c: usize| -> f64 {
+                (0..n).map(|i| w(i) * pt[i * k + c] * q[i * k + c]).sum()
+            };
+            let cases: [(&dyn BiLinOp, &Vec<f64>, Vec<f64>); 4] = [
+                (&sym, &qh, (0..k).map(|c| dot(&|i| s[i], c)).collect()),
+                (
+                    &Defaults(&sym),
+                    &qh,
+                    (0..k).map(|c| dot(&|i| s[i], c)).collect(),
+                ),
+                (&trans, &qt, (0..k).map(|c| dot(&|_| 1.0, c)).collect()),
+                (
+                    &Defaults(&trans),
+                    &qt,
+                    (0..k).map(|c| dot(&|_| 1.0, c)).collect(),
+                ),
+            ];
+            for (which, (op, right, want_dot)) in cases.into_iter().enumerate() {
+                let mut qq = vec![0.0; 2 * n * k];
+                let (mut d, mut q2) = ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]);
+                op.apply_both(&pp, &mut qq, k, &mut d, &mut q2);
+                assert_eq!(
+                    qq,
+                    interleave(&q, right, k),
+                    "k = {k}, case {which}: same bits"
+                );
+                for c in 0..k {
+                    let tol = 1e-12 * want_dot[c].abs().max(1.0);
+                    assert!((d[c] - want_dot[c]).abs() <= tol, "k = {k}, case {which}");
+                    assert!((q2[c] - want_q2[c]).abs() <= 1e-12 * want_q2[c], "k = {k}");
+                }
+                assert!(d[k..].iter().all(|&v| v == 0.0));
+            }
+        }
+        // Aᵀx = S A S⁻¹ x, against the dense transpose of a small matrix.
+        let (n, k) = (50, 2);
+        let (a, s) = similar_to_symmetric(n);
+        let op = CsrWithSymmetrizer::new(a.clone(), s).unwrap();
+        let dense = a.to_csc().to_dense();
+        let x: Vec<f64> = (0..n * k).map(|i| (i as f64 * 0.3).cos()).collect();
+        let mut yt = vec![0.0; n * k];
+        op.apply_transpose(&x, &mut yt, k);
+        for i in 0..n {
+            for c in 0..k {
+                let want: f64 = (0..n).map(|j| dense[(j, i)] * x[j * k + c]).sum();
+                assert!((yt[i * k + c] - want).abs() < 1e-12, "row {i}");
+            }
+        }
+    }
+
+    #[test]
+    fn both_products_over_a_non_symmetric_pattern_and_a_rectangular_transpose() {
+        // A lower bidiagonal A: the merged pattern holds explicit zeros for Aᵀ's
+        // entries above the diagonal and A's below.
+        let n = 2 * CHUNK + 5;
+        let a = lower_bidiagonal(n);
+        let op = CsrWithTranspose::new(a.clone());
+        let at = a.transpose();
+        for k in [1, 3, MAX_COLUMNS] {
+            let p: Vec<f64> = (0..n * k).map(|i| (i as f64 * 0.37).sin()).collect();
+            let pt: Vec<f64> = (0..n * k).map(|i| (i as f64 * 0.11).cos()).collect();
+            let (mut q, mut qt) = (vec![0.0; n * k], vec![0.0; n * k]);
+            a.apply(&p, &mut q, k);
+            at.apply(&pt, &mut qt, k);
+            let mut qq = vec![0.0; 2 * n * k];
+            let (mut d, mut q2) = ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]);
+            op.apply_both(&interleave(&p, &pt, k), &mut qq, k, &mut d, &mut q2);
+            assert_eq!(qq, interleave(&q, &qt, k), "k = {k}");
+            let mut y = vec![0.0; n * k];
+            op.apply_transpose(&pt, &mut y, k);
+            assert_eq!(y, qt);
+            for c in 0..k {
+                let want: f64 = (0..n).map(|i| pt[i * k + c] * q[i * k + c]).sum();
+                assert!((d[c] - want).abs() <= 1e-12 * want.abs().max(1.0));
+            }
+        }
+        // A 3×2 matrix: the transpose kept on its own.
+        let trip = [
+            faer::sparse::Triplet::new(0, 0, 1.0),
+            faer::sparse::Triplet::new(2, 1, 2.0),
+        ];
+        let m = crate::SparseMatrix::try_new_from_triplets(3, 2, &trip).unwrap();
+        let op = CsrWithTranspose::new(CsrMatrix::from_csc(&m));
+        let mut y = vec![0.0; 2];
+        op.apply_transpose(&[1.0, 5.0, 3.0], &mut y, 1);
+        assert_eq!(y, [1.0, 6.0]);
     }
 
     #[test]
