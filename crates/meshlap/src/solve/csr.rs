@@ -526,7 +526,10 @@ impl PairedCsr {
     /// columns), O(nnz).
     pub(crate) fn new(a: &CsrMatrix, at: &CsrMatrix) -> Self {
         let n = a.nrows;
-        let merged = |i: usize, mut out: Option<(&mut [u32], &mut [(f64, f64)])>| -> usize {
+        // Row i's merged columns and value pairs, written when `out` is given; the
+        // row's length.
+        type RowOut<'a> = (&'a mut [u32], &'a mut [(f64, f64)]);
+        let merged = |i: usize, mut out: Option<RowOut<'_>>| -> usize {
             let (ra, rt) = (a.row_range(i), at.row_range(i));
             let (mut p, mut q, mut m) = (ra.start, rt.start, 0);
             while p < ra.end || q < rt.end {
