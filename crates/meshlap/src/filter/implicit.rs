@@ -10,8 +10,9 @@
 //! (geometry-central's pattern): it assembles the system once for an operator and a
 //! solver kind and keeps everything the kind needs across solves — the CSR matrix, its
 //! transpose for BiCG (or, when F has a symmetrizer S, S itself: `Aᵀ = S A S⁻¹`, so
-//! BiCG multiplies by A twice in one pass and stores no transpose), the Jacobi preconditioner, the symmetrized system for `cg-sym`,
-//! the Cholesky or LU factorization, and the iterative solvers' buffers. On
+//! BiCG multiplies by A twice in one pass and stores no transpose), the Jacobi
+//! preconditioner, the symmetrized system for `cg-sym`, the Cholesky or LU
+//! factorization, and the iterative solvers' buffers. On
 //! [`ImplicitSolver::set_lambda`] the direct kinds refactor numerically, reusing the
 //! symbolic analysis. [`implicit_fairing`] is the one-shot function.
 //!

@@ -5,7 +5,9 @@
 //! three coordinates of a vertex are adjacent), reading each matrix entry once for all
 //! three columns, with 4-byte indices: a CG iteration is bound by memory bandwidth, and
 //! this layout reads 12 bytes per nonzero instead of faer's column-by-column product
-//! over 16-byte `usize` indices three times.
+//! over 16-byte `usize` indices three times. For BiCG, `PairedCsr` keeps A and Aᵀ
+//! over one pattern (the pair `(a_ij, a_ji)` per entry) so that both products are one
+//! pass over interleaved `[p | p̃]` rows; no sparse crate offers that layout.
 
 use super::op::{residual_chunks, residual_rows, ResidualSums};
 use super::{Fused, MAX_COLUMNS};
@@ -236,6 +238,8 @@ impl CsrMatrix {
         d: Option<&[f64]>,
         z: Option<&mut [f64]>,
     ) -> ResidualSums {
+        // The kernel's gathers are unchecked: every x index must be in bounds.
+        assert!(x.len() >= self.ncols * k, "x is shorter than ncols·k");
         residual_chunks(b, r, z, d, k, |first, bs, rs, zs, ds| {
             let mut acc = ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]);
             let dense = Layout::dense(k);
