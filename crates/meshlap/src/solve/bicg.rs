@@ -491,11 +491,11 @@ mod tests {
     /// A non-symmetric operator whose transpose is applied by a different code path
     /// than the product: BiCG must use the transpose capability, or it would solve
     /// with A in place of Aᵀ and lose the bi-orthogonality (and the answer).
-    struct Counting<'a> {
-        a: &'a CsrWithTranspose,
+    struct Counting<'a, T: BiLinOp> {
+        a: &'a T,
         transposes: std::sync::atomic::AtomicUsize,
     }
-    impl LinOp for Counting<'_> {
+    impl<T: BiLinOp> LinOp for Counting<'_, T> {
         fn dim(&self) -> usize {
             self.a.dim()
         }
@@ -503,11 +503,14 @@ mod tests {
             self.a.apply(x, y, k)
         }
     }
-    impl BiLinOp for Counting<'_> {
+    impl<T: BiLinOp> BiLinOp for Counting<'_, T> {
         fn apply_transpose(&self, x: &[f64], y: &mut [f64], k: usize) {
             self.transposes
                 .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
             self.a.apply_transpose(x, y, k)
+        }
+        fn symmetrizer(&self) -> Option<&[f64]> {
+            self.a.symmetrizer()
         }
     }
 
@@ -589,35 +592,12 @@ mod tests {
         }
     }
 
-    /// The symmetrized operator with its matrix kernel replaced by the trait's
-    /// default passes, counting transposes (there must be none).
-    struct DefaultPair<'a> {
-        a: &'a CsrWithSymmetrizer,
-        transposes: std::sync::atomic::AtomicUsize,
-    }
-    impl LinOp for DefaultPair<'_> {
-        fn dim(&self) -> usize {
-            self.a.dim()
-        }
-        fn apply(&self, x: &[f64], y: &mut [f64], k: usize) {
-            self.a.apply(x, y, k)
-        }
-    }
-    impl BiLinOp for DefaultPair<'_> {
-        fn apply_transpose(&self, x: &[f64], y: &mut [f64], k: usize) {
-            self.transposes
-                .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-            self.a.apply_transpose(x, y, k)
-        }
-        fn symmetrizer(&self) -> Option<&[f64]> {
-            Some(self.a.symmetrizer())
-        }
-    }
-
     #[test]
     fn the_pair_kernel_iterates_as_the_default_passes_and_no_transpose_is_applied() {
         let (b, op) = tutte_with_symmetrizer(3, 30.0);
-        let default = DefaultPair {
+        // The trait's default passes (Counting forwards the products and the
+        // symmetrizer only), counting transposes: there must be none.
+        let default = Counting {
             a: &op,
             transposes: Default::default(),
         };

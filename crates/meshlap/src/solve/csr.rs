@@ -156,12 +156,7 @@ impl CsrMatrix {
 
     /// The arrays a product walks.
     pub(crate) fn rows(&self) -> Rows<'_, f64> {
-        Rows {
-            ncols: self.ncols,
-            row_ptr: &self.row_ptr,
-            col: &self.col,
-            val: &self.val,
-        }
+        Rows::new(self.ncols, &self.row_ptr, &self.col, &self.val)
     }
 
     /// Row i's stored entries `(column, value)`, columns ascending.
@@ -376,6 +371,17 @@ pub(crate) struct Rows<'a, T> {
     pub(crate) val: &'a [T],
 }
 
+impl<'a, T> Rows<'a, T> {
+    pub(crate) fn new(ncols: usize, row_ptr: &'a [usize], col: &'a [u32], val: &'a [T]) -> Self {
+        Rows {
+            ncols,
+            row_ptr,
+            col,
+            val,
+        }
+    }
+}
+
 /// The stored value of an entry: one number for both halves of a product over two
 /// blocks side by side, or a pair (A's and Aᵀ's entry of [`PairedCsr`]).
 pub(crate) trait Values: Copy + Send + Sync {
@@ -583,12 +589,7 @@ impl PairedCsr {
     }
 
     fn rows(&self) -> Rows<'_, (f64, f64)> {
-        Rows {
-            ncols: self.ncols,
-            row_ptr: &self.row_ptr,
-            col: &self.col,
-            val: &self.val,
-        }
+        Rows::new(self.ncols, &self.row_ptr, &self.col, &self.val)
     }
 
     /// [`product_with`] with both halves: the left n×k half of `x` (n×2k, layout
@@ -621,12 +622,7 @@ impl PairedCsr {
         // so the slice may be read as one of `Second`.
         let val: &[Second] =
             unsafe { std::slice::from_raw_parts(self.val.as_ptr().cast(), self.val.len()) };
-        let rows = Rows {
-            ncols: self.ncols,
-            row_ptr: &self.row_ptr,
-            col: &self.col,
-            val,
-        };
+        let rows = Rows::new(self.ncols, &self.row_ptr, &self.col, val);
         let dense = Layout::dense(k);
         product_with::<1, Second>(rows, x, dense, y, dense, k, None);
     }

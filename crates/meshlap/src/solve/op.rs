@@ -397,28 +397,36 @@ impl CsrWithTranspose {
     }
 }
 
-impl LinOp for CsrWithTranspose {
-    fn dim(&self) -> usize {
-        self.a.nrows()
-    }
-    fn apply(&self, x: &[f64], y: &mut [f64], k: usize) {
-        self.a.product(x, y, k, None)
-    }
-    fn apply_fused(&self, x: &[f64], y: &mut [f64], k: usize, fused: Fused<'_>) {
-        self.a.product(x, y, k, Some(fused))
-    }
-    fn residual(
-        &self,
-        b: &[f64],
-        x: &[f64],
-        r: &mut [f64],
-        k: usize,
-        d: Option<&[f64]>,
-        z: Option<&mut [f64]>,
-    ) -> Result<ResidualSums, InputError> {
-        self.a.residual(b, x, r, k, d, z)
-    }
+/// `LinOp` of a type that stores its matrix as `self.a`: every method forwards to the
+/// matrix's kernels.
+macro_rules! linop_of_matrix {
+    ($t:ty) => {
+        impl LinOp for $t {
+            fn dim(&self) -> usize {
+                self.a.nrows()
+            }
+            fn apply(&self, x: &[f64], y: &mut [f64], k: usize) {
+                self.a.product(x, y, k, None)
+            }
+            fn apply_fused(&self, x: &[f64], y: &mut [f64], k: usize, fused: Fused<'_>) {
+                self.a.product(x, y, k, Some(fused))
+            }
+            fn residual(
+                &self,
+                b: &[f64],
+                x: &[f64],
+                r: &mut [f64],
+                k: usize,
+                d: Option<&[f64]>,
+                z: Option<&mut [f64]>,
+            ) -> Result<ResidualSums, InputError> {
+                self.a.residual(b, x, r, k, d, z)
+            }
+        }
+    };
 }
+
+linop_of_matrix!(CsrWithTranspose);
 
 impl BiLinOp for CsrWithTranspose {
     fn apply_transpose(&self, x: &[f64], y: &mut [f64], k: usize) {
@@ -525,28 +533,7 @@ impl CsrWithSymmetrizer {
     }
 }
 
-impl LinOp for CsrWithSymmetrizer {
-    fn dim(&self) -> usize {
-        self.a.nrows()
-    }
-    fn apply(&self, x: &[f64], y: &mut [f64], k: usize) {
-        self.a.product(x, y, k, None)
-    }
-    fn apply_fused(&self, x: &[f64], y: &mut [f64], k: usize, fused: Fused<'_>) {
-        self.a.product(x, y, k, Some(fused))
-    }
-    fn residual(
-        &self,
-        b: &[f64],
-        x: &[f64],
-        r: &mut [f64],
-        k: usize,
-        d: Option<&[f64]>,
-        z: Option<&mut [f64]>,
-    ) -> Result<ResidualSums, InputError> {
-        self.a.residual(b, x, r, k, d, z)
-    }
-}
+linop_of_matrix!(CsrWithSymmetrizer);
 
 impl BiLinOp for CsrWithSymmetrizer {
     /// `y = S A S⁻¹ x` (two scalings around one product; BiCG does not call it).
