@@ -29,6 +29,7 @@ use super::geometry::{cross, dot, sub};
 use super::OperatorError;
 use crate::mesh::{topology::Topology, TriMesh};
 use crate::SparseMatrix;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Lumped mass matrix of the cotangent operator.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
@@ -101,6 +102,8 @@ pub fn cotan(
         let [a, b] = sides[e as usize];
         0.0 + a + b
     };
+    // Raised by a column with a non-finite entry: only then is the matrix scanned again.
+    let flagged = AtomicBool::new(false);
     let (mass, l) = rayon::join(
         || {
             let mut mass = vec![0.0f64; topo.n_vertices()];
@@ -122,11 +125,16 @@ pub fn cotan(
                     *o = -x;
                     diag += x;
                 }
+                // The sum of the column's weights is non-finite exactly when one of
+                // its entries is (the diagonal included).
+                if !diag.is_finite() {
+                    flagged.store(true, Ordering::Relaxed);
+                }
                 diag
             })
         },
     );
-    super::check_finite(&l, Some(&mass), "cotan")?;
+    super::check_finite_flagged(&l, flagged.into_inner(), Some(&mass), "cotan")?;
     Ok((l, mass))
 }
 
@@ -405,6 +413,33 @@ mod tests {
     #[test]
     fn the_first_degenerate_face_is_named_on_any_pool() {
         first_degenerate_face_is_named(|m, t| cotan(m, t, MassKind::Voronoi));
+    }
+
+    #[test]
+    fn large_meshes_scale_and_overflowing_areas_are_an_error() {
+        // At 1e70 every weight and mass is finite and scales as it should (the columns'
+        // finiteness test raises no false alarm); at 1e154 the squared doubled areas
+        // overflow, which is an area that overflows (`DegenerateFace`), never a NaN.
+        let base = crate::mesh::builtin::icosphere(2).unwrap();
+        let scaled = |s: f64| {
+            let mut m = base.clone();
+            m.positions.iter_mut().flatten().for_each(|x| *x *= s);
+            m
+        };
+        let (l1, m1) = cotan(&base, &topo(&base), MassKind::Voronoi).unwrap();
+        let big = scaled(1e70);
+        let (l, m) = cotan(&big, &topo(&big), MassKind::Voronoi).unwrap();
+        // Cotangents are scale-free, masses scale with the square.
+        assert!((l.to_dense() - l1.to_dense()).norm_max() < 1e-12);
+        assert!(m
+            .iter()
+            .zip(&m1)
+            .all(|(a, b)| (a / 1e140 - b).abs() < 1e-12 * b));
+        let huge = scaled(1e154);
+        assert!(matches!(
+            cotan(&huge, &topo(&huge), MassKind::Voronoi),
+            Err(OperatorError::DegenerateFace { kind: "cotan", .. })
+        ));
     }
 
     #[test]

@@ -19,6 +19,7 @@ use super::OperatorError;
 use crate::mesh::{topology::Topology, TriMesh};
 use crate::SparseMatrix;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Assembles the row-normalised mean-value Laplacian of `mesh`: n×n, non-symmetric,
 /// zero row sums, `F = D − W` with `D = I`.
@@ -52,18 +53,26 @@ pub fn mean_value(mesh: &TriMesh, topo: &Topology) -> Result<SparseMatrix, Opera
             1.0 / sum
         })
         .collect();
+    // Raised by a column whose entries' sum is not finite: only then is the matrix
+    // scanned again (a sum that overflows with finite entries finds nothing there).
+    let flagged = AtomicBool::new(false);
     let f = super::assemble::one_ring_columns(topo, |j, off| {
         let v = crate::VertexId(j as u32);
+        let mut sum = 0.0;
         for ((o, &i), &e) in off
             .iter_mut()
             .zip(topo.neighbors(v))
             .zip(topo.neighbor_edges(v))
         {
             *o = -directed(e, i, j as u32) * inv_sums[i as usize];
+            sum += *o;
+        }
+        if !sum.is_finite() {
+            flagged.store(true, Ordering::Relaxed);
         }
         1.0
     });
-    super::check_finite(&f, None, "mean-value")?;
+    super::check_finite_flagged(&f, flagged.into_inner(), None, "mean-value")?;
     Ok(f)
 }
 

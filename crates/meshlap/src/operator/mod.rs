@@ -290,6 +290,32 @@ pub(crate) fn check_finite(
     Ok(())
 }
 
+/// [`check_finite`] after an assembly that tested its columns as it wrote them:
+/// `flagged` is false only if every entry of `matrix` is known to be finite (a
+/// column's diagonal that sums its off-diagonal weights is non-finite exactly when one
+/// of its entries is). The value array is then not read again; a flagged matrix is
+/// scanned as [`check_finite`] does, to name the first bad entry in column order (a
+/// flag raised by an overflowing test sum whose entries are all finite finds none).
+/// The mass diagonal is always checked.
+pub(crate) fn check_finite_flagged(
+    matrix: &SparseMatrix,
+    flagged: bool,
+    mass: Option<&[f64]>,
+    kind: &'static str,
+) -> Result<(), OperatorError> {
+    if flagged {
+        check_finite(matrix, mass, kind)
+    } else {
+        match mass.and_then(first_non_finite) {
+            Some(v) => Err(OperatorError::NonFinite {
+                vertex: v as u32,
+                kind,
+            }),
+            None => Ok(()),
+        }
+    }
+}
+
 /// Index of the first entry of `x` that is NaN or infinite. In parallel over chunks,
 /// each tested without early exit (a branch-free `&` of `is_finite`, which the compiler
 /// vectorises); only the first failing chunk is searched entry by entry.
@@ -463,9 +489,20 @@ mod tests {
             Err(OperatorError::NonFinite { vertex, .. }) => assert_eq!(vertex as usize, row),
             other => panic!("{other:?}"),
         }
+        // Flagged: the same scan, the same row.
+        match check_finite_flagged(&bad, true, None, "test") {
+            Err(OperatorError::NonFinite { vertex, .. }) => assert_eq!(vertex as usize, row),
+            other => panic!("{other:?}"),
+        }
         let mass = vec![1.0, 2.0, f64::NAN];
         let ok = kirchhoff::kirchhoff(&t);
         match check_finite(&ok, Some(&mass), "test") {
+            Err(OperatorError::NonFinite { vertex, .. }) => assert_eq!(vertex, 2),
+            other => panic!("{other:?}"),
+        }
+        // Not flagged: the matrix is not read again, the mass still is.
+        assert!(check_finite_flagged(&ok, true, None, "test").is_ok());
+        match check_finite_flagged(&ok, false, Some(&mass), "test") {
             Err(OperatorError::NonFinite { vertex, .. }) => assert_eq!(vertex, 2),
             other => panic!("{other:?}"),
         }
