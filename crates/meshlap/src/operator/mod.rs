@@ -500,8 +500,9 @@ mod tests {
             Err(OperatorError::NonFinite { vertex, .. }) => assert_eq!(vertex, 2),
             other => panic!("{other:?}"),
         }
-        // Not flagged: the matrix is not read again, the mass still is.
+        // A false alarm (flagged, every entry finite): the scan finds nothing.
         assert!(check_finite_flagged(&ok, true, None, "test").is_ok());
+        // Not flagged: the matrix is not read again, the mass still is.
         match check_finite_flagged(&ok, false, Some(&mass), "test") {
             Err(OperatorError::NonFinite { vertex, .. }) => assert_eq!(vertex, 2),
             other => panic!("{other:?}"),
