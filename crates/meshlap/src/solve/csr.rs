@@ -588,6 +588,66 @@ impl PairedCsr {
         }
     }
 
+    /// The same matrix as [`PairedCsr::new`]`(a, aᵀ)` when the pattern of `a` is
+    /// symmetric (every stored `a_ij` has a stored `a_ji`), built without forming the
+    /// transpose: the union of the patterns is then a's own, and each pair's second
+    /// value is found in row j (its columns ascending: a scan of a short row, a binary
+    /// search of a long one). `None` if `a` is not square or its pattern is not
+    /// symmetric. O(nnz · log d), d the longest row.
+    pub(crate) fn mirrored(a: &CsrMatrix) -> Option<Self> {
+        /// Rows per parallel work item.
+        const ROWS: usize = 1024;
+        let n = a.nrows;
+        if a.ncols != n {
+            return None;
+        }
+        // Written once, in parallel, when the pattern is symmetric (no zeroing pass).
+        let mut val = crate::mem::uninit_vec::<(f64, f64)>(a.col.len());
+        // Split the pairs at block boundaries of ROWS rows.
+        let mut blocks = Vec::with_capacity(n.div_ceil(ROWS));
+        let mut rest = &mut val[..];
+        for s in (0..n).step_by(ROWS) {
+            let e = (s + ROWS).min(n);
+            let (head, tail) = std::mem::take(&mut rest).split_at_mut(a.row_ptr[e] - a.row_ptr[s]);
+            blocks.push((s, e, head));
+            rest = tail;
+        }
+        let symmetric = blocks
+            .into_par_iter()
+            .map(|(s, e, out)| {
+                let base = a.row_ptr[s];
+                for i in s..e {
+                    for p in a.row_range(i) {
+                        let j = a.col[p] as usize;
+                        let mirror = a.row_range(j);
+                        let cols = &a.col[mirror.clone()];
+                        // Mesh rows are short, where a linear scan beats a binary
+                        // search; a long row (a fan's hub) is searched by halves.
+                        let found = if cols.len() <= 32 {
+                            cols.iter().position(|&c| c as usize == i)
+                        } else {
+                            cols.binary_search(&(i as u32)).ok()
+                        };
+                        let Some(q) = found else {
+                            return false;
+                        };
+                        out[p - base].write((a.val[p], a.val[mirror.start + q]));
+                    }
+                }
+                true
+            })
+            .reduce(|| true, |x, y| x && y);
+        symmetric.then(|| PairedCsr {
+            ncols: n,
+            row_ptr: a.row_ptr.clone(),
+            col: a.col.clone(),
+            // SAFETY: the blocks cover every entry, and with the pattern symmetric every
+            // block wrote each of its entries (a block returns false, writing no more,
+            // only when an entry has no mirror).
+            val: unsafe { crate::mem::assume_init_vec(val) },
+        })
+    }
+
     fn rows(&self) -> Rows<'_, (f64, f64)> {
         Rows::new(self.ncols, &self.row_ptr, &self.col, &self.val)
     }
@@ -729,6 +789,44 @@ mod tests {
             let q: f64 = yc.iter().map(|v| v * v).sum();
             assert!((dot[c] - d).abs() < 1e-12 * d.abs() && (norm2[c] - q).abs() < 1e-12 * q);
         }
+    }
+
+    #[test]
+    fn mirrored_equals_the_merge_with_the_transpose() {
+        // Mesh operators (symmetric patterns, several blocks of rows for icosphere 5).
+        for m in [builtin::cube(3).unwrap(), builtin::icosphere(5).unwrap()] {
+            let f = crate::operator::tutte::tutte(&Topology::new(&m).unwrap()).unwrap();
+            let a = CsrMatrix::from_csc(&f).shifted(&vec![1.0; f.nrows()], 30.0);
+            let want = PairedCsr::new(&a, &a.transpose());
+            assert_eq!(PairedCsr::mirrored(&a), Some(want));
+        }
+        // A star of 100 leaves: the hub's row is searched by halves.
+        let n = 101;
+        let mut row_ptr = vec![0, n];
+        let mut col: Vec<u32> = (0..n as u32).collect();
+        for i in 1..n {
+            col.extend([0, i as u32]);
+            row_ptr.push(row_ptr[i] + 2);
+        }
+        let val: Vec<f64> = (0..col.len()).map(|p| 1.0 + p as f64 * 0.25).collect();
+        let star = CsrMatrix::from_parts(n, n, row_ptr.clone(), col.clone(), val.clone());
+        let want = PairedCsr::new(&star, &star.transpose());
+        assert_eq!(PairedCsr::mirrored(&star), Some(want));
+        // Not symmetric: leaf 7 loses its entry (7, 0), so (0, 7) has no mirror.
+        let p = row_ptr[7];
+        let mut col2 = col.clone();
+        let mut val2 = val.clone();
+        col2.remove(p);
+        val2.remove(p);
+        let ptr2: Vec<usize> = row_ptr
+            .iter()
+            .map(|&q| if q > p { q - 1 } else { q })
+            .collect();
+        let lopsided = CsrMatrix::from_parts(n, n, ptr2, col2, val2);
+        assert_eq!(PairedCsr::mirrored(&lopsided), None);
+        // Rectangular: no pairs.
+        let wide = CsrMatrix::from_parts(1, 2, vec![0, 2], vec![0, 1], vec![1.0, 2.0]);
+        assert_eq!(PairedCsr::mirrored(&wide), None);
     }
 
     #[test]

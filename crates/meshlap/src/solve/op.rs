@@ -378,13 +378,16 @@ enum Transposed {
 }
 
 impl CsrWithTranspose {
-    /// Stores `a` and computes its transpose (O(nnz)).
+    /// Stores `a` and its transpose (O(nnz)): for a square `a`, merged with `a` over the
+    /// union of their patterns, found directly from `a` when its pattern is symmetric
+    /// (every mesh operator's is) and by way of the transpose otherwise.
     pub fn new(a: CsrMatrix) -> Self {
-        let at = a.transpose();
-        let t = if a.nrows() == a.ncols() {
-            Transposed::Paired(PairedCsr::new(&a, &at))
-        } else {
-            Transposed::Separate(at)
+        let t = match PairedCsr::mirrored(&a) {
+            Some(paired) => Transposed::Paired(paired),
+            None if a.nrows() == a.ncols() => {
+                Transposed::Paired(PairedCsr::new(&a, &a.transpose()))
+            }
+            None => Transposed::Separate(a.transpose()),
         };
         CsrWithTranspose { a, t }
     }
