@@ -8,10 +8,10 @@
 //! per-column scalars and per-column convergence).
 //!
 //! Every iterative solver has faer's shape: it takes the operator through a trait
-//! ([`LinOp`]; BiCG a [`BiLinOp`], which adds the transpose or a symmetrizer), [`Params`] (with
-//! `Default`) and a [`Workspace`] of buffers, and returns an [`Info`] (iterations,
-//! final residuals and residual history per column; BiCG's [`BicgInfo`] adds its
-//! plateau) or its own typed error:
+//! ([`LinOp`]; BiCG a [`BiLinOp`], which adds the transpose or a symmetrizer),
+//! [`Params`] (with `Default`) and a [`Workspace`] of buffers, and returns an [`Info`]
+//! (iterations, final residuals and residual history per column; BiCG's [`BicgInfo`]
+//! adds its plateau) or its own typed error:
 //!
 //! - [`cg()`]: conjugate gradients, plain or with the [`Jacobi`] preconditioner, for
 //!   symmetric positive definite `B` ([`CgError::NotPositiveDefinite`] on a

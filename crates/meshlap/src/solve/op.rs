@@ -7,8 +7,9 @@
 //! Implementations: [`CsrMatrix`] (`LinOp + Diagonal`), [`CsrWithTranspose`] (a matrix
 //! stored with its transpose: `BiLinOp + Diagonal`), [`CsrWithSymmetrizer`] (a matrix
 //! with a diagonal S making `S·A` symmetric, so `Aᵀ = S A S⁻¹` and no transpose is
-//! stored: `BiLinOp + Diagonal`) and [`FnOperator`] (matrix-free, `LinOp` only). The operators of [`crate::operator`] use the sign `F = D − W`
-//! (positive semi-definite); the systems solved here are `M + λF`.
+//! stored: `BiLinOp + Diagonal`) and [`FnOperator`] (matrix-free, `LinOp` only). The
+//! operators of [`crate::operator`] use the sign `F = D − W` (positive semi-definite);
+//! the systems solved here are `M + λF`.
 
 use super::csr::{Layout, PairedCsr, Reduce, CHUNK};
 use super::krylov::{col_dots, col_norms2};
