@@ -762,18 +762,19 @@ fn solvers(
         let info = last.ok_or("no solve ran (--repeat 0)")?;
         let its = *info.iterations.iter().max().unwrap_or(&1);
         // Memory traffic per iteration (bytes read + written) in n×3 f64 blocks of 24n
-        // bytes, for the passes the solvers make. CG: q = Ap fused with pᵀq (matrix,
-        // read p, write q: 2) + x, r update (read x, r, p, q; write x, r: 6) + p update
-        // (read r, p; write p: 3) = matrix + 11 blocks. BiCG with the symmetrizer s:
-        // p, p̂ update (read r, r̂, p, p̂, s; write p, p̂: 6 blocks + s) + q = Ap and
-        // q̂ = Ap̂ in one pass with p̃ᵀq (matrix once; read p, p̂, s; write q, q̂: 4
-        // blocks + s) + x, r, r̂ update (read x, p, r, q, r̂, q̂, s; write x, r, r̂: 9
-        // blocks + s) = 1 matrix + 19 blocks + 3 reads of s (8n bytes each).
+        // bytes, for the passes the solvers make with the residual criterion. CG (x
+        // moves in the p pass): q = Ap fused with pᵀq (matrix, read p, write q: 2) + r
+        // update (read r, q; write r: 3) + x, p update (read x, r, p; write x, p: 5) =
+        // matrix + 10 blocks. BiCG with the symmetrizer s: p, p̂ update (read r, r̂, p,
+        // p̂, s; write p, p̂: 6 blocks + s) + q = Ap and q̂ = Ap̂ in one pass with p̃ᵀq
+        // (matrix once; read p, p̂, s; write q, q̂: 4 blocks + s) + x, r, r̂ update
+        // (read x, p, r, q, r̂, q̂, s; write x, r, r̂: 9 blocks + s) = 1 matrix + 19
+        // blocks + 3 reads of s (8n bytes each).
         let block = 24.0 * n as f64;
         let traffic = if kind_bicg {
             a.bytes() as f64 + 19.0 * block + 3.0 * 8.0 * n as f64
         } else {
-            a.bytes() as f64 + 11.0 * block
+            a.bytes() as f64 + 10.0 * block
         };
         let per_it = med / its as f64;
         let bound = traffic / bw;
