@@ -42,6 +42,9 @@ pub struct Topology {
     vertex_out: Vec<u32>,
     vertex_manifold: Vec<bool>,
     inconsistent_edges: usize,
+    /// How many edges have more than two faces: 0 lets [`Topology::non_manifold_edges`]
+    /// skip its scan (the operators ask on every call).
+    non_manifold_edges: usize,
 }
 
 impl Topology {
@@ -95,6 +98,7 @@ impl Topology {
             edges: Vec<[u32; 2]>,
             edge_pos: Vec<u32>,
             inconsistent: usize,
+            non_manifold: usize,
         }
         let parts: Vec<Part> = chunks
             .into_par_iter()
@@ -104,6 +108,7 @@ impl Topology {
                     edges: Vec::with_capacity(slice.len() / 2 + 1),
                     edge_pos: Vec::with_capacity(slice.len() / 2 + 1),
                     inconsistent: 0,
+                    non_manifold: 0,
                 };
                 let mut lo = lo0;
                 let mut off = 0usize;
@@ -123,6 +128,7 @@ impl Topology {
                         if j - i == 2 && (b[i] ^ b[i + 1]) & REVERSED == 0 {
                             part.inconsistent += 1;
                         }
+                        part.non_manifold += usize::from(j - i > 2);
                         i = j;
                     }
                     off += len;
@@ -134,11 +140,12 @@ impl Topology {
         let n_edges: usize = parts.iter().map(|p| p.edges.len()).sum();
         let mut edges = Vec::with_capacity(n_edges);
         let mut edge_pos = Vec::with_capacity(n_edges + 1);
-        let mut inconsistent_edges = 0usize;
+        let (mut inconsistent_edges, mut non_manifold_edges) = (0usize, 0usize);
         for p in parts {
             edges.extend_from_slice(&p.edges);
             edge_pos.extend_from_slice(&p.edge_pos);
             inconsistent_edges += p.inconsistent;
+            non_manifold_edges += p.non_manifold;
         }
         edge_pos.push(nh as u32);
         // Scatter twins and edge ids to the half-edges, in parallel over edges: every
@@ -234,6 +241,7 @@ impl Topology {
             vertex_out,
             vertex_manifold: Vec::new(),
             inconsistent_edges,
+            non_manifold_edges,
         };
         topo.vertex_manifold = topo.compute_manifold_vertices();
         Ok(topo)
@@ -537,9 +545,15 @@ impl Topology {
         self.vertex_manifold[v.idx()]
     }
 
-    /// Edges with more than two incident faces.
+    /// Edges with more than two incident faces, ascending. Empty without a scan when
+    /// there are none (counted while the connectivity was built).
     pub fn non_manifold_edges(&self) -> impl Iterator<Item = EdgeId> + '_ {
-        (0..self.edges.len())
+        let scan = if self.non_manifold_edges == 0 {
+            0
+        } else {
+            self.edges.len()
+        };
+        (0..scan)
             .filter(|&e| self.edge_faces[e] > 2)
             .map(|e| EdgeId(e as u32))
     }
@@ -566,7 +580,7 @@ impl Topology {
 
     /// True when the mesh is edge- and vertex-manifold.
     pub fn is_manifold(&self) -> bool {
-        self.edge_faces.iter().all(|&c| c <= 2) && self.vertex_manifold.iter().all(|&m| m)
+        self.non_manifold_edges == 0 && self.vertex_manifold.iter().all(|&m| m)
     }
 
     /// Number of boundary loops: connected components of the graph formed by the

@@ -177,6 +177,19 @@ fn matches_naive_construction_on_random_soups() {
             }
         }
         assert_eq!(t.inconsistently_oriented_edges(), inconsistent);
+        // The non-manifold edges, counted while building, against the naive map.
+        let want_nm: Vec<EdgeId> = naive
+            .values()
+            .enumerate()
+            .filter(|(_, hs)| hs.len() > 2)
+            .map(|(e, _)| EdgeId(e as u32))
+            .collect();
+        assert!(n < 100 || !want_nm.is_empty(), "the soup has no non-manifold edge");
+        assert_eq!(t.non_manifold_edges().collect::<Vec<_>>(), want_nm);
+        assert_eq!(
+            t.is_manifold(),
+            want_nm.is_empty() && (0..n as u32).all(|v| t.is_manifold_vertex(VertexId(v)))
+        );
         for v in 0..n as u32 {
             let nb: BTreeSet<u32> = naive
                 .keys()
