@@ -184,7 +184,10 @@ fn matches_naive_construction_on_random_soups() {
             .filter(|(_, hs)| hs.len() > 2)
             .map(|(e, _)| EdgeId(e as u32))
             .collect();
-        assert!(n < 100 || !want_nm.is_empty(), "the soup has no non-manifold edge");
+        assert!(
+            n < 100 || !want_nm.is_empty(),
+            "the soup has no non-manifold edge"
+        );
         assert_eq!(t.non_manifold_edges().collect::<Vec<_>>(), want_nm);
         assert_eq!(
             t.is_manifold(),
