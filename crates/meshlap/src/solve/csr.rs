@@ -443,6 +443,15 @@ fn product_rows<const M: usize, T: Values>(
         return;
     }
     super::krylov::with_columns!(k, K => {
+        let whole = Layout::dense(M * K);
+        if xl == whole
+            && yl == whole
+            && red.is_none_or(|r| r.at.stride == M * K && (r.at.offset == 0 || r.at.offset == K))
+        {
+            // The solvers' cases, with the strides known at compile time.
+            dense_rows::<M, T>(rows, x, start, ys, K, red, acc);
+            return;
+        }
         for r in 0..nr {
             let i = start + r;
             let mut a = [0.0; 2 * MAX_COLUMNS];
@@ -471,6 +480,53 @@ fn product_rows<const M: usize, T: Values>(
             }
         }
     })
+}
+
+/// [`product_rows`] when x and y are blocks of their own (`Layout::dense(M·k)`: one
+/// n×k block, or two side by side as one n×2k block) and the reductions read the
+/// left or right n×k half of an n×(M·k) block: the solvers' products (CG, the
+/// residual, BiCG over `[p | p̃]`). The same operations in the same order, so the same
+/// bits, with the strides constants once inlined into a `with_columns` arm (the
+/// generic loop computes every index from run-time strides: 12 % slower on Igea's
+/// `I + λS`, BENCHMARKS.md).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn dense_rows<const M: usize, T: Values>(
+    rows: Rows<'_, T>,
+    x: &[f64],
+    start: usize,
+    ys: &mut [f64],
+    k: usize,
+    red: Option<Reduce<'_>>,
+    acc: &mut Acc,
+) {
+    let (rp, col, val) = (rows.row_ptr, rows.col, rows.val);
+    let mk = M * k;
+    for r in 0..ys.len() / mk {
+        let i = start + r;
+        let mut a = [0.0; 2 * MAX_COLUMNS];
+        let (s, e) = (rp[i], rp[i + 1]);
+        for (&v, &jc) in val[s..e].iter().zip(&col[s..e]) {
+            let (v, j) = (v.halves(), jc as usize * mk);
+            for (c, ac) in a.iter_mut().enumerate().take(mk) {
+                let v = if c < k { v.0 } else { v.1 };
+                // SAFETY: jc < ncols (an invariant of every constructor), and the
+                // callers checked x.len() ≥ ncols·M·k, so j + c < x.len().
+                unsafe {
+                    *ac += v * *x.get_unchecked(j + c);
+                }
+            }
+        }
+        ys[r * mk..r * mk + mk].copy_from_slice(&a[..mk]);
+        if let Some(Reduce { w, at, weights }) = red {
+            let wi = weights.map_or(1.0, |s| s[i]);
+            let w = &w[i * mk + at.offset..i * mk + at.offset + k];
+            for c in 0..k {
+                acc.0[c] += wi * w[c] * a[c];
+                acc.1[c] += a[c] * a[c];
+            }
+        }
+    }
 }
 
 /// `y = A x` over the arrays `rows` ([`product_rows`]), in parallel over chunks of
@@ -788,6 +844,126 @@ mod tests {
             let d: f64 = (0..n).map(|i| xc[i] * yc[i]).sum();
             let q: f64 = yc.iter().map(|v| v * v).sum();
             assert!((dot[c] - d).abs() < 1e-12 * d.abs() && (norm2[c] - q).abs() < 1e-12 * q);
+        }
+    }
+
+    #[test]
+    fn the_dense_fast_path_equals_the_strided_loop_bit_for_bit() {
+        // `dense_rows` (x and y blocks of their own, no row weights) against the
+        // generic loop on the same numbers laid out with a stride of k + 1 (which the
+        // fast path does not take): the same y and the same sums, to the bit, for
+        // every column count, with and without the fused reductions.
+        let m = builtin::icosphere(4).unwrap();
+        let f = crate::operator::sql::sql(&Topology::new(&m).unwrap(), Default::default()).unwrap();
+        let a = CsrMatrix::from_csc(&f).shifted(&vec![1.0; f.nrows()], 30.0);
+        let n = a.nrows();
+        for k in [1, 2, 3, 4, 8] {
+            let x: Vec<f64> = (0..k * n).map(|i| (i as f64 * 0.37).sin()).collect();
+            let w: Vec<f64> = (0..k * n).map(|i| (i as f64 * 0.11).cos()).collect();
+            let pad = |v: &[f64]| -> Vec<f64> {
+                v.chunks(k)
+                    .flat_map(|r| std::iter::once(-7.0).chain(r.iter().copied()))
+                    .collect()
+            };
+            let (xs, ws) = (pad(&x), pad(&w));
+            let (dense, strided) = (
+                Layout::dense(k),
+                Layout {
+                    stride: k + 1,
+                    offset: 1,
+                },
+            );
+            for fused in [false, true] {
+                let run = |xv: &[f64], xl: Layout, wv: &[f64], yl: Layout| {
+                    let mut y = vec![0.0; yl.stride * n];
+                    let red = fused.then_some(Reduce {
+                        w: wv,
+                        at: xl,
+                        weights: None,
+                    });
+                    let mut acc = ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]);
+                    product_rows::<1, f64>(a.rows(), xv, xl, 0, &mut y, yl, k, red, &mut acc);
+                    let y: Vec<u64> = y
+                        .chunks(yl.stride)
+                        .flat_map(|r| r[yl.offset..yl.offset + k].iter().map(|v| v.to_bits()))
+                        .collect();
+                    let bits = |s: &[f64; MAX_COLUMNS]| s.map(f64::to_bits);
+                    (y, bits(&acc.0), bits(&acc.1))
+                };
+                let fast = run(&x, dense, &w, dense);
+                assert_eq!(
+                    fast,
+                    run(&xs, strided, &ws, dense),
+                    "k = {k}, fused {fused}"
+                );
+                assert_eq!(fast, run(&x, dense, &w, strided), "k = {k}, fused {fused}");
+                assert!(fast.0.iter().any(|&b| b != 0));
+            }
+        }
+    }
+
+    #[test]
+    fn the_dense_fast_path_of_two_halves_equals_the_strided_loop_bit_for_bit() {
+        // BiCG's products: two n×k blocks side by side (M = 2), one value for both
+        // halves (the symmetrizer) or a pair (A and Aᵀ), the sums over the right half
+        // with and without row weights. The fast path against the generic loop on a
+        // stride of 2k + 1: the same bits.
+        let m = builtin::icosphere(4).unwrap();
+        let f = crate::operator::tutte::tutte(&Topology::new(&m).unwrap()).unwrap();
+        let a = CsrMatrix::from_csc(&f).shifted(&vec![1.0; f.nrows()], 30.0);
+        let n = a.nrows();
+        let pairs: Vec<(f64, f64)> = a.val.iter().map(|&v| (v, 0.5 * v - 0.1)).collect();
+        let s: Vec<f64> = (0..n).map(|i| 1.0 + (i % 7) as f64).collect();
+        #[allow(clippy::too_many_arguments)]
+        fn run<T: Values>(
+            rows: Rows<'_, T>,
+            xv: &[f64],
+            xl: Layout,
+            wv: &[f64],
+            at: Layout,
+            weights: Option<&[f64]>,
+            n: usize,
+            k: usize,
+        ) -> (Vec<u64>, [u64; MAX_COLUMNS], [u64; MAX_COLUMNS]) {
+            let yl = xl;
+            let mut y = vec![0.0; yl.stride * n];
+            let red = Some(Reduce { w: wv, at, weights });
+            let mut acc = ([0.0; MAX_COLUMNS], [0.0; MAX_COLUMNS]);
+            product_rows::<2, T>(rows, xv, xl, 0, &mut y, yl, k, red, &mut acc);
+            let y = y
+                .chunks(yl.stride)
+                .flat_map(|r| r[yl.offset..yl.offset + 2 * k].iter().map(|v| v.to_bits()))
+                .collect();
+            (y, acc.0.map(f64::to_bits), acc.1.map(f64::to_bits))
+        }
+        for k in [1, 3, 4] {
+            let x: Vec<f64> = (0..2 * k * n).map(|i| (i as f64 * 0.37).sin()).collect();
+            let xs: Vec<f64> = x
+                .chunks(2 * k)
+                .flat_map(|r| std::iter::once(-7.0).chain(r.iter().copied()))
+                .collect();
+            let (whole, strided) = (
+                Layout::dense(2 * k),
+                Layout {
+                    stride: 2 * k + 1,
+                    offset: 1,
+                },
+            );
+            let right = Layout {
+                stride: 2 * k + 1,
+                offset: 1 + k,
+            };
+            for weights in [None, Some(&s[..])] {
+                let single = a.rows();
+                let paired = Rows::new(a.ncols, &a.row_ptr, &a.col, &pairs);
+                let fast = run(single, &x, whole, &x, Layout::half(k, 1), weights, n, k);
+                let slow = run(single, &xs, strided, &xs, right, weights, n, k);
+                assert_eq!(fast, slow, "k = {k}, one value");
+                let fast = run(paired, &x, whole, &x, Layout::half(k, 1), weights, n, k);
+                let slow = run(paired, &xs, strided, &xs, right, weights, n, k);
+                assert_eq!(fast, slow, "k = {k}, pairs");
+                assert!(fast.0.iter().any(|&b| b != 0));
+            }
         }
     }
 
