@@ -487,8 +487,8 @@ fn product_rows<const M: usize, T: Values>(
 /// left or right n×k half of an n×(M·k) block: the solvers' products (CG, the
 /// residual, BiCG over `[p | p̃]`). The same operations in the same order, so the same
 /// bits, with the strides constants once inlined into a `with_columns` arm (the
-/// generic loop computes every index from run-time strides: 12 % slower on Igea's
-/// `I + λS`, BENCHMARKS.md).
+/// generic loop computes every index from run-time strides, which costs measurably:
+/// BENCHMARKS.md, "What limits the product").
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn dense_rows<const M: usize, T: Values>(
