@@ -15,6 +15,7 @@
 
 use super::krylov::{self, with_columns, Criterion, Sums};
 use super::{csr::CHUNK, BiLinOp, Info, InputError, Jacobi, Params, Workspace, MAX_COLUMNS};
+use crate::par::FoldInOrder;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::time::Instant;
@@ -249,7 +250,7 @@ fn bicg_on_worker(
                     s
                 })
             })
-            .reduce(Sums::default, Sums::add);
+            .fold_in_order(Sums::default(), Sums::add);
         op.apply_both(pp, qq, k, &mut denom, &mut qnorm);
         let mut alpha = [0.0f64; MAX_COLUMNS];
         for c in krylov::live(active) {
@@ -296,7 +297,7 @@ fn bicg_on_worker(
                     s
                 })
             })
-            .reduce(Sums::default, Sums::add);
+            .fold_in_order(Sums::default(), Sums::add);
         for c in krylov::live(active) {
             info.info.iterations[c] = it;
             let rr = sums.v[RR][c];

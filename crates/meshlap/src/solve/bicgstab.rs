@@ -14,6 +14,7 @@
 
 use super::krylov::{self, with_columns, Criterion, Sums};
 use super::{csr::CHUNK, Fused, Info, InputError, LinOp, Params, Workspace, MAX_COLUMNS};
+use crate::par::FoldInOrder;
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -202,7 +203,7 @@ fn bicgstab_on_worker(
                     s
                 })
             })
-            .reduce(Sums::default, Sums::add);
+            .fold_in_order(Sums::default(), Sums::add);
         for c in krylov::live(active) {
             info.iterations[c] = it;
             rr[c] = sums.v[RR][c];

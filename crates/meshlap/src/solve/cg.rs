@@ -20,6 +20,7 @@ use super::krylov::{self, with_columns, Criterion, Sums};
 use super::{
     csr::CHUNK, Fused, Info, InputError, Jacobi, LinOp, Params, Stopping, Workspace, MAX_COLUMNS,
 };
+use crate::par::FoldInOrder;
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -176,7 +177,7 @@ fn cg_on_worker(
                         s
                     })
                 })
-                .reduce(Sums::default, Sums::add)
+                .fold_in_order(Sums::default(), Sums::add)
         } else {
             x.par_chunks_mut(CHUNK * k)
                 .zip(r.par_chunks_mut(CHUNK * k))
@@ -202,7 +203,7 @@ fn cg_on_worker(
                         s
                     })
                 })
-                .reduce(Sums::default, Sums::add)
+                .fold_in_order(Sums::default(), Sums::add)
         };
         let mut beta = [0.0f64; MAX_COLUMNS];
         for c in krylov::live(active) {
@@ -537,6 +538,47 @@ mod tests {
             assert_eq!(moved, kept);
             let its = &moved.1;
             assert!(its[2] == 0 && its[0] > 0 && its[1] > 0, "{its:?}");
+        }
+    }
+
+    #[test]
+    fn the_same_bits_on_every_run_and_thread_count() {
+        // Enough rows for many parallel chunks: every pass's sums are folded in chunk
+        // order (`par::FoldInOrder`), so α, β and x do not depend on how rayon split
+        // the work.
+        let m = crate::mesh::builtin::icosphere(6).unwrap();
+        let t = crate::mesh::topology::Topology::new(&m).unwrap();
+        let sql = crate::operator::sql::sql(&t, Default::default()).unwrap();
+        let a = shifted_system(&sql, None, 30.0);
+        assert!(a.nrows() > 8 * crate::solve::csr::CHUNK);
+        let b = flat(&m);
+        let params = Params {
+            stopping: Stopping::Strong,
+            tolerance: 1e-8,
+            ..Default::default()
+        };
+        let solve = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                let mut x = b.clone();
+                let info = cg(&a, &b, &mut x, 3, &params, None, &mut Workspace::new()).unwrap();
+                let bits: Vec<u64> = x.iter().map(|v| v.to_bits()).collect();
+                (bits, info.iterations, info.residuals)
+            })
+        };
+        let want = solve(1);
+        for threads in [2, 2, 3, 2, 4] {
+            let got = solve(threads);
+            let first = got.0.iter().zip(&want.0).position(|(a, b)| a != b);
+            assert!(
+                got == want,
+                "{threads} threads: x differs first at {first:?}, iterations {:?} vs {:?}",
+                got.1,
+                want.1
+            );
         }
     }
 }

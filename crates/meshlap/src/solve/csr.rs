@@ -11,6 +11,7 @@
 
 use super::op::{residual_chunks, residual_rows, ResidualSums};
 use super::{Fused, MAX_COLUMNS};
+use crate::par::FoldInOrder;
 use crate::SparseMatrix;
 use rayon::prelude::*;
 use std::ops::Range;
@@ -571,7 +572,7 @@ pub(crate) fn product_with<const M: usize, T: Values>(
                 product_rows::<M, T>(rows, x, xl, b * CHUNK, ys, yl, k, Some(red), &mut acc);
                 acc
             })
-            .reduce(zero, super::op::add_pairs),
+            .fold_in_order(zero(), super::op::add_pairs),
     }
 }
 

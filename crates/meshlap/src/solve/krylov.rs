@@ -7,6 +7,7 @@
 
 use super::csr::CHUNK;
 use super::{Info, InputError, LinOp, Params, ResidualSums, Stopping, MAX_COLUMNS};
+use crate::par::FoldInOrder;
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -285,10 +286,9 @@ fn reduce_columns(
             }
             acc
         })
-        .reduce(
-            || [0.0; MAX_COLUMNS],
-            |a, b| std::array::from_fn(|c| a[c] + b[c]),
-        );
+        .fold_in_order([0.0; MAX_COLUMNS], |a, b| {
+            std::array::from_fn(|c| a[c] + b[c])
+        });
     parts[..k].to_vec()
 }
 

@@ -14,6 +14,7 @@
 use super::csr::{Layout, PairedCsr, Reduce, CHUNK};
 use super::krylov::{col_dots, col_norms2};
 use super::{CsrMatrix, InputError, MAX_COLUMNS};
+use crate::par::FoldInOrder;
 use rayon::prelude::*;
 
 /// Reductions fused into a product `y = A x`: `dot[c] = Σ_i w[i,c]·y[i,c]` and
@@ -135,7 +136,7 @@ pub(crate) fn residual_chunks(
             let ds = d.map(|d| &d[first..first + rs.len() / k]);
             rows(first, bs, rs, zs, ds)
         })
-        .reduce(ResidualSums::default, ResidualSums::add)
+        .fold_in_order(ResidualSums::default(), ResidualSums::add)
 }
 
 /// Checks the arguments of [`LinOp::residual`] for an n×n operator: 1 ≤ k ≤
