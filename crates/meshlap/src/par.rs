@@ -23,10 +23,10 @@ pub(crate) fn on_worker<R: Send>(f: impl FnOnce() -> R + Send) -> R {
 ///
 /// Rayon's `reduce` combines items in the shape of its work-stealing splits, which
 /// changes from call to call, so floating-point sums came out with different last
-/// bits on the same input (3 distinct results over 300 calls of the CG product's
-/// fused sums on a 134k-vertex mesh, 2 threads). Collected first (one item per chunk
-/// of rows: a few dozen) and folded in order, a pass's sums have the same bits on
-/// every call and on any number of threads, the chunks being fixed.
+/// bits on the same input (BENCHMARKS.md, "Sums folded in chunk order"). Collected
+/// first (one item per chunk of rows: a few dozen) and folded in order, a pass's sums
+/// have the same bits on every call and on any number of threads, the chunks being
+/// fixed.
 pub(crate) trait FoldInOrder: rayon::iter::IndexedParallelIterator + Sized {
     /// See the trait.
     fn fold_in_order(
