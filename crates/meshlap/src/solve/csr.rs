@@ -823,13 +823,26 @@ mod tests {
         assert!((&sum - (f.to_dense() * 2.0 - &ft)).norm_max() < 1e-14);
     }
 
+    enum Kind {
+        Tutte,
+        Sql,
+    }
+
+    /// `I + 30 F` (CSR) of the operator F of `builtin::icosphere(level)`.
+    fn icosphere_system(level: usize, kind: Kind) -> CsrMatrix {
+        let t = Topology::new(&builtin::icosphere(level).unwrap()).unwrap();
+        let f = match kind {
+            Kind::Tutte => crate::operator::tutte::tutte(&t).unwrap(),
+            Kind::Sql => crate::operator::sql::sql(&t, Default::default()).unwrap(),
+        };
+        CsrMatrix::from_csc(&f).shifted(&vec![1.0; f.nrows()], 30.0)
+    }
+
     #[test]
     fn the_three_column_kernel_equals_three_single_column_products() {
         // A larger mesh operator (several parallel chunks), k = 3 against k = 1 per
         // column: the same products in the same order, so the same bits.
-        let m = builtin::icosphere(5).unwrap();
-        let f = crate::operator::tutte::tutte(&Topology::new(&m).unwrap()).unwrap();
-        let a = CsrMatrix::from_csc(&f).shifted(&vec![1.0; f.nrows()], 30.0);
+        let a = icosphere_system(5, Kind::Tutte);
         let n = a.nrows();
         let x: Vec<f64> = (0..3 * n).map(|i| (i as f64 * 0.37).sin()).collect();
         let mut y = vec![0.0; 3 * n];
@@ -854,9 +867,7 @@ mod tests {
         // generic loop on the same numbers laid out with a stride of k + 1 (which the
         // fast path does not take): the same y and the same sums, to the bit, for
         // every column count, with and without the fused reductions.
-        let m = builtin::icosphere(4).unwrap();
-        let f = crate::operator::sql::sql(&Topology::new(&m).unwrap(), Default::default()).unwrap();
-        let a = CsrMatrix::from_csc(&f).shifted(&vec![1.0; f.nrows()], 30.0);
+        let a = icosphere_system(4, Kind::Sql);
         let n = a.nrows();
         for k in [1, 2, 3, 4, 8] {
             let x: Vec<f64> = (0..k * n).map(|i| (i as f64 * 0.37).sin()).collect();
@@ -909,9 +920,7 @@ mod tests {
         // halves (the symmetrizer) or a pair (A and Aᵀ), the sums over the right half
         // with and without row weights. The fast path against the generic loop on a
         // stride of 2k + 1: the same bits.
-        let m = builtin::icosphere(4).unwrap();
-        let f = crate::operator::tutte::tutte(&Topology::new(&m).unwrap()).unwrap();
-        let a = CsrMatrix::from_csc(&f).shifted(&vec![1.0; f.nrows()], 30.0);
+        let a = icosphere_system(4, Kind::Tutte);
         let n = a.nrows();
         let pairs: Vec<(f64, f64)> = a.val.iter().map(|&v| (v, 0.5 * v - 0.1)).collect();
         let s: Vec<f64> = (0..n).map(|i| 1.0 + (i % 7) as f64).collect();
