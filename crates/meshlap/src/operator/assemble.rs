@@ -374,18 +374,18 @@ pub(crate) enum RingEntries<'a> {
 /// dense accumulator (Gustavson) visiting the same k in the same order.
 ///
 /// Two parallel passes over blocks of columns. The first finds each column's distinct
-/// rows, already sorted, with a per-worker bitmap of n bits (no clearing between
-/// columns): each candidate row sets its bit and lists its 64-row word when the word
-/// was empty; the few listed words are sorted ([`sort_distinct`]) and their bits read
-/// out in order (and cleared). The rows go to the block's list (4 bytes each) and the
-/// running sum of the column lengths gives the column pointers. The second pass
-/// copies each block's rows into the final array and sums the values in a per-worker
-/// dense accumulator of n entries, read out (and zeroed) in the rows' order, adding
-/// each `coeff(j, k)·column_k` with [`add_column`]. (Sorting each column's ~19 rows by
-/// rank instead cost a fifth of the time.) Both passes read the neighbour lists of
-/// j's neighbours, in an order no hardware prefetcher follows, so each asks for them a
-/// few columns ahead ([`prefetch_rings`]); the second pass also asks for the
-/// accumulator's entries at those neighbours (its rows cluster around them).
+/// rows and sorts them ([`RingRows`]: per-worker stamps drop the duplicates, a rank
+/// sort in AVX2 registers orders the ~19 rows). The rows go to the block's list (4
+/// bytes each) and the running sum of the column lengths gives the column pointers.
+/// The second pass copies each block's rows into the final array and sums the values
+/// in a per-worker dense accumulator of n entries, read out (and zeroed) in the rows'
+/// order, adding each `coeff(j, k)·column_k` with [`add_column`]. (A first pass that
+/// also summed the values, into per-block buffers for the second to copy, took about
+/// as long as the two passes before that copy: see BENCHMARKS.md.) Both
+/// passes read the neighbour lists of j's neighbours, in an order no hardware
+/// prefetcher follows, so each asks for them a few columns ahead ([`prefetch_rings`]);
+/// the second pass also asks for the accumulator's entries at those neighbours (its
+/// rows cluster around them).
 pub(crate) fn two_ring_matrix(
     topo: &Topology,
     order: RingOrder,
@@ -397,84 +397,27 @@ pub(crate) fn two_ring_matrix(
     let nbr = |k: usize| topo.neighbors(crate::VertexId(k as u32));
     // Pass 1: each block's sorted distinct rows, and the column lengths.
     let mut counts = vec![0usize; n];
-    // A few work items per thread, each with its own n-sized scratch.
+    // A few work items per thread, each with its own n-entry stamps.
     let min_len = n.div_ceil(BLOCK) / (4 * rayon::current_num_threads()) + 1;
-    let blocks: Vec<(Vec<u32>, bool)> = counts
+    let blocks: Vec<Vec<u32>> = counts
         .par_chunks_mut(BLOCK)
         .enumerate()
         .with_min_len(min_len)
         .map_init(
-            || (vec![0u64; n.div_ceil(64)], Vec::new()),
-            |(bits, words), (b, cnt)| {
-                let mut rows: Vec<u32> = Vec::new();
-                let mut ok = true;
-                let columns = cnt.len();
-                for (c, j) in cnt.iter_mut().zip(b * BLOCK..) {
-                    prefetch_rings(topo, j);
-                    let nb = nbr(j);
-                    // Candidates: j, N(j) and N(k) for k ∈ N(j).
-                    let bound =
-                        nb.len() + 1 + nb.iter().map(|&k| nbr(k as usize).len()).sum::<usize>();
-                    if words.len() < bound {
-                        words.resize(bound, 0u32);
-                    }
-                    // Branch-free: whether a word is new is unpredictable. Every
-                    // candidate's word is written at `m`, which advances only for a
-                    // word that was empty (so `words` needs room for all).
-                    let mut m = 0;
-                    let mut top = 0u32;
-                    let mut visit = |i: u32| {
-                        let w = (i >> 6) as usize;
-                        let old = bits[w];
-                        words[m] = w as u32;
-                        m += usize::from(old == 0);
-                        bits[w] = old | (1u64 << (i & 63));
-                        top = top.max(i);
-                    };
-                    // The rows are {j} ∪ N(j) ∪ N(k) over k ∈ N(j): each k is
-                    // visited once, as a neighbour of j.
-                    visit(j as u32);
-                    nb.iter().for_each(|&i| visit(i));
-                    for &k in nb {
-                        nbr(k as usize).iter().for_each(|&i| visit(i));
-                    }
-                    // Rows come out strictly increasing (distinct words in order, bits
-                    // in order); only the bound needs checking.
-                    ok &= (top as usize) < n;
-                    let words = &mut words[..m];
-                    sort_distinct(words);
-                    let len: usize = words
-                        .iter()
-                        .map(|&w| bits[w as usize].count_ones() as usize)
-                        .sum();
-                    if rows.is_empty() {
-                        // Room for every column's rows, if they were up to half as
-                        // many again as the first's: rarely regrown (pages never
-                        // written cost nothing).
-                        rows.reserve((len + len / 2 + 8) * columns);
-                    }
-                    let before = rows.len();
-                    rows.reserve(len);
-                    let spare = rows.spare_capacity_mut();
-                    let mut q = 0;
-                    for &w in words.iter() {
-                        let mut x = std::mem::take(&mut bits[w as usize]);
-                        let base = w << 6;
-                        while x != 0 {
-                            spare[q].write(base + x.trailing_zeros());
-                            q += 1;
-                            x &= x - 1;
-                        }
-                    }
-                    // SAFETY: the first q spare elements were written just above.
-                    unsafe { rows.set_len(before + q) };
-                    *c = q;
-                }
-                (rows, ok)
+            // Zeroed pages from the allocator: only those a job's rows touch are
+            // faulted in.
+            || (vec![0u32; n], Vec::new()),
+            |(stamps, list), (b, counts)| {
+                crate::cpu::dispatch(RingRows {
+                    topo,
+                    first: b * BLOCK,
+                    counts,
+                    stamps,
+                    list,
+                })
             },
         )
         .collect();
-    let sorted = blocks.iter().all(|b| b.1);
     let mut col_ptr = Vec::with_capacity(n + 1);
     col_ptr.push(0usize);
     let mut acc = 0usize;
@@ -492,7 +435,7 @@ pub(crate) fn two_ring_matrix(
         .with_min_len(min_len)
         .for_each_init(
             || vec![0.0f64; n],
-            |acc, ((s, e, rows, vals), (found, _))| {
+            |acc, ((s, e, rows, vals), found)| {
                 // The block's rows were counted into `col_ptr` from the same lists.
                 assert_eq!(found.len(), rows.len(), "two-ring block length");
                 let mut p0 = 0;
@@ -527,7 +470,108 @@ pub(crate) fn two_ring_matrix(
         );
     // SAFETY: each block's slices have the length of its row list (asserted), and
     // every column wrote all `len` of its rows and values; the columns cover [0, nnz).
-    unsafe { finish(n, col_ptr, row_idx, val, sorted) }
+    // `RingRows` lists each column's rows distinct, ascending and below n (debug
+    // builds check that again in `finish`).
+    unsafe { finish(n, col_ptr, row_idx, val, true) }
+}
+
+/// Pass 1 of [`two_ring_matrix`] over the block of columns `first..first +
+/// counts.len()`: each column's rows `{j} ∪ ⋃_{k ∈ N(j)} N(k)` (which holds N(j): every
+/// edge (i, j) is an edge of a face (i, j, k), so i ∈ N(k) for k ∈ N(j)), distinct and
+/// ascending (so below n: each indexed the n stamps), appended to the returned list;
+/// their number goes to `counts`.
+///
+/// Duplicates are dropped with per-worker stamps (`stamps[i]` = 1 + the last column
+/// that listed i; n entries, 0 at first, never cleared: a worker sees each column
+/// once). Each candidate writes its stamp and its slot in `list` unconditionally, and
+/// only a row not yet stamped advances the count, so the loop has no data-dependent
+/// branch. The column's ~19 distinct rows are then sorted: by rank in AVX2 registers
+/// where the CPU has it and there are at most 32 ([`x86::sort_distinct_32`]), else by
+/// [`sort_distinct`].
+struct RingRows<'a> {
+    topo: &'a Topology,
+    first: usize,
+    counts: &'a mut [usize],
+    stamps: &'a mut [u32],
+    list: &'a mut Vec<u32>,
+}
+
+impl crate::cpu::Kernel for RingRows<'_> {
+    type Output = Vec<u32>;
+    #[inline(always)]
+    fn portable(self) -> Vec<u32> {
+        self.run::<false>()
+    }
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn avx2_fma(self) -> Vec<u32> {
+        self.run::<true>()
+    }
+}
+
+impl RingRows<'_> {
+    #[inline(always)]
+    fn run<const AVX2: bool>(self) -> Vec<u32> {
+        let RingRows {
+            topo,
+            first,
+            counts,
+            stamps,
+            list,
+        } = self;
+        let nbr = |k: usize| topo.neighbors(crate::VertexId(k as u32));
+        let columns = counts.len();
+        let mut rows: Vec<u32> = Vec::new();
+        for (c, j) in counts.iter_mut().zip(first..) {
+            prefetch_rings(topo, j);
+            let nb = nbr(j);
+            let bound = 1 + nb.iter().map(|&k| nbr(k as usize).len()).sum::<usize>();
+            // Room for the candidates and 32 pads after the distinct rows.
+            if list.len() < bound + 32 {
+                list.resize(bound + 32, 0u32);
+            }
+            // Stamp j + 1: vertex ids are u32, so j + 1 ≤ u32::MAX.
+            let jj = j as u32 + 1;
+            let mut m = 0;
+            let mut visit = |i: u32| {
+                let old = stamps[i as usize];
+                stamps[i as usize] = jj;
+                list[m] = i;
+                m += usize::from(old != jj);
+            };
+            visit(j as u32);
+            for &k in nb {
+                nbr(k as usize).iter().for_each(|&i| visit(i));
+            }
+            if rows.is_empty() {
+                // Room for every column's rows, if they were up to half as many again
+                // as the first's: rarely regrown (pages never written cost nothing).
+                rows.reserve((m + m / 2 + 8) * columns);
+            }
+            #[cfg(target_arch = "x86_64")]
+            if AVX2 && m <= 32 {
+                let padded: &mut [u32; 32] = (&mut list[m..m + 32]).try_into().unwrap();
+                padded.fill(u32::MAX);
+                let mut sorted = [0u32; 32];
+                x86::sort_distinct_32(&list[..m + 32], m, &mut sorted);
+                // All 32 copied (a fixed-length copy, no call), the first m kept.
+                rows.reserve(32);
+                let before = rows.len();
+                for (s, &x) in rows.spare_capacity_mut().iter_mut().zip(&sorted) {
+                    s.write(x);
+                }
+                // SAFETY: the first m ≤ 32 spare elements were written just above.
+                unsafe { rows.set_len(before + m) };
+                *c = m;
+                continue;
+            }
+            let found = &mut list[..m];
+            sort_distinct(found);
+            rows.extend_from_slice(found);
+            *c = m;
+        }
+        rows
+    }
 }
 
 /// How many columns ahead [`prefetch_rings`] asks for the neighbour lists.
@@ -614,6 +658,57 @@ fn rank_sort<const W: usize>(a: &mut [u32]) {
     }
     // Distinct elements have distinct ranks 0..m, so `out[..m]` is `a` sorted.
     a.copy_from_slice(&out[..m]);
+}
+
+/// The AVX2 kernels of the assembly.
+#[cfg(target_arch = "x86_64")]
+mod x86 {
+    use std::arch::x86_64::*;
+
+    /// Writes the distinct elements `a[..m]` (m ≤ 32) ascending to `out[..m]`, where
+    /// `a[m..32]` are pads of `u32::MAX`: each element goes to its rank, the number of
+    /// elements below it, counted for all 32 lanes at once (per element, one broadcast
+    /// and four compares). The same result as [`super::sort_distinct`]; only called
+    /// from the AVX2 build ([`crate::cpu::dispatch`]).
+    #[inline(always)]
+    pub(super) fn sort_distinct_32(a: &[u32], m: usize, out: &mut [u32; 32]) {
+        // Compared as i32 after flipping the top bit (AVX2 has only signed compares).
+        // The pads are ranked but never read, and never counted as below an element
+        // (only the m elements are broadcast).
+        let pad: &[u32; 32] = a[..32].try_into().unwrap();
+        assert!(m <= 32);
+        let mut rank = [0u32; 32];
+        // SAFETY: the caller runs in the AVX2 build (`RingRows::avx2_fma`, entered by
+        // `cpu::dispatch` only on a CPU with AVX2); the loads and stores cover the
+        // 32-entry arrays `pad` and `rank` exactly.
+        unsafe {
+            let flip = _mm256_set1_epi32(i32::MIN);
+            let p = pad.as_ptr().cast::<__m256i>();
+            // No closures here: one would be compiled without AVX2.
+            let x = [
+                _mm256_xor_si256(_mm256_loadu_si256(p), flip),
+                _mm256_xor_si256(_mm256_loadu_si256(p.add(1)), flip),
+                _mm256_xor_si256(_mm256_loadu_si256(p.add(2)), flip),
+                _mm256_xor_si256(_mm256_loadu_si256(p.add(3)), flip),
+            ];
+            let mut r = [_mm256_setzero_si256(); 4];
+            for &y in &a[..m] {
+                let y = _mm256_set1_epi32((y ^ (1 << 31)) as i32);
+                for v in 0..4 {
+                    // −1 in every lane above y.
+                    r[v] = _mm256_sub_epi32(r[v], _mm256_cmpgt_epi32(x[v], y));
+                }
+            }
+            let q = rank.as_mut_ptr().cast::<__m256i>();
+            for (v, r) in r.iter().enumerate() {
+                _mm256_storeu_si256(q.add(v), *r);
+            }
+        }
+        // Distinct elements have distinct ranks 0..m.
+        for (&x, &r) in a[..m].iter().zip(&rank) {
+            out[r as usize] = x;
+        }
+    }
 }
 
 #[cfg(test)]
@@ -965,9 +1060,58 @@ mod tests {
                 a.shuffle(&mut rng);
                 let mut want = a.clone();
                 want.sort_unstable();
+                #[cfg(target_arch = "x86_64")]
+                if m <= 32 && crate::cpu::avx2_fma() {
+                    let mut out = [0u32; 32];
+                    let mut padded = [u32::MAX; 32];
+                    padded[..m].copy_from_slice(&a);
+                    x86::sort_distinct_32(&padded, m, &mut out);
+                    assert_eq!(out[..m], want[..], "AVX2, m = {m}, high = {high}");
+                }
                 sort_distinct(&mut a);
                 assert_eq!(a, want, "m = {m}, high = {high}");
             }
+        }
+    }
+
+    #[test]
+    fn two_ring_rows_equal_on_the_portable_and_avx2_builds() {
+        use crate::cpu::Kernel;
+        for (name, _, t) in cases() {
+            let n = t.n_vertices();
+            let run = |avx2: bool| {
+                let mut counts = vec![0usize; n];
+                let (mut stamps, mut list) = (vec![0u32; n], Vec::new());
+                let k = RingRows {
+                    topo: &t,
+                    first: 0,
+                    counts: &mut counts,
+                    stamps: &mut stamps,
+                    list: &mut list,
+                };
+                let rows = if avx2 {
+                    crate::cpu::dispatch(k)
+                } else {
+                    k.portable()
+                };
+                (rows, counts)
+            };
+            let portable = run(false);
+            // The rows of each column: {j}, N(j) and N(k) for k ∈ N(j), sorted.
+            let mut p = 0;
+            for (j, &c) in portable.1.iter().enumerate() {
+                let mut want = vec![j as u32];
+                for &k in t.neighbors(VertexId(j as u32)) {
+                    want.push(k);
+                    want.extend_from_slice(t.neighbors(VertexId(k)));
+                }
+                want.sort_unstable();
+                want.dedup();
+                assert_eq!(portable.0[p..p + c], want[..], "{name}, column {j}");
+                p += c;
+            }
+            assert_eq!(p, portable.0.len(), "{name}");
+            assert_eq!(run(true), portable, "{name}");
         }
     }
 
