@@ -620,9 +620,9 @@ fn add_column(acc: &mut [f64], k: usize, nb_k: &[u32], c: f64, dk: f64, off: Rin
     }
 }
 
-/// Up to this many distinct 64-row words of a two-ring column are sorted by rank (see
-/// [`sort_distinct`]); the typical column of a triangle mesh in a local vertex order
-/// touches a handful (its ~19 rows, at most).
+/// Up to this many distinct rows of a two-ring column are sorted by rank on the
+/// portable build (see [`sort_distinct`]; the AVX2 build ranks up to 32 in registers,
+/// [`x86::sort_distinct_32`]); a triangle mesh's column has about 19.
 const RANK_SORT_MAX: usize = 32;
 
 /// Sorts `a`, whose elements are distinct, ascending. Up to [`RANK_SORT_MAX`] elements
@@ -927,7 +927,7 @@ mod tests {
             out.push((name.to_string(), input.mesh, input.topology));
         }
         // The cow with its vertices in a random (seeded) order: two-ring rows spread
-        // over many 64-row words, so the word sort sees more than 8.
+        // far apart, in no order the candidates' lists share.
         {
             use rand::seq::SliceRandom;
             use rand::SeedableRng;
@@ -948,8 +948,8 @@ mod tests {
             out.push(("shuffled cow".into(), m, t));
         }
         // A closed fan of 120 triangles whose vertices are spread over 10,007 ids (the
-        // rest isolated): the centre's column has 121 rows in as many words, more than
-        // the rank sort takes.
+        // rest isolated): the centre's column has 121 rows, more than either rank sort
+        // takes (32).
         {
             let n = 10_007u32;
             let id = |k: u32| (k * 83) % n;
