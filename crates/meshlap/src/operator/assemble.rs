@@ -404,8 +404,8 @@ pub(crate) fn two_ring_matrix(
         .enumerate()
         .with_min_len(min_len)
         .map_init(
-            // Zeroed pages from the allocator: only those a job's rows touch are
-            // faulted in.
+            // `vec![0; n]` is a zeroed allocation: where it gets fresh pages from the
+            // system, only those a job's rows touch are faulted in.
             || (vec![0u32; n], Vec::new()),
             |(stamps, list), (b, counts)| {
                 crate::cpu::dispatch(RingRows {
