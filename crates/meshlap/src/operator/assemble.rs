@@ -543,6 +543,7 @@ impl RingRows<'_> {
             for &k in nb {
                 nbr(k as usize).iter().for_each(|&i| visit(i));
             }
+            *c = m;
             if rows.is_empty() {
                 // Room for every column's rows, if they were up to half as many again
                 // as the first's: rarely regrown (pages never written cost nothing).
@@ -562,13 +563,11 @@ impl RingRows<'_> {
                 }
                 // SAFETY: the first m ≤ 32 spare elements were written just above.
                 unsafe { rows.set_len(before + m) };
-                *c = m;
                 continue;
             }
             let found = &mut list[..m];
             sort_distinct(found);
             rows.extend_from_slice(found);
-            *c = m;
         }
         rows
     }
