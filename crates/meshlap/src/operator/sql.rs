@@ -106,8 +106,8 @@ pub fn sql_diagonal(topo: &Topology, d: &[f64], convention: BoundaryDiagonal) ->
 ///
 /// Two passes, both in parallel. Per face, in face order (sequential reads of the
 /// faces), each half-edge's opposite vertex gives `1/d_k` to its own side of its edge
-/// (`assemble::per_face_edge_sides`: an interior edge's two sides are its two
-/// opposite vertices, a boundary edge's are `[1/d_k, 0]`). Then the matrix is filled
+/// ([`edge_sides`]: an interior edge's two sides are its two opposite vertices, a
+/// boundary edge's are `[1/d_k, 0]`). Then the matrix is filled
 /// column by column (`assemble::one_ring_columns`): entry (i, j) is
 /// `−(1/d_j + 1/d_i − ½(s₀ + s₁))` from the edge's sides, or `−(1/d_j + 1/d_i − s₀)`
 /// when the second side is 0 (a boundary edge: every `1/d` is positive), and the
@@ -124,21 +124,7 @@ pub fn sql(topo: &Topology, convention: BoundaryDiagonal) -> Result<SparseMatrix
         // Name the first non-manifold edge, in edge order, as the sequential build did.
         sql_edge_weights(topo, &degrees_checked(topo)?)?;
     }
-    let faces = topo.faces();
-    // Half-edge 3f + m runs t[m] → t[m + 1]; its opposite vertex is t[m + 2].
-    let (sides, _) = super::assemble::per_face_edge_sides(
-        topo,
-        0.0f64,
-        |a, b| a + b,
-        |range, out| {
-            out.extend(faces[range].iter().map(|t| {
-                let [a, b, c] = t.map(|v| inv[v as usize]);
-                ([c, a, b], [(); 3])
-            }));
-            Ok::<_, std::convert::Infallible>(())
-        },
-    )
-    .unwrap_or_else(|never| match never {});
+    let sides = edge_sides(topo, &inv);
     let sign = match convention {
         BoundaryDiagonal::ZeroRowSum => 1.0,
         BoundaryDiagonal::AsPrinted => -1.0,
@@ -167,6 +153,77 @@ pub fn sql(topo: &Topology, convention: BoundaryDiagonal) -> Result<SparseMatrix
         }
         diag
     }))
+}
+
+/// Faces per parallel task of [`edge_sides`].
+const FACE_CHUNK: usize = 2048;
+
+/// Per edge (in [`Topology::edges`] order) its two sides `[1/d_k, 1/d_l]`: the
+/// reciprocal degrees `inv` of the vertices opposite its two half-edges, the lower
+/// half-edge's first; `[1/d_k, 0]` on a boundary edge. Each face writes its three
+/// half-edges' values straight to their slots, in parallel over blocks of faces.
+///
+/// `assemble::per_face_edge_sides` with the values inlined: it fills the same slots
+/// with the same values (each slot has one writer, so the order does not matter),
+/// but through a per-block buffer of every face's values, which the SQL's values —
+/// three lookups of `inv` — do not need (BENCHMARKS.md, "Operator assembly": the
+/// round trip cost 4–7 % of the SQL). The topology must have no non-manifold edge
+/// ([`sql`] rejects those first): such an edge has no twins and would be written as
+/// a boundary edge by each of its faces.
+fn edge_sides(topo: &Topology, inv: &[f64]) -> Vec<[f64; 2]> {
+    use crate::mesh::topology::INVALID;
+    use rayon::prelude::*;
+    assert!(
+        topo.non_manifold_edges().next().is_none(),
+        "edge_sides: a non-manifold edge"
+    );
+    let (faces, twins, he_edge) = (topo.faces(), topo.twins(), topo.half_edge_edges());
+    let mut sides = crate::mem::uninit_vec::<[f64; 2]>(topo.n_edges());
+    {
+        // SAFETY: `sides` is borrowed mutably for the scatter's life and used by no
+        // one else; `MaybeUninit<[f64; 2]>` has the layout of two consecutive f64.
+        let scatter = unsafe {
+            crate::mem::Scatter::from_raw_parts(sides.as_mut_ptr().cast::<f64>(), 2 * sides.len())
+        };
+        faces
+            .par_chunks(FACE_CHUNK)
+            .zip(twins.par_chunks(3 * FACE_CHUNK))
+            .zip(he_edge.par_chunks(3 * FACE_CHUNK))
+            .enumerate()
+            .for_each(|(c, ((faces, twins), edges))| {
+                let first = 3 * FACE_CHUNK * c;
+                for (q, ((t, tw), e)) in faces
+                    .iter()
+                    .zip(twins.chunks_exact(3))
+                    .zip(edges.chunks_exact(3))
+                    .enumerate()
+                {
+                    // Half-edge 3f + m runs t[m] → t[m + 1]; its opposite vertex is
+                    // t[m + 2].
+                    let [a, b, c] = t.map(|v| inv[v as usize]);
+                    for (m, v) in [c, a, b].into_iter().enumerate() {
+                        let h = (first + 3 * q + m) as u32;
+                        let e = e[m] as usize;
+                        // SAFETY: each slot has one writer: an interior edge's side is
+                        // its half-edge's rank among the two twins, a boundary edge's
+                        // two sides are written by its only half-edge (no edge has
+                        // three faces).
+                        unsafe {
+                            if tw[m] != INVALID {
+                                scatter.write(2 * e + usize::from(h > tw[m]), v);
+                            } else {
+                                scatter.write(2 * e, v);
+                                scatter.write(2 * e + 1, 0.0);
+                            }
+                        }
+                    }
+                }
+            });
+    }
+    // SAFETY: the blocks cover every face, so every half-edge wrote its slot; every
+    // edge has two twins or is a boundary edge (none has three faces), so both sides
+    // of every edge were written.
+    unsafe { crate::mem::assume_init_vec(sides) }
 }
 
 #[cfg(test)]
@@ -230,6 +287,40 @@ mod tests {
         let m = TriMesh::new(vec![[0.0; 3]; 5], vec![[0, 1, 2], [1, 0, 3], [0, 1, 4]]);
         let err = sql(&topo(&m), BoundaryDiagonal::ZeroRowSum).unwrap_err();
         assert!(err.to_string().contains("edge (0, 1)"), "{err}");
+    }
+
+    #[test]
+    fn edge_sides_equal_the_generic_per_face_pass() {
+        // The inlined pass against `assemble::per_face_edge_sides` with the same
+        // values, bit for bit, on closed and boundary meshes and on one of more faces
+        // than a parallel block.
+        let many = builtin::grid(60).unwrap();
+        for (name, m) in meshes().into_iter().chain([("grid60", many)]) {
+            let t = topo(&m);
+            assert!(t.n_faces() > FACE_CHUNK || name != "grid60");
+            let inv: Vec<f64> = degrees_checked(&t)
+                .unwrap()
+                .iter()
+                .map(|d| 1.0 / d)
+                .collect();
+            let faces = t.faces();
+            let (want, _) = crate::operator::assemble::per_face_edge_sides(
+                &t,
+                0.0f64,
+                |a, b| a + b,
+                |range, out| {
+                    out.extend(faces[range].iter().map(|f| {
+                        let [a, b, c] = f.map(|v| inv[v as usize]);
+                        ([c, a, b], [(); 3])
+                    }));
+                    Ok::<_, std::convert::Infallible>(())
+                },
+            )
+            .unwrap();
+            let got = edge_sides(&t, &inv);
+            let bits = |s: &[[f64; 2]]| s.iter().map(|p| p.map(f64::to_bits)).collect::<Vec<_>>();
+            assert!(bits(&got) == bits(&want), "{name}");
+        }
     }
 
     #[test]
