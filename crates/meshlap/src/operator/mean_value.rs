@@ -27,44 +27,21 @@ use std::sync::atomic::{AtomicBool, Ordering};
 /// Fixed summation orders, so the same bits on any number of threads: each edge's two
 /// directed weights summed over its faces in face order (`directed_weights`), each
 /// row's normalising sum in neighbour order (its entries are the weights times the
-/// sum's reciprocal), then the columns in parallel. Of several
-/// faulty faces the first is named.
+/// sum's reciprocal; `incoming_weights`, which also lists each column's weights in
+/// order), then the columns in parallel. Of several faulty faces the first is named.
 pub fn mean_value(mesh: &TriMesh, topo: &Topology) -> Result<SparseMatrix, OperatorError> {
     let sides = directed_weights(mesh, topo)?;
-    // The weight from `from` to `to` along edge e: its two sides summed in face order.
-    let directed = |e: u32, from: u32, to: u32| {
-        let [a, b] = sides[e as usize];
-        let d = usize::from(from > to);
-        0.0 + a[d] + b[d]
-    };
-    // Per row, the reciprocal of its normalising sum (one division per vertex, not one
-    // per entry).
-    let inv_sums: Vec<f64> = (0..topo.n_vertices())
-        .into_par_iter()
-        .with_min_len(4096)
-        .map(|v| {
-            let v = crate::VertexId(v as u32);
-            let sum: f64 = topo
-                .neighbors(v)
-                .iter()
-                .zip(topo.neighbor_edges(v))
-                .map(|(&u, &e)| directed(e, v.0, u))
-                .sum();
-            1.0 / sum
-        })
-        .collect();
+    let (w_in, inv_sums) = incoming_weights(topo, &sides);
     // Raised by a column whose entries' sum is not finite: only then is the matrix
     // scanned again (a sum that overflows with finite entries finds nothing there).
     let flagged = AtomicBool::new(false);
+    let offsets = topo.adjacency_offsets();
     let f = super::assemble::one_ring_columns(topo, |j, off| {
         let v = crate::VertexId(j as u32);
+        let (lo, hi) = (offsets[j] as usize, offsets[j + 1] as usize);
         let mut sum = 0.0;
-        for ((o, &i), &e) in off
-            .iter_mut()
-            .zip(topo.neighbors(v))
-            .zip(topo.neighbor_edges(v))
-        {
-            *o = -directed(e, i, j as u32) * inv_sums[i as usize];
+        for ((o, &i), &w) in off.iter_mut().zip(topo.neighbors(v)).zip(&w_in[lo..hi]) {
+            *o = -w * inv_sums[i as usize];
             sum += *o;
         }
         if !sum.is_finite() {
@@ -74,6 +51,65 @@ pub fn mean_value(mesh: &TriMesh, topo: &Topology) -> Result<SparseMatrix, Opera
     });
     super::check_finite_flagged(&f, flagged.into_inner(), None, "mean-value")?;
     Ok(f)
+}
+
+/// Vertices per parallel task of [`incoming_weights`].
+const VERTEX_BLOCK: usize = 2048;
+
+/// From the edges' [`directed_weights`], in one pass over the vertices (parallel over
+/// blocks), two arrays:
+///
+/// - per adjacency entry (vertex v, neighbour u; [`Topology::adjacency`] order) the
+///   weight `w_uv` from u to v, which column v's entry (u, v) needs: written in order
+///   here, so the columns read it in order instead of gathering each edge's sides a
+///   second time;
+/// - per vertex v the reciprocal `1/Σ_u w_vu` of its row's sum, in neighbour order.
+///
+/// Both weights of an edge come from its sides as `0 + side₀ + side₁` in face order.
+fn incoming_weights(topo: &Topology, sides: &[[[f64; 2]; 2]]) -> (Vec<f64>, Vec<f64>) {
+    let n = topo.n_vertices();
+    let (adj, offsets) = (topo.adjacency(), topo.adjacency_offsets());
+    let mut w_in = crate::mem::uninit_vec::<f64>(adj.len());
+    let mut inv_sums = crate::mem::uninit_vec::<f64>(n);
+    let mut parts = Vec::with_capacity(n.div_ceil(VERTEX_BLOCK));
+    let mut rest = &mut w_in[..];
+    for s in (0..n).step_by(VERTEX_BLOCK) {
+        let e = (s + VERTEX_BLOCK).min(n);
+        let (part, tail) = rest.split_at_mut((offsets[e] - offsets[s]) as usize);
+        parts.push((s, part));
+        rest = tail;
+    }
+    parts
+        .into_par_iter()
+        .zip(inv_sums.par_chunks_mut(VERTEX_BLOCK))
+        .for_each(|((start, w_in), inv_sums)| {
+            let base = offsets[start] as usize;
+            for (v, inv) in (start..).zip(inv_sums.iter_mut()) {
+                let (lo, hi) = (offsets[v] as usize, offsets[v + 1] as usize);
+                // From −0.0, as `Iterator::sum` starts.
+                let mut sum = -0.0;
+                for ((w, &u), &e) in w_in[lo - base..hi - base]
+                    .iter_mut()
+                    .zip(&adj[lo..hi])
+                    .zip(topo.neighbor_edges(crate::VertexId(v as u32)))
+                {
+                    // Slot `from > to` of each side holds the weight from `from`.
+                    let [a, b] = sides[e as usize];
+                    let (out, into) = (usize::from(v as u32 > u), usize::from(u > v as u32));
+                    sum += 0.0 + a[out] + b[out];
+                    w.write(0.0 + a[into] + b[into]);
+                }
+                inv.write(1.0 / sum);
+            }
+        });
+    // SAFETY: the parts cover `w_in` and the chunks `inv_sums`; each task wrote every
+    // element of its part (its vertices' adjacency entries) and of its chunk.
+    unsafe {
+        (
+            crate::mem::assume_init_vec(w_in),
+            crate::mem::assume_init_vec(inv_sums),
+        )
+    }
 }
 
 /// Directed weights per edge `[a, b]` (`a < b`, [`Topology::edges`] order), as two

@@ -106,7 +106,7 @@ pub fn sql_diagonal(topo: &Topology, d: &[f64], convention: BoundaryDiagonal) ->
 ///
 /// Two passes, both in parallel. Per face, in face order (sequential reads of the
 /// faces), each half-edge's opposite vertex gives `1/d_k` to its own side of its edge
-/// ([`edge_sides`]: an interior edge's two sides are its two opposite vertices, a
+/// (`edge_sides`: an interior edge's two sides are its two opposite vertices, a
 /// boundary edge's are `[1/d_k, 0]`). Then the matrix is filled
 /// column by column (`assemble::one_ring_columns`): entry (i, j) is
 /// `−(1/d_j + 1/d_i − ½(s₀ + s₁))` from the edge's sides, or `−(1/d_j + 1/d_i − s₀)`
