@@ -24,6 +24,7 @@
 //! to faer without its sequential re-check (`new_unchecked`). A failed check (a broken [`Topology`] invariant, never
 //! expected) falls back to faer's checked constructor.
 
+use crate::mem::Scatter;
 use crate::mesh::topology::{Topology, INVALID};
 use crate::SparseMatrix;
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
@@ -48,6 +49,47 @@ pub(crate) fn vertex_weight_sums(topo: &Topology, w: &[f64]) -> Vec<f64> {
                 .sum()
         })
         .collect()
+}
+
+/// Where each half-edge's value goes in an array of two sides per undirected edge
+/// (`2·e` and `2·e + 1`, [`Topology::edges`] order; see [`per_face_edge_sides`]).
+#[derive(Clone, Copy)]
+pub(crate) struct EdgeSideSlots<'a> {
+    twins: &'a [u32],
+    he_edge: &'a [u32],
+    counts: &'a [u32],
+}
+
+impl<'a> EdgeSideSlots<'a> {
+    pub(crate) fn new(topo: &'a Topology) -> Self {
+        Self {
+            twins: topo.twins(),
+            he_edge: topo.half_edge_edges(),
+            counts: topo.edge_face_counts(),
+        }
+    }
+
+    /// Writes the value `v` of half-edge `h` to its side of its edge: on an edge of
+    /// two faces (twins) the side is the half-edge's rank among the two, a boundary
+    /// edge's only half-edge writes `[v, zero]`, and a non-manifold edge's half-edges
+    /// write nothing.
+    ///
+    /// # Safety
+    /// `sides` holds two slots per edge, and each half-edge is written at most once
+    /// while it lives: then every slot has one writer.
+    #[inline(always)]
+    pub(crate) unsafe fn write<T: Copy>(&self, sides: &Scatter<'_, T>, h: usize, v: T, zero: T) {
+        let (tw, e) = (self.twins[h], self.he_edge[h] as usize);
+        // SAFETY: by the caller's contract, see the doc.
+        unsafe {
+            if tw != INVALID {
+                sides.write(2 * e + usize::from(h as u32 > tw), v);
+            } else if self.counts[e] == 1 {
+                sides.write(2 * e, v);
+                sides.write(2 * e + 1, zero);
+            }
+        }
+    }
 }
 
 /// The geometric operators' per-face pass (cotan, mean-value): per face f three values
@@ -87,11 +129,8 @@ where
 {
     const CHUNK: usize = 1024;
     let n_faces = topo.n_faces();
-    let (twins, he_edge, counts) = (
-        topo.twins(),
-        topo.half_edge_edges(),
-        topo.edge_face_counts(),
-    );
+    let (he_edge, counts) = (topo.half_edge_edges(), topo.edge_face_counts());
+    let side_slots = EdgeSideSlots::new(topo);
     let mut corners = crate::mem::uninit_vec::<U>(3 * n_faces);
     let mut sides = crate::mem::uninit_vec::<[T; 2]>(topo.n_edges());
     let first_bad = {
@@ -119,20 +158,9 @@ where
                             s.write(v);
                         }
                         for (m, v) in edge_values.into_iter().enumerate() {
-                            let h = 3 * f + m;
-                            let (tw, e) = (twins[h], he_edge[h] as usize);
-                            // SAFETY: each slot of `sides` has one writer: the side of
-                            // an edge of two faces is its half-edge's rank among the
-                            // two (twins), a boundary edge's both sides are written by
-                            // its only half-edge, a non-manifold edge's by no face.
-                            unsafe {
-                                if tw != INVALID {
-                                    scatter.write(2 * e + usize::from(h as u32 > tw), v);
-                                } else if counts[e] == 1 {
-                                    scatter.write(2 * e, v);
-                                    scatter.write(2 * e + 1, zero);
-                                }
-                            }
+                            // SAFETY: `sides` has two slots per edge and each
+                            // half-edge is written once (by its own face).
+                            unsafe { side_slots.write(&scatter, 3 * f + m, v, zero) };
                         }
                     }
                     None
@@ -171,6 +199,30 @@ where
             crate::mem::assume_init_vec(corners),
         ))
     }
+}
+
+/// Splits an adjacency-sized buffer `per_entry` (one element per entry of
+/// [`Topology::adjacency`]) and an n-sized one `per_vertex` at blocks of [`BLOCK`]
+/// vertices, for a pass over the vertices in parallel: item b is `(first vertex, the
+/// block's entries, the block's vertices)`.
+pub(crate) fn vertex_blocks<'a, T, U>(
+    topo: &Topology,
+    per_entry: &'a mut [T],
+    per_vertex: &'a mut [U],
+) -> Vec<(usize, &'a mut [T], &'a mut [U])> {
+    let (n, offsets) = (topo.n_vertices(), topo.adjacency_offsets());
+    let mut out = Vec::with_capacity(n.div_ceil(BLOCK));
+    let (mut entries, mut vertices) = (per_entry, per_vertex);
+    for s in (0..n).step_by(BLOCK) {
+        let e = (s + BLOCK).min(n);
+        let (ea, eb) =
+            std::mem::take(&mut entries).split_at_mut((offsets[e] - offsets[s]) as usize);
+        let (va, vb) = std::mem::take(&mut vertices).split_at_mut(e - s);
+        out.push((s, ea, va));
+        entries = eb;
+        vertices = vb;
+    }
+    out
 }
 
 /// Rows and values of one block of columns, not yet written.

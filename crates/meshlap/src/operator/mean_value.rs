@@ -53,11 +53,8 @@ pub fn mean_value(mesh: &TriMesh, topo: &Topology) -> Result<SparseMatrix, Opera
     Ok(f)
 }
 
-/// Vertices per parallel task of [`incoming_weights`].
-const VERTEX_BLOCK: usize = 2048;
-
 /// From the edges' [`directed_weights`], in one pass over the vertices (parallel over
-/// blocks), two arrays:
+/// `assemble::vertex_blocks`), two arrays:
 ///
 /// - per adjacency entry (vertex v, neighbour u; [`Topology::adjacency`] order) the
 ///   weight `w_uv` from u to v, which column v's entry (u, v) needs: written in order
@@ -67,22 +64,12 @@ const VERTEX_BLOCK: usize = 2048;
 ///
 /// Both weights of an edge come from its sides as `0 + side₀ + side₁` in face order.
 fn incoming_weights(topo: &Topology, sides: &[[[f64; 2]; 2]]) -> (Vec<f64>, Vec<f64>) {
-    let n = topo.n_vertices();
     let (adj, offsets) = (topo.adjacency(), topo.adjacency_offsets());
     let mut w_in = crate::mem::uninit_vec::<f64>(adj.len());
-    let mut inv_sums = crate::mem::uninit_vec::<f64>(n);
-    let mut parts = Vec::with_capacity(n.div_ceil(VERTEX_BLOCK));
-    let mut rest = &mut w_in[..];
-    for s in (0..n).step_by(VERTEX_BLOCK) {
-        let e = (s + VERTEX_BLOCK).min(n);
-        let (part, tail) = rest.split_at_mut((offsets[e] - offsets[s]) as usize);
-        parts.push((s, part));
-        rest = tail;
-    }
-    parts
+    let mut inv_sums = crate::mem::uninit_vec::<f64>(topo.n_vertices());
+    super::assemble::vertex_blocks(topo, &mut w_in, &mut inv_sums)
         .into_par_iter()
-        .zip(inv_sums.par_chunks_mut(VERTEX_BLOCK))
-        .for_each(|((start, w_in), inv_sums)| {
+        .for_each(|(start, w_in, inv_sums)| {
             let base = offsets[start] as usize;
             for (v, inv) in (start..).zip(inv_sums.iter_mut()) {
                 let (lo, hi) = (offsets[v] as usize, offsets[v + 1] as usize);
@@ -102,8 +89,8 @@ fn incoming_weights(topo: &Topology, sides: &[[[f64; 2]; 2]]) -> (Vec<f64>, Vec<
                 inv.write(1.0 / sum);
             }
         });
-    // SAFETY: the parts cover `w_in` and the chunks `inv_sums`; each task wrote every
-    // element of its part (its vertices' adjacency entries) and of its chunk.
+    // SAFETY: the blocks cover `w_in` and `inv_sums`; each task wrote every entry of
+    // its vertices and every one of its vertices.
     unsafe {
         (
             crate::mem::assume_init_vec(w_in),

@@ -34,9 +34,6 @@ fn inverse_lengths(mesh: &TriMesh, topo: &Topology) -> Result<Vec<f64>, Operator
     Ok(w)
 }
 
-/// Vertices per parallel task of [`sdl`]'s first pass.
-const BLOCK: usize = 2048;
-
 /// [`sdl`]'s first pass over the vertices `start..start + inv_sums.len()`: each
 /// neighbour's weight `w_vu = 1/‖x_v − x_u‖` in adjacency order into `w` (the block's
 /// part of the adjacency-sized array), and each vertex's reciprocal row sum
@@ -119,22 +116,9 @@ pub fn sdl(mesh: &TriMesh, topo: &Topology) -> Result<SparseMatrix, OperatorErro
     let (adj, offsets) = (topo.adjacency(), topo.adjacency_offsets());
     let mut w = crate::mem::uninit_vec::<f64>(adj.len());
     let mut inv_sums = crate::mem::uninit_vec::<f64>(n);
-    let starts: Vec<usize> = (0..n).step_by(BLOCK).collect();
-    let mut w_parts = Vec::with_capacity(starts.len());
-    {
-        let mut rest = &mut w[..];
-        for &s in &starts {
-            let e = (s + BLOCK).min(n);
-            let (part, tail) = rest.split_at_mut((offsets[e] - offsets[s]) as usize);
-            w_parts.push(part);
-            rest = tail;
-        }
-    }
-    let ok = w_parts
+    let ok = super::assemble::vertex_blocks(topo, &mut w, &mut inv_sums)
         .into_par_iter()
-        .zip(inv_sums.par_chunks_mut(BLOCK))
-        .zip(starts.par_iter())
-        .map(|((w, inv_sums), &start)| {
+        .map(|(start, w, inv_sums)| {
             crate::cpu::dispatch(RowWeights {
                 pos: &mesh.positions,
                 adj,
@@ -145,8 +129,8 @@ pub fn sdl(mesh: &TriMesh, topo: &Topology) -> Result<SparseMatrix, OperatorErro
             })
         })
         .reduce(|| true, |a, b| a && b);
-    // SAFETY: the parts cover `w` and the chunks `inv_sums`; each task wrote every
-    // element of its part (the weights of its vertices' neighbours) and of its chunk.
+    // SAFETY: the blocks cover `w` and `inv_sums`; each task wrote the weights of its
+    // vertices' neighbours and the sum of each of its vertices.
     let (w, inv_sums) = unsafe {
         (
             crate::mem::assume_init_vec(w),

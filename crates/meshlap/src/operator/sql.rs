@@ -161,23 +161,22 @@ const FACE_CHUNK: usize = 2048;
 /// Per edge (in [`Topology::edges`] order) its two sides `[1/d_k, 1/d_l]`: the
 /// reciprocal degrees `inv` of the vertices opposite its two half-edges, the lower
 /// half-edge's first; `[1/d_k, 0]` on a boundary edge. Each face writes its three
-/// half-edges' values straight to their slots, in parallel over blocks of faces.
+/// half-edges' values straight to their slots (`assemble::EdgeSideSlots`), in
+/// parallel over blocks of faces.
 ///
 /// `assemble::per_face_edge_sides` with the values inlined: it fills the same slots
 /// with the same values (each slot has one writer, so the order does not matter),
 /// but through a per-block buffer of every face's values, which the SQL's values —
 /// three lookups of `inv` — do not need (BENCHMARKS.md, "Operator assembly": the
 /// round trip cost 4–7 % of the SQL). The topology must have no non-manifold edge
-/// ([`sql`] rejects those first): such an edge has no twins and would be written as
-/// a boundary edge by each of its faces.
+/// ([`sql`] rejects those first): such an edge's sides are written by no face.
 fn edge_sides(topo: &Topology, inv: &[f64]) -> Vec<[f64; 2]> {
-    use crate::mesh::topology::INVALID;
     use rayon::prelude::*;
     assert!(
         topo.non_manifold_edges().next().is_none(),
         "edge_sides: a non-manifold edge"
     );
-    let (faces, twins, he_edge) = (topo.faces(), topo.twins(), topo.half_edge_edges());
+    let slots = super::assemble::EdgeSideSlots::new(topo);
     let mut sides = crate::mem::uninit_vec::<[f64; 2]>(topo.n_edges());
     {
         // SAFETY: `sides` is borrowed mutably for the scatter's life and used by no
@@ -185,44 +184,24 @@ fn edge_sides(topo: &Topology, inv: &[f64]) -> Vec<[f64; 2]> {
         let scatter = unsafe {
             crate::mem::Scatter::from_raw_parts(sides.as_mut_ptr().cast::<f64>(), 2 * sides.len())
         };
-        faces
+        topo.faces()
             .par_chunks(FACE_CHUNK)
-            .zip(twins.par_chunks(3 * FACE_CHUNK))
-            .zip(he_edge.par_chunks(3 * FACE_CHUNK))
             .enumerate()
-            .for_each(|(c, ((faces, twins), edges))| {
-                let first = 3 * FACE_CHUNK * c;
-                for (q, ((t, tw), e)) in faces
-                    .iter()
-                    .zip(twins.chunks_exact(3))
-                    .zip(edges.chunks_exact(3))
-                    .enumerate()
-                {
+            .for_each(|(c, faces)| {
+                for (f, t) in (c * FACE_CHUNK..).zip(faces) {
                     // Half-edge 3f + m runs t[m] → t[m + 1]; its opposite vertex is
                     // t[m + 2].
                     let [a, b, c] = t.map(|v| inv[v as usize]);
                     for (m, v) in [c, a, b].into_iter().enumerate() {
-                        let h = (first + 3 * q + m) as u32;
-                        let e = e[m] as usize;
-                        // SAFETY: each slot has one writer: an interior edge's side is
-                        // its half-edge's rank among the two twins, a boundary edge's
-                        // two sides are written by its only half-edge (no edge has
-                        // three faces).
-                        unsafe {
-                            if tw[m] != INVALID {
-                                scatter.write(2 * e + usize::from(h > tw[m]), v);
-                            } else {
-                                scatter.write(2 * e, v);
-                                scatter.write(2 * e + 1, 0.0);
-                            }
-                        }
+                        // SAFETY: `sides` has two slots per edge and each half-edge
+                        // is written once (by its own face).
+                        unsafe { slots.write(&scatter, 3 * f + m, v, 0.0) };
                     }
                 }
             });
     }
-    // SAFETY: the blocks cover every face, so every half-edge wrote its slot; every
-    // edge has two twins or is a boundary edge (none has three faces), so both sides
-    // of every edge were written.
+    // SAFETY: every half-edge wrote its slot; with no non-manifold edge, every edge
+    // has two twins or is a boundary edge, so both sides of every edge were written.
     unsafe { crate::mem::assume_init_vec(sides) }
 }
 
