@@ -299,6 +299,10 @@ fn count_below(nb: &[u32], j: usize) -> usize {
     nb.iter().map(|&i| usize::from((i as usize) < j)).sum()
 }
 
+/// Lanes of [`one_ring_columns`]' AVX2 path: columns of up to 7 neighbours (most
+/// vertices of a triangle mesh) are written as 8 rows and 8 values at once.
+const ONE_RING_LANES: usize = 8;
+
 /// Column pointers of the one-ring pattern: `adj_offsets[j] + j` (j's neighbours and
 /// the diagonal before column j).
 fn one_ring_col_ptr(topo: &Topology) -> Vec<usize> {
@@ -315,6 +319,13 @@ fn one_ring_col_ptr(topo: &Topology) -> Vec<usize> {
 /// neighbour `neighbors(j)[k]` via edge `neighbor_edges(j)[k]`) and returns the
 /// diagonal entry; the diagonal is then merged into place. `column` must write every
 /// entry of `off`: it arrives holding an earlier column's values, not zeros.
+///
+/// The merge of a column with fewer than 8 neighbours (98–99 % of the vertices of the
+/// scanned test meshes) runs in AVX2 registers where the CPU has them
+/// ([`x86::one_ring_rows`], [`x86::one_ring_values`]): the scalar loop's branch at the
+/// diagonal's position, a different position in every column, mispredicts about
+/// once per column. The same rows, values and checks; BENCHMARKS.md ("Operator
+/// assembly") has the gain.
 pub(crate) fn one_ring_columns(
     topo: &Topology,
     column: impl Fn(usize, &mut [f64]) -> f64 + Sync,
@@ -324,21 +335,61 @@ pub(crate) fn one_ring_columns(
     let nnz = col_ptr[n];
     let mut row_idx = crate::mem::uninit_vec::<usize>(nnz);
     let mut val = crate::mem::uninit_vec::<f64>(nnz);
+    #[cfg(target_arch = "x86_64")]
+    let (adj, offsets, lanes) = (
+        topo.adjacency(),
+        topo.adjacency_offsets(),
+        crate::cpu::avx2_fma(),
+    );
     let sorted = column_blocks(&col_ptr, &mut row_idx, &mut val)
         .into_par_iter()
         .map(|(s, e, rows, vals)| {
             let mut ok = true;
-            // Grown to the largest degree met, never cleared: `column` writes every
-            // entry of its slice (no memset per column).
+            // `buf[0]` a pad, `buf[1..=d]` the column's off-diagonal values. Grown to
+            // the largest degree met (and at least 8 lanes after the pad), never
+            // cleared: `column` writes every entry of its slice (no memset per column).
             let mut buf = Vec::new();
             let mut p = 0;
             for j in s..e {
                 let nb = topo.neighbors(crate::VertexId(j as u32));
-                if buf.len() < nb.len() {
-                    buf.resize(nb.len(), 0.0);
+                let d = nb.len();
+                if buf.len() < d + ONE_RING_LANES + 1 {
+                    buf.resize(d + ONE_RING_LANES + 1, 0.0);
                 }
-                let off = &mut buf[..nb.len()];
-                let diag = column(j, off);
+                let diag = column(j, &mut buf[1..=d]);
+                #[cfg(target_arch = "x86_64")]
+                if lanes
+                    && d < ONE_RING_LANES
+                    && offsets[j] as usize + ONE_RING_LANES <= adj.len()
+                    && p + ONE_RING_LANES <= rows.len()
+                {
+                    // SAFETY: `lanes` says the CPU has AVX2 (and the portable build
+                    // is not forced); the 8 neighbours read from j's offset and the
+                    // 9 values of `buf` are in bounds (checked just above, and `buf`
+                    // holds d + 9 ≥ 9), and the 8 rows and values written from p
+                    // are in the block's slices (`p + 8 ≤ rows.len()`, and `vals`
+                    // has the length of `rows`).
+                    let good = unsafe {
+                        let (split, good) = x86::one_ring_rows(
+                            adj.as_ptr().add(offsets[j] as usize),
+                            d,
+                            j as u32,
+                            n,
+                            rows.as_mut_ptr().add(p).cast(),
+                        );
+                        x86::one_ring_values(
+                            buf.as_ptr(),
+                            split,
+                            diag,
+                            vals.as_mut_ptr().add(p).cast(),
+                        );
+                        good
+                    };
+                    ok &= good;
+                    p += d + 1;
+                    continue;
+                }
+                let off = &buf[1..=d];
                 // Rows: neighbours below j, j, neighbours above j.
                 let split = count_below(nb, j);
                 let mut prev: Option<usize> = None;
@@ -371,7 +422,9 @@ pub(crate) fn one_ring_columns(
         })
         .reduce(|| true, |a, b| a && b);
     // SAFETY: every block wrote each of its `col_ptr[e] - col_ptr[s]` positions (the
-    // assertion above), and the blocks cover [0, nnz).
+    // assertion above), and the blocks cover [0, nnz): a column written in lanes also
+    // writes up to 7 positions past its end, inside its block, and the columns after
+    // it, written later, overwrite them with their own.
     unsafe { finish(n, col_ptr, row_idx, val, sorted) }
 }
 
@@ -715,6 +768,99 @@ fn rank_sort<const W: usize>(a: &mut [u32]) {
 #[cfg(target_arch = "x86_64")]
 mod x86 {
     use std::arch::x86_64::*;
+
+    /// The rows of a one-ring column j with `d` < 8 neighbours, read as 8 lanes from
+    /// `nb` (sorted): `nb[..split]`, j, `nb[split..d]` as 8 `usize` at `dst` (the lanes
+    /// past d are left over from the read). Returns `split` (the neighbours below j)
+    /// and whether the d + 1 rows are strictly increasing and below `n` — the checks
+    /// of [`super::one_ring_columns`]' scalar loop, all without a branch.
+    ///
+    /// # Safety
+    /// The CPU has AVX2; `nb` is valid for 8 reads and `dst` for 8 writes. (And
+    /// `d < 8`, `n ≥ 1`: a column exists.)
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) unsafe fn one_ring_rows(
+        nb: *const u32,
+        d: usize,
+        j: u32,
+        n: usize,
+        dst: *mut usize,
+    ) -> (usize, bool) {
+        /// `a < b` per lane, unsigned: a signed compare after flipping the top bits.
+        #[inline]
+        #[target_feature(enable = "avx2")]
+        fn lt(a: __m256i, b: __m256i) -> __m256i {
+            let flip = _mm256_set1_epi32(i32::MIN);
+            _mm256_cmpgt_epi32(_mm256_xor_si256(b, flip), _mm256_xor_si256(a, flip))
+        }
+        let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+        // SAFETY: by the caller's contract (8 reads from `nb`).
+        let v = unsafe { _mm256_loadu_si256(nb.cast()) };
+        let jv = _mm256_set1_epi32(j as i32);
+        let neighbour = _mm256_cmpgt_epi32(_mm256_set1_epi32(d as i32), lane);
+        let below = _mm256_and_si256(lt(v, jv), neighbour);
+        let split = (_mm256_movemask_ps(_mm256_castsi256_ps(below)) as u32).count_ones() as usize;
+        // Lane t takes nb[t] before the split, j at it, nb[t − 1] after it.
+        let sv = _mm256_set1_epi32(split as i32);
+        let from = _mm256_add_epi32(lane, _mm256_cmpgt_epi32(lane, sv));
+        let out = _mm256_blendv_epi8(
+            _mm256_permutevar8x32_epi32(v, from),
+            jv,
+            _mm256_cmpeq_epi32(lane, sv),
+        );
+        // Rows t < t + 1 for t < d, and every row t ≤ d below n (n ≤ u32::MAX + 1:
+        // compared as n − 1 ≥ row).
+        let next = _mm256_permutevar8x32_epi32(out, _mm256_setr_epi32(1, 2, 3, 4, 5, 6, 7, 7));
+        let unordered = _mm256_andnot_si256(lt(out, next), neighbour);
+        let last = _mm256_set1_epi32((n - 1) as u32 as i32);
+        let row = _mm256_cmpgt_epi32(_mm256_set1_epi32(d as i32 + 1), lane);
+        let too_big = _mm256_and_si256(lt(last, out), row);
+        let bad = _mm256_or_si256(unordered, too_big);
+        let ok = _mm256_testz_si256(bad, bad) == 1;
+        // SAFETY: by the caller's contract (8 writes to `dst`).
+        unsafe {
+            _mm256_storeu_si256(
+                dst.cast(),
+                _mm256_cvtepu32_epi64(_mm256_castsi256_si128(out)),
+            );
+            _mm256_storeu_si256(
+                dst.add(4).cast(),
+                _mm256_cvtepu32_epi64(_mm256_extracti128_si256(out, 1)),
+            );
+        }
+        (split, ok)
+    }
+
+    /// The values of that column: `buf[1..]` holds its off-diagonal values (`buf[0]` a
+    /// pad), written as 8 `f64` at `dst` with `diag` merged in at lane `split`: lane t
+    /// takes `buf[1 + t]` before it, `buf[t]` after it. The values themselves, not
+    /// recomputed: the same bits as the scalar loop.
+    ///
+    /// # Safety
+    /// The CPU has AVX2; `buf` is valid for 9 reads and `dst` for 8 writes.
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) unsafe fn one_ring_values(buf: *const f64, split: usize, diag: f64, dst: *mut f64) {
+        let sv = _mm256_set1_epi64x(split as i64);
+        let dv = _mm256_set1_pd(diag);
+        for (h, lane) in [
+            _mm256_setr_epi64x(0, 1, 2, 3),
+            _mm256_setr_epi64x(4, 5, 6, 7),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            // SAFETY: by the caller's contract (reads of buf[4h..4h + 5], writes of
+            // dst[4h..4h + 4]).
+            unsafe {
+                let own = _mm256_loadu_pd(buf.add(1 + 4 * h));
+                let shifted = _mm256_loadu_pd(buf.add(4 * h));
+                let after = _mm256_castsi256_pd(_mm256_cmpgt_epi64(lane, sv));
+                let at = _mm256_castsi256_pd(_mm256_cmpeq_epi64(lane, sv));
+                let x = _mm256_blendv_pd(_mm256_blendv_pd(own, shifted, after), dv, at);
+                _mm256_storeu_pd(dst.add(4 * h), x);
+            }
+        }
+    }
 
     /// Writes the distinct elements `a[..m]` (m ≤ 32) ascending to `out[..m]`, where
     /// `a[m..32]` are pads of `u32::MAX`: each element goes to its rank, the number of
@@ -1084,6 +1230,88 @@ mod tests {
                 &one_ring_matrix(&t, diag, off),
                 &reference::one_ring_matrix(&t, diag, off),
             );
+        }
+    }
+
+    /// The AVX2 lanes of `one_ring_columns` against the scalar merge: every degree
+    /// below 8, j below, among and above its neighbours (vertex ids up to
+    /// `u32::MAX − 1`, the flip's edge case), and the checks: unsorted neighbours, a
+    /// duplicate, or a row not below n make the column fail.
+    #[test]
+    #[cfg(target_arch = "x86_64")]
+    fn one_ring_lanes_match_the_scalar_merge() {
+        use rand::{Rng, SeedableRng};
+        if !crate::cpu::avx2_fma() {
+            return;
+        }
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(37);
+        let lanes = |nb: &[u32], j: u32, n: usize, off: &[f64], diag: f64| {
+            let mut src = [0u32; 8];
+            src[..nb.len()].copy_from_slice(nb);
+            let mut buf = [0.0f64; 9];
+            buf[1..=off.len()].copy_from_slice(off);
+            let (mut rows, mut vals) = ([0usize; 8], [0.0f64; 8]);
+            // SAFETY: AVX2 checked above; 8 and 9 reads, 8 writes, all in bounds.
+            let (split, ok) = unsafe {
+                let (split, ok) =
+                    x86::one_ring_rows(src.as_ptr(), nb.len(), j, n, rows.as_mut_ptr());
+                x86::one_ring_values(buf.as_ptr(), split, diag, vals.as_mut_ptr());
+                (split, ok)
+            };
+            (
+                split,
+                ok,
+                rows[..=nb.len()].to_vec(),
+                vals[..=nb.len()].to_vec(),
+            )
+        };
+        for round in 0..4000 {
+            let d = round % 8;
+            let high = round % 3 == 0;
+            let top = if high { u32::MAX - 1 } else { 64 };
+            let mut nb: Vec<u32> = Vec::new();
+            while nb.len() < d + 1 {
+                let x = if high && nb.is_empty() {
+                    top
+                } else {
+                    rng.gen_range(0..=top)
+                };
+                if !nb.contains(&x) {
+                    nb.push(x);
+                }
+            }
+            // One of the d + 1 distinct ids is j, the others its neighbours, sorted.
+            let j = nb.swap_remove(rng.gen_range(0..=d));
+            nb.sort_unstable();
+            let n = top as usize + 1;
+            let off: Vec<f64> = (0..d).map(|_| rng.gen_range(-1.0..1.0)).collect();
+            let diag = rng.gen_range(-1.0..1.0);
+            let split = count_below(&nb, j as usize);
+            let mut want_rows: Vec<usize> = nb.iter().map(|&i| i as usize).collect();
+            want_rows.insert(split, j as usize);
+            let mut want_vals = off.clone();
+            want_vals.insert(split, diag);
+            let (got_split, ok, rows, vals) = lanes(&nb, j, n, &off, diag);
+            assert!(ok, "{nb:?} {j}");
+            assert_eq!((got_split, &rows), (split, &want_rows), "{nb:?} {j}");
+            assert!(vals
+                .iter()
+                .zip(&want_vals)
+                .all(|(a, b)| a.to_bits() == b.to_bits()));
+            // The checks.
+            // (n ≥ 1 wherever a column exists.)
+            let last = *want_rows.last().unwrap();
+            if last > 0 {
+                assert!(!lanes(&nb, j, last, &off, diag).1, "row = n: {nb:?} {j}");
+            }
+            if d >= 2 {
+                let mut swapped = nb.clone();
+                swapped.swap(0, d - 1);
+                assert!(!lanes(&swapped, j, n, &off, diag).1, "unsorted {swapped:?}");
+                let mut dup = nb.clone();
+                dup[1] = dup[0];
+                assert!(!lanes(&dup, j, n, &off, diag).1, "duplicate {dup:?}");
+            }
         }
     }
 
