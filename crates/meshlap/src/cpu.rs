@@ -13,7 +13,9 @@
 //! the same IEEE operations per lane as the portable steps), the codec's predictor,
 //! the blocked reduction's symmetric products and its divide and conquer's secular
 //! equation and eigenvector kernels (`spectral::tridiagonal_dc`), the geometric
-//! operators' per-face lanes, the SDL's row weights and the shift-invert solves of the
+//! operators' per-face lanes, the SDL's row weights, the sparse assembly's one-ring
+//! merge and two-ring sort (`operator::assemble`, AVX2 intrinsics gated by
+//! [`avx2_fma`]) and the shift-invert solves of the
 //! partial eigensolver (`spectral::partial::solve`; its solve without a tree split has
 //! an AVX2 build of its own and no AVX-512 one).
 //!
