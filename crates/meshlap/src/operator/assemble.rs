@@ -210,17 +210,32 @@ pub(crate) fn vertex_blocks<'a, T, U>(
     per_entry: &'a mut [T],
     per_vertex: &'a mut [U],
 ) -> Vec<(usize, &'a mut [T], &'a mut [U])> {
-    let (n, offsets) = (topo.n_vertices(), topo.adjacency_offsets());
+    let offsets = topo.adjacency_offsets();
+    let at = |v: usize| offsets[v] as usize;
+    split_blocks(topo.n_vertices(), at, per_entry, |v| v, per_vertex)
+        .into_iter()
+        .map(|(s, _, a, b)| (s, a, b))
+        .collect()
+}
+
+/// Splits `a` and `b` at blocks of [`BLOCK`] items of `0..n`: block `[s, e)` gets
+/// `a[a_at(s)..a_at(e)]` and `b[b_at(s)..b_at(e)]` (`a_at` and `b_at` non-decreasing
+/// from 0, ending at the slices' lengths). Item b is `(s, e, a's part, b's part)`.
+fn split_blocks<'a, A, B>(
+    n: usize,
+    a_at: impl Fn(usize) -> usize,
+    a: &'a mut [A],
+    b_at: impl Fn(usize) -> usize,
+    b: &'a mut [B],
+) -> Vec<(usize, usize, &'a mut [A], &'a mut [B])> {
     let mut out = Vec::with_capacity(n.div_ceil(BLOCK));
-    let (mut entries, mut vertices) = (per_entry, per_vertex);
+    let (mut a, mut b) = (a, b);
     for s in (0..n).step_by(BLOCK) {
         let e = (s + BLOCK).min(n);
-        let (ea, eb) =
-            std::mem::take(&mut entries).split_at_mut((offsets[e] - offsets[s]) as usize);
-        let (va, vb) = std::mem::take(&mut vertices).split_at_mut(e - s);
-        out.push((s, ea, va));
-        entries = eb;
-        vertices = vb;
+        let (a0, a1) = std::mem::take(&mut a).split_at_mut(a_at(e) - a_at(s));
+        let (b0, b1) = std::mem::take(&mut b).split_at_mut(b_at(e) - b_at(s));
+        out.push((s, e, a0, b0));
+        (a, b) = (a1, b1);
     }
     out
 }
@@ -240,21 +255,8 @@ fn column_blocks<'a>(
     row_idx: &'a mut [MaybeUninit<usize>],
     val: &'a mut [MaybeUninit<f64>],
 ) -> Vec<BlockOut<'a>> {
-    let n = col_ptr.len() - 1;
-    let mut out = Vec::with_capacity(n.div_ceil(BLOCK));
-    let (mut r, mut v) = (row_idx, val);
-    let mut s = 0;
-    while s < n {
-        let e = (s + BLOCK).min(n);
-        let len = col_ptr[e] - col_ptr[s];
-        let (ra, rb) = std::mem::take(&mut r).split_at_mut(len);
-        let (va, vb) = std::mem::take(&mut v).split_at_mut(len);
-        out.push((s, e, ra, va));
-        r = rb;
-        v = vb;
-        s = e;
-    }
-    out
+    let at = |j: usize| col_ptr[j];
+    split_blocks(col_ptr.len() - 1, at, row_idx, at, val)
 }
 
 /// Wraps filled CSC arrays as a faer matrix. `sorted` says every column was verified
