@@ -22,7 +22,11 @@
 //!    applied only to the components above `10⁻¹³·‖w‖`. Loss of orthogonality goes
 //!    towards the first converged Ritz vectors (Paige 1971), which sit in a short
 //!    leading range of the basis, so after measuring against the whole basis the
-//!    second pass subtracts only the significant range. The products of the tall
+//!    second pass subtracts only the significant range. That range is short for a
+//!    shift below the spectrum; for an interior shift (an indefinite `K − σM`) the
+//!    components above the threshold spread over most of the basis, and the second
+//!    pass is then close to a full one (measured in BENCHMARKS.md, "Partial spectra
+//!    and partitioning"). The products of the tall
 //!    basis with a thin block are memory-bound and use the streaming kernels of
 //!    `thin_products`. The coefficients are stored as column block j of the
 //!    projected matrix `H`; the remainder is factored `W = V_{j+1} R` by Cholesky QR
@@ -352,8 +356,9 @@ fn orthonormalize_block(
         // rounding level. With a fully re-orthogonalised basis they are about
         // 1e-15·‖w‖ after the local pass; where orthogonality is being lost, it is
         // lost towards the earliest (first converged) Ritz vectors (Paige), so the
-        // significant rows form a short leading range (bunny, bands of 200: rows
-        // 0..≈70 of up to 500), and only that range is subtracted. (Measuring only
+        // significant rows form a leading range, and only that range is subtracted:
+        // short for a shift below the spectrum, most of the basis for an interior
+        // shift (BENCHMARKS.md, "Partial spectra and partitioning"). (Measuring only
         // that range in most blocks, with a full measurement every 4th, saved 1 % on
         // the bunny and cost accuracy: Igea's k = 1000 residuals went from 5.5e-12 to
         // 3.9e-11, every 8th block gave 1.9e-11 on the bunny.)
