@@ -220,7 +220,7 @@ pub(crate) fn vertex_blocks<'a, T, U>(
 
 /// Splits `a` and `b` at blocks of [`BLOCK`] items of `0..n`: block `[s, e)` gets
 /// `a[a_at(s)..a_at(e)]` and `b[b_at(s)..b_at(e)]` (`a_at` and `b_at` non-decreasing
-/// from 0, ending at the slices' lengths). Item b is `(s, e, a's part, b's part)`.
+/// from 0, ending at the slices' lengths). Each item is `(s, e, a's part, b's part)`.
 fn split_blocks<'a, A, B>(
     n: usize,
     a_at: impl Fn(usize) -> usize,

@@ -20,15 +20,14 @@
 //!    blocks a Lanczos recurrence couples it to (the previous and current block, or
 //!    all kept Ritz vectors right after a restart), the second measured first and
 //!    applied only to the components above `10⁻¹³·‖w‖`. Loss of orthogonality goes
-//!    towards the first converged Ritz vectors (Paige 1971), which sit in a short
-//!    leading range of the basis, so after measuring against the whole basis the
-//!    second pass subtracts only the significant range. That range is short for a
-//!    shift below the spectrum; for an interior shift (an indefinite `K − σM`) the
-//!    components above the threshold spread over most of the basis, and the second
-//!    pass is then close to a full one (measured in BENCHMARKS.md, "Partial spectra
-//!    and partitioning"). The products of the tall
-//!    basis with a thin block are memory-bound and use the streaming kernels of
-//!    `thin_products`. The coefficients are stored as column block j of the
+//!    towards the first converged Ritz vectors (Paige 1971), which sit at the front
+//!    of the basis, so after measuring against the whole basis the second pass
+//!    subtracts only the leading range of significant components. That range is
+//!    short for a shift below the spectrum; for an interior shift (an indefinite
+//!    `K − σM`) the components above the threshold spread over most of the basis,
+//!    and the second pass is then close to a full one (measured in BENCHMARKS.md,
+//!    "Partial spectra and partitioning"). The products of the tall basis with a
+//!    thin block are memory-bound and use the streaming kernels of `thin_products`. The coefficients are stored as column block j of the
 //!    projected matrix `H`; the remainder is factored `W = V_{j+1} R` by Cholesky QR
 //!    twice (modified Gram–Schmidt when the block is ill-conditioned). Full re-orthogonalisation makes `H` the Rayleigh quotient
 //!    `VᵀAV` up to rounding, so no Lanczos-specific structure has to be trusted: `H` is
