@@ -27,11 +27,13 @@
 //!    `K − σM`) the components above the threshold spread over most of the basis,
 //!    and the second pass is then close to a full one (measured in BENCHMARKS.md,
 //!    "Partial spectra and partitioning"). The products of the tall basis with a
-//!    thin block are memory-bound and use the streaming kernels of `thin_products`. The coefficients are stored as column block j of the
-//!    projected matrix `H`; the remainder is factored `W = V_{j+1} R` by Cholesky QR
-//!    twice (modified Gram–Schmidt when the block is ill-conditioned). Full re-orthogonalisation makes `H` the Rayleigh quotient
-//!    `VᵀAV` up to rounding, so no Lanczos-specific structure has to be trusted: `H` is
-//!    read from its upper triangle (the computed coefficients) and symmetrised.
+//!    thin block are memory-bound and use the streaming kernels of `thin_products`.
+//!    The coefficients are stored as column block j of the projected matrix `H`; the
+//!    remainder is factored `W = V_{j+1} R` by Cholesky QR twice (modified
+//!    Gram–Schmidt when the block is ill-conditioned). Full re-orthogonalisation
+//!    makes `H` the Rayleigh quotient `VᵀAV` up to rounding, so no Lanczos-specific
+//!    structure has to be trusted: `H` is read from its upper triangle (the computed
+//!    coefficients) and symmetrised.
 //! 2. **Breakdown** (a column of `W` lies in the span of the basis to 10⁻¹⁰ — an
 //!    invariant subspace, as happens with repeated eigenvalues of symmetric meshes):
 //!    the column is replaced by a seeded random vector orthogonal to the basis, with a
