@@ -14,12 +14,20 @@ pub fn write_matrix_market(path: &Path, m: SparseColMatRef<'_, usize, f64>) -> R
         writeln!(w, "%%MatrixMarket matrix coordinate real general")?;
         writeln!(w, "% written by meshlap (sign convention F = D - W)")?;
         writeln!(w, "{} {} {}", m.nrows(), m.ncols(), m.compute_nnz())?;
-        for j in 0..m.ncols() {
-            for (&i, &v) in m.row_idx_of_col_raw(j).iter().zip(m.val_of_col(j)) {
-                writeln!(w, "{} {} {:?}", i + 1, j + 1, v)?;
+        // One record per column: its entries' lines.
+        super::encode::write_records(w, m.ncols(), |cols, out| {
+            let mut t = super::encode::Text::new();
+            for j in cols {
+                for (&i, &v) in m.row_idx_of_col_raw(j).iter().zip(m.val_of_col(j)) {
+                    t.int(out, i + 1);
+                    out.push(b' ');
+                    t.int(out, j + 1);
+                    out.push(b' ');
+                    t.float(out, v);
+                    out.push(b'\n');
+                }
             }
-        }
-        Ok(())
+        })
     })
 }
 

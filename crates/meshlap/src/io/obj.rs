@@ -463,14 +463,20 @@ pub(crate) fn write(w: &mut dyn Write, mesh: &TriMesh) -> std::io::Result<()> {
         mesh.n_vertices(),
         mesh.n_faces()
     )?;
-    // `{:?}` prints the shortest representation that reads back to the same f64.
-    for p in &mesh.positions {
-        writeln!(w, "v {:?} {:?} {:?}", p[0], p[1], p[2])?;
-    }
-    for f in &mesh.faces {
-        writeln!(w, "f {} {} {}", f[0] + 1, f[1] + 1, f[2] + 1)?;
-    }
-    Ok(())
+    // Each coordinate as the shortest decimal that reads back to the same f64.
+    let (p, f) = (&mesh.positions, &mesh.faces);
+    super::encode::write_records(w, p.len(), |r, out| {
+        let mut t = super::encode::Text::new();
+        for v in &p[r] {
+            t.floats_line(out, b"v ", v);
+        }
+    })?;
+    super::encode::write_records(w, f.len(), |r, out| {
+        let mut t = super::encode::Text::new();
+        for &face in &f[r] {
+            t.face_line(out, b"f ", face, 1);
+        }
+    })
 }
 
 #[cfg(test)]

@@ -113,13 +113,19 @@ pub(crate) fn read(bytes: &[u8], file: &str, info: &mut ReadInfo) -> Result<TriM
 pub(crate) fn write(w: &mut dyn Write, mesh: &TriMesh) -> std::io::Result<()> {
     writeln!(w, "OFF")?;
     writeln!(w, "{} {} 0", mesh.n_vertices(), mesh.n_faces())?;
-    for p in &mesh.positions {
-        writeln!(w, "{:?} {:?} {:?}", p[0], p[1], p[2])?;
-    }
-    for f in &mesh.faces {
-        writeln!(w, "3 {} {} {}", f[0], f[1], f[2])?;
-    }
-    Ok(())
+    let (p, f) = (&mesh.positions, &mesh.faces);
+    super::encode::write_records(w, p.len(), |r, out| {
+        let mut t = super::encode::Text::new();
+        for v in &p[r] {
+            t.floats_line(out, b"", v);
+        }
+    })?;
+    super::encode::write_records(w, f.len(), |r, out| {
+        let mut t = super::encode::Text::new();
+        for &face in &f[r] {
+            t.face_line(out, b"3 ", face, 0);
+        }
+    })
 }
 
 #[cfg(test)]

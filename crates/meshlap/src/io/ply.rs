@@ -867,41 +867,51 @@ pub(crate) fn write(w: &mut dyn Write, mesh: &TriMesh, opts: &WriteOptions) -> s
     writeln!(w, "element face {}", mesh.n_faces())?;
     writeln!(w, "property list uchar int vertex_indices")?;
     writeln!(w, "end_header")?;
-    for (v, p) in mesh.positions.iter().enumerate() {
-        let s = opts.vertex_scalar.map(|(_, s)| s[v]);
-        let c = opts.vertex_colors.map(|c| c[v]);
-        if ascii {
-            write!(w, "{:?} {:?} {:?}", p[0], p[1], p[2])?;
-            if let Some(s) = s {
-                write!(w, " {s:?}")?;
-            }
-            if let Some(c) = c {
-                write!(w, " {} {} {}", c[0], c[1], c[2])?;
-            }
-            writeln!(w)?;
-        } else {
-            for x in p {
-                w.write_all(&x.to_le_bytes())?;
-            }
-            if let Some(s) = s {
-                w.write_all(&s.to_le_bytes())?;
-            }
-            if let Some(c) = c {
-                w.write_all(&c)?;
-            }
-        }
-    }
-    for f in &mesh.faces {
-        if ascii {
-            writeln!(w, "3 {} {} {}", f[0], f[1], f[2])?;
-        } else {
-            w.write_all(&[3u8])?;
-            for &i in f {
-                w.write_all(&(i as i32).to_le_bytes())?;
+    let (scalar, colors) = (opts.vertex_scalar.map(|(_, s)| s), opts.vertex_colors);
+    let p = &mesh.positions;
+    super::encode::write_records(w, p.len(), |r, out| {
+        let mut t = super::encode::Text::new();
+        for v in r {
+            if ascii {
+                t.floats(out, &p[v]);
+                if let Some(s) = scalar {
+                    out.push(b' ');
+                    t.float(out, s[v]);
+                }
+                if let Some(c) = colors {
+                    for x in c[v] {
+                        out.push(b' ');
+                        t.int(out, x);
+                    }
+                }
+                out.push(b'\n');
+            } else {
+                for x in p[v] {
+                    out.extend_from_slice(&x.to_le_bytes());
+                }
+                if let Some(s) = scalar {
+                    out.extend_from_slice(&s[v].to_le_bytes());
+                }
+                if let Some(c) = colors {
+                    out.extend_from_slice(&c[v]);
+                }
             }
         }
-    }
-    Ok(())
+    })?;
+    let f = &mesh.faces;
+    super::encode::write_records(w, f.len(), |r, out| {
+        let mut t = super::encode::Text::new();
+        for &face in &f[r] {
+            if ascii {
+                t.face_line(out, b"3 ", face, 0);
+            } else {
+                out.push(3);
+                for i in face {
+                    out.extend_from_slice(&(i as i32).to_le_bytes());
+                }
+            }
+        }
+    })
 }
 
 #[cfg(test)]

@@ -132,25 +132,27 @@ pub(crate) fn write(out: &mut dyn Write, mesh: &TriMesh) -> std::io::Result<()> 
     let n = u32::try_from(mesh.n_faces())
         .map_err(|_| std::io::Error::other("too many faces for STL"))?;
     out.write_all(&n.to_le_bytes())?;
-    for f in &mesh.faces {
-        let [a, b, c] = f.map(|v| mesh.positions[v as usize]);
-        let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-        let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-        let mut nrm = [
-            u[1] * v[2] - u[2] * v[1],
-            u[2] * v[0] - u[0] * v[2],
-            u[0] * v[1] - u[1] * v[0],
-        ];
-        let l = (nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]).sqrt();
-        if l > 0.0 {
-            nrm = nrm.map(|x| x / l);
+    let (p, f) = (&mesh.positions, &mesh.faces);
+    super::encode::write_records(out, f.len(), |r, out| {
+        for face in &f[r] {
+            let [a, b, c] = face.map(|v| p[v as usize]);
+            let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+            let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+            let mut nrm = [
+                u[1] * v[2] - u[2] * v[1],
+                u[2] * v[0] - u[0] * v[2],
+                u[0] * v[1] - u[1] * v[0],
+            ];
+            let l = (nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]).sqrt();
+            if l > 0.0 {
+                nrm = nrm.map(|x| x / l);
+            }
+            for x in nrm.iter().chain(&a).chain(&b).chain(&c) {
+                out.extend_from_slice(&(*x as f32).to_le_bytes());
+            }
+            out.extend_from_slice(&[0, 0]);
         }
-        for x in nrm.iter().chain(&a).chain(&b).chain(&c) {
-            out.write_all(&(*x as f32).to_le_bytes())?;
-        }
-        out.write_all(&[0, 0])?;
-    }
-    Ok(())
+    })
 }
 
 #[cfg(test)]
