@@ -14,6 +14,7 @@
 //! std's `write!` with `{:?}` through a `dyn Write`, which the writers used before
 //! (BENCHMARKS.md, "Writers").
 
+use crate::mesh::TriMesh;
 use rayon::prelude::*;
 use std::io::Write;
 use std::ops::Range;
@@ -68,6 +69,35 @@ pub(crate) fn write_records(
         (first, m) = (after, m_next);
     }
     Ok(())
+}
+
+/// Writes `mesh` as text lines: per vertex `vertex_prefix` and its coordinates, then
+/// per face `face_prefix` and its corner indices plus `index_base` (OBJ: `v `, `f `,
+/// 1; OFF: no prefix, `3 `, 0), each chunk of lines encoded in parallel
+/// ([`write_records`]).
+///
+/// # Errors
+/// The first error of `w`.
+pub(crate) fn write_text_lines(
+    w: &mut dyn Write,
+    mesh: &TriMesh,
+    vertex_prefix: &[u8],
+    face_prefix: &[u8],
+    index_base: u64,
+) -> std::io::Result<()> {
+    let (p, f) = (&mesh.positions, &mesh.faces);
+    write_records(w, p.len(), |r, out| {
+        let mut t = Text::new();
+        for v in &p[r] {
+            t.floats_line(out, vertex_prefix, v);
+        }
+    })?;
+    write_records(w, f.len(), |r, out| {
+        let mut t = Text::new();
+        for &face in &f[r] {
+            t.face_line(out, face_prefix, face, index_base);
+        }
+    })
 }
 
 /// Appends `s` (at most 32 bytes: a formatted number) to `out` with two fixed-size

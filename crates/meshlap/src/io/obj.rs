@@ -463,20 +463,8 @@ pub(crate) fn write(w: &mut dyn Write, mesh: &TriMesh) -> std::io::Result<()> {
         mesh.n_vertices(),
         mesh.n_faces()
     )?;
-    // Each coordinate as the shortest decimal that reads back to the same f64.
-    let (p, f) = (&mesh.positions, &mesh.faces);
-    super::encode::write_records(w, p.len(), |r, out| {
-        let mut t = super::encode::Text::new();
-        for v in &p[r] {
-            t.floats_line(out, b"v ", v);
-        }
-    })?;
-    super::encode::write_records(w, f.len(), |r, out| {
-        let mut t = super::encode::Text::new();
-        for &face in &f[r] {
-            t.face_line(out, b"f ", face, 1);
-        }
-    })
+    // `v x y z` and 1-based `f a b c` lines.
+    super::encode::write_text_lines(w, mesh, b"v ", b"f ", 1)
 }
 
 #[cfg(test)]

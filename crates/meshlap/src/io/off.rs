@@ -113,19 +113,8 @@ pub(crate) fn read(bytes: &[u8], file: &str, info: &mut ReadInfo) -> Result<TriM
 pub(crate) fn write(w: &mut dyn Write, mesh: &TriMesh) -> std::io::Result<()> {
     writeln!(w, "OFF")?;
     writeln!(w, "{} {} 0", mesh.n_vertices(), mesh.n_faces())?;
-    let (p, f) = (&mesh.positions, &mesh.faces);
-    super::encode::write_records(w, p.len(), |r, out| {
-        let mut t = super::encode::Text::new();
-        for v in &p[r] {
-            t.floats_line(out, b"", v);
-        }
-    })?;
-    super::encode::write_records(w, f.len(), |r, out| {
-        let mut t = super::encode::Text::new();
-        for &face in &f[r] {
-            t.face_line(out, b"3 ", face, 0);
-        }
-    })
+    // `x y z` and 0-based `3 a b c` lines.
+    super::encode::write_text_lines(w, mesh, b"", b"3 ", 0)
 }
 
 #[cfg(test)]
