@@ -1,12 +1,13 @@
-//! `cargo bench -p meshlap --bench core`: connectivity, cleaning and operator assembly
-//! on generated meshes (no files needed). Topology on icosphere:8 (655,362 vertices)
-//! tracks the "1M-vertex mesh in well under a second" goal; `meshlap-bench topology
-//! builtin:icosphere:9` measures 2.6M vertices. `patch_bases_*`: the codec's dense
-//! patch eigenbases (Kirchhoff operator of every METIS patch of the cow, patches of
-//! about 100 and 150 vertices) through faer and through the reproducible solver.
-//! `tridiagonal_*`: all eigenpairs of the tridiagonal form of the Kirchhoff matrix of
-//! a patch of about n vertices (breadth-first from a vertex of icosphere:5), on one thread, by
-//! meshlap's divide and conquer and by faer's.
+//! `cargo bench -p meshlap --bench core`: connectivity, cleaning, operator assembly and
+//! the mesh writers on generated meshes (no input files needed). Topology on
+//! icosphere:8 (655,362 vertices) tracks the "1M-vertex mesh in well under a second"
+//! goal; `meshlap-bench topology builtin:icosphere:9` measures 2.6M vertices.
+//! `patch_bases_*`: the codec's dense patch eigenbases (Kirchhoff operator of every
+//! METIS patch of the cow, patches of about 100 and 150 vertices) through faer and
+//! through the reproducible solver. `tridiagonal_*`: all eigenpairs of the tridiagonal
+//! form of the Kirchhoff matrix of a patch of about n vertices (breadth-first from a
+//! vertex of icosphere:5), on one thread, by meshlap's divide and conquer and by
+//! faer's.
 
 use meshlap::experiment::eigen_cost::bfs_patch;
 use meshlap::input::{open, OpenOptions};
@@ -60,6 +61,18 @@ fn assemble(bencher: divan::Bencher, kind: &str) {
     let t = Topology::new(&m).unwrap();
     let kind: OperatorKind = kind.parse().unwrap();
     bencher.bench(|| Operator::assemble(kind, &m, &t, &OperatorOptions::default()).unwrap());
+}
+
+/// `write_mesh` of icosphere 7 (163,842 vertices) into a temporary directory, per
+/// format (the atomic write: a temporary file renamed over the last output).
+#[divan::bench(args = ["obj", "off", "ply", "stl"], sample_count = 20)]
+fn write_mesh(bencher: divan::Bencher, ext: &str) {
+    let m = builtin::icosphere(7).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join(format!("m.{ext}"));
+    bencher.bench(|| {
+        meshlap::io::write_mesh(&path, divan::black_box(&m), &Default::default()).unwrap()
+    });
 }
 
 /// Kirchhoff operators of the cow's patches of about `p` vertices.
