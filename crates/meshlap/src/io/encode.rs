@@ -3,9 +3,9 @@
 //!
 //! [`write_records`] cuts a file's `count` records into chunks of [`CHUNK`], encodes a
 //! batch of chunks (two per thread) into byte buffers on the rayon pool, writes the
-//! buffers in order, and reuses them for the next batch: the bytes written are those
-//! of a sequential loop over the records, and the memory held is the batch's buffers,
-//! never the whole file.
+//! buffers in order while the next batch is encoded, and reuses them: the bytes
+//! written are those of a sequential loop over the records, and the memory held is
+//! two batches' buffers, never the whole file.
 //!
 //! Text numbers: [`Text`] prints a `f64` with `zmij` (the shortest decimal that reads
 //! back to the same `f64`, as std's `{:?}` does; large and small magnitudes in
