@@ -419,9 +419,9 @@ pub fn write_atomic(
         .tempfile_in(&dir)
         .map_err(err)?;
     {
-        // Small writes (headers, matrix entries) are gathered; the mesh writers' chunks
-        // (`encode::write_records`, larger than the buffer) go straight to the file,
-        // not copied through it first.
+        // Small writes (headers, the other writers' pieces) are gathered; the chunks of
+        // the mesh and Matrix Market writers (`encode::write_records`, larger than the
+        // buffer) go straight to the file, not copied through it first.
         let mut w = std::io::BufWriter::with_capacity(1 << 16, tmp.as_file());
         f(&mut w).map_err(err)?;
         w.flush().map_err(err)?;
@@ -541,7 +541,7 @@ mod tests {
         let faces: Vec<[u32; 3]> = (0..2 * n)
             .map(|_| {
                 let a = rng.gen_range(0..n as u32 - 2);
-                [a, a + 1 + rng.gen_range(0..1), a + 2]
+                [a, a + 1, a + 2]
             })
             .collect();
         let m = TriMesh::new(positions, faces);
