@@ -319,7 +319,9 @@ fn col_norm(w: MatRef<'_, f64>, j: usize) -> f64 {
 /// itself. Writes the basis coefficients into `coef` (s×p, accumulated) and the
 /// intra-block factor into `r` (p×p upper triangular; a zero diagonal marks a
 /// breakdown column replaced by a random one). The breakdown test is relative to the
-/// column norms before any orthogonalisation.
+/// column norms before any orthogonalisation. `scratch` (n×p, contents irrelevant)
+/// is the intra-block factorization's work block, kept by the caller from block to
+/// block.
 ///
 /// `local_from`: in exact arithmetic `w = A V_j` has components only along the
 /// columns `local_from..s` (the previous and current blocks of a Lanczos
@@ -336,6 +338,7 @@ fn orthonormalize_block(
     mut w: MatMut<'_, f64>,
     mut coef: MatMut<'_, f64>,
     mut r: MatMut<'_, f64>,
+    scratch: MatMut<'_, f64>,
     rng: &mut u64,
     info: &mut KrylovSchurInfo,
 ) {
@@ -386,7 +389,7 @@ fn orthonormalize_block(
         }
     }
     r.fill(0.0);
-    if p > 1 && cholesky_qr2(w.rb_mut(), r.rb_mut(), &raw) {
+    if p > 1 && cholesky_qr2(w.rb_mut(), r.rb_mut(), &raw, scratch) {
         return;
     }
     r.fill(0.0);
@@ -435,8 +438,14 @@ fn orthonormalize_block(
 /// ill-conditioned — a pivot of the first pass below `10⁻³` of its column's raw norm
 /// (heavy cancellation or a breakdown, which the caller's Gram–Schmidt path handles
 /// with its extra re-orthogonalisation and random replacement columns) or a failed
-/// Cholesky.
-fn cholesky_qr2(mut w: MatMut<'_, f64>, mut r: MatMut<'_, f64>, raw: &[f64]) -> bool {
+/// Cholesky. `q` is work storage of w's shape (n×p), overwritten before it is read:
+/// its contents on entry do not matter.
+fn cholesky_qr2(
+    mut w: MatMut<'_, f64>,
+    mut r: MatMut<'_, f64>,
+    raw: &[f64],
+    mut q: MatMut<'_, f64>,
+) -> bool {
     let p = w.ncols();
     let first = match cholesky_upper(&thin_products::tn(w.rb(), w.rb())) {
         Some(r1) => r1,
@@ -446,22 +455,21 @@ fn cholesky_qr2(mut w: MatMut<'_, f64>, mut r: MatMut<'_, f64>, raw: &[f64]) -> 
     if !well_conditioned {
         return false;
     }
-    let mut q = Mat::<f64>::zeros(w.nrows(), p);
     nn_product(
-        q.as_mut(),
+        q.rb_mut(),
         Accum::Replace,
         w.rb(),
         upper_inverse(&first).as_ref(),
         1.0,
     );
-    let second = match cholesky_upper(&thin_products::tn(q.as_ref(), q.as_ref())) {
+    let second = match cholesky_upper(&thin_products::tn(q.rb(), q.rb())) {
         Some(r2) => r2,
         None => return false,
     };
     nn_product(
         w.rb_mut(),
         Accum::Replace,
-        q.as_ref(),
+        q.rb(),
         upper_inverse(&second).as_ref(),
         1.0,
     );
@@ -635,6 +643,10 @@ pub fn largest_magnitude_in(
     reuse_or_zeroed(basis, n, m + p);
     let mut v = basis.as_mut().subcols_mut(0, m + p);
     let mut h = Mat::<f64>::zeros(m + p, m + p);
+    // The intra-block factorization's n×p work block, allocated once: a new one per
+    // block would be page-faulted and cleared again each time (BENCHMARKS.md,
+    // "Partial spectra", forty-second session).
+    let mut scratch = Mat::<f64>::zeros(n, p);
     // Starting block.
     {
         let mut w = Mat::<f64>::zeros(n, p);
@@ -648,6 +660,7 @@ pub fn largest_magnitude_in(
             w.as_mut(),
             c.as_mut(),
             r.as_mut(),
+            scratch.as_mut(),
             &mut rng,
             &mut info,
         );
@@ -692,6 +705,7 @@ pub fn largest_magnitude_in(
                 w.as_mut(),
                 c.as_mut(),
                 r.as_mut(),
+                scratch.as_mut(),
                 &mut rng,
                 &mut info,
             );
@@ -1019,7 +1033,9 @@ mod tests {
         let raw: Vec<f64> = (0..6).map(|j| col_norm(w.as_ref(), j)).collect();
         let orig = w.clone();
         let mut r = Mat::<f64>::zeros(6, 6);
-        assert!(cholesky_qr2(w.as_mut(), r.as_mut(), &raw));
+        // The work block's contents do not matter: NaN is overwritten, never read.
+        let mut q = Mat::from_fn(n, 6, |_, _| f64::NAN);
+        assert!(cholesky_qr2(w.as_mut(), r.as_mut(), &raw, q.as_mut()));
         let gram = w.transpose() * &w;
         assert!((&gram - Mat::<f64>::identity(6, 6)).norm_max() < 1e-14);
         assert!((&w * &r - &orig).norm_max() < 1e-13);
@@ -1037,7 +1053,7 @@ mod tests {
         let raw: Vec<f64> = (0..6).map(|j| col_norm(bad.as_ref(), j)).collect();
         let keep = bad.clone();
         let mut r = Mat::<f64>::zeros(6, 6);
-        assert!(!cholesky_qr2(bad.as_mut(), r.as_mut(), &raw));
+        assert!(!cholesky_qr2(bad.as_mut(), r.as_mut(), &raw, q.as_mut()));
         assert_eq!(bad, keep);
         assert_eq!(r, Mat::<f64>::zeros(6, 6));
     }
