@@ -112,6 +112,10 @@ impl<'a> EdgeSideSlots<'a> {
 /// - a non-manifold edge (three faces or more, rare): `[fold, zero]`, the fold by one
 ///   sequential pass over all half-edges, which recomputes those edges' faces.
 ///
+/// (The scatter and its twin look-ups are a small part of the cotan's time: writing
+/// every value in half-edge order instead, which would leave the columns two gathers
+/// per edge, could save at most that part; see BENCHMARKS.md, "Operator assembly".)
+///
 /// `zero` must be an identity of `add` on every folded value, as `0.0` is for `f64`
 /// sums that start at `+0.0` (they are never `−0.0`).
 ///
@@ -488,7 +492,10 @@ pub(crate) enum RingEntries<'a> {
 /// in a per-worker dense accumulator of n entries, read out (and zeroed) in the rows'
 /// order, adding each `coeff(j, k)·column_k` with [`add_column`]. (A first pass that
 /// also summed the values, into per-block buffers for the second to copy, took about
-/// as long as the two passes before that copy: see BENCHMARKS.md.) Both
+/// as long as the two passes before that copy; a first pass that also stored each
+/// candidate's rank, so that the second adds into the column's own values instead of
+/// the accumulator, was slower: the second pass is bound by its additions and writes,
+/// not by the accumulator. See BENCHMARKS.md, "Operator assembly".) Both
 /// passes read the neighbour lists of j's neighbours, in an order no hardware
 /// prefetcher follows, so each asks for them a few columns ahead ([`prefetch_rings`]);
 /// the second pass also asks for the accumulator's entries at those neighbours (its
