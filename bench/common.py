@@ -7,6 +7,8 @@ import sys
 import time
 from pathlib import Path
 
+from settle import wait_for_load
+
 ROOT = Path(__file__).resolve().parent.parent
 MESHES = ROOT.parent / "shared" / "data" / "meshes"
 THREADS = int(os.environ.get("BENCH_THREADS", "2"))
@@ -49,15 +51,9 @@ _BUILT = None
 
 
 def build():
-    """Builds the release binaries once per process and returns their directory.
-
-    A script runs under `quiet-run`, which checks the load before the script starts;
-    a build that compiles anything (the source changed since the last build) would
-    load both cores right before the first timings. So when the binaries change, this
-    waits, as quiet-run does, for the one-minute load average to fall below
-    BENCH_MAX_LOAD (default 0.5; at most BENCH_SETTLE_WAIT seconds, default 900) and
-    says so on stderr with the load it reached.
-    """
+    """Builds the release binaries once per process and returns their directory. When
+    the build changed them (it compiled), waits for the load to settle before any
+    timing (`settle.wait_for_load`)."""
     global _BUILT
     release = Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target")) / "release"
     if _BUILT is not None:
@@ -70,12 +66,7 @@ def build():
     before = stamps()
     subprocess.run(["cargo", "build", "--release", "-q", "-p", "meshlap-cli"], cwd=ROOT, check=True)
     if stamps() != before:
-        limit = float(os.environ.get("BENCH_MAX_LOAD", "0.5"))
-        deadline = time.time() + float(os.environ.get("BENCH_SETTLE_WAIT", "900"))
-        while os.getloadavg()[0] >= limit and time.time() < deadline:
-            time.sleep(5)
-        print(f"bench: rebuilt the binaries, then waited for the load: {os.getloadavg()[0]:.2f} "
-              f"(limit {limit})", file=sys.stderr, flush=True)
+        wait_for_load("rebuilt the binaries")
     _BUILT = release
     return release
 

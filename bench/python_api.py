@@ -73,14 +73,9 @@ def ensure_venv():
         check=True,
         env={**os.environ, "CARGO_TARGET_DIR": str(ROOT / "target"), "MATURIN_PEP517_ARGS": "--profile " + PROFILE},
     )
-    # The install compiled after quiet-run checked the load: wait, as quiet-run does,
-    # for the one-minute load to settle before any timing (see bench/common.py).
-    limit = float(os.environ.get("BENCH_MAX_LOAD", "0.5"))
-    deadline = time.time() + float(os.environ.get("BENCH_SETTLE_WAIT", "900"))
-    while os.getloadavg()[0] >= limit and time.time() < deadline:
-        time.sleep(5)
-    print(f"bench: installed meshlap, then waited for the load: {os.getloadavg()[0]:.2f} "
-          f"(limit {limit})", file=sys.stderr, flush=True)
+    # The install compiled after quiet-run checked the load.
+    from settle import wait_for_load
+    wait_for_load("installed meshlap")
     os.execve(str(py), [str(py), *sys.argv], env)
 
 
