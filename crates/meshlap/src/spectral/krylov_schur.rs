@@ -33,7 +33,12 @@
 //!    Gram–Schmidt when the block is ill-conditioned). Full re-orthogonalisation
 //!    makes `H` the Rayleigh quotient `VᵀAV` up to rounding, so no Lanczos-specific
 //!    structure has to be trusted: `H` is read from its upper triangle (the computed
-//!    coefficients) and symmetrised.
+//!    coefficients) and symmetrised. Each block thus reads the basis twice (measure,
+//!    then subtract). Delaying the subtraction into the next block's measurement, as
+//!    low-synchronisation Gram–Schmidt does, would read it once, but the operator is
+//!    then applied to a block that still holds the components, which it amplifies
+//!    by about ‖A‖/‖w‖ per block: tried and unstable (BENCHMARKS.md, "Partial spectra
+//!    and partitioning", forty-fifth session).
 //! 2. **Breakdown** (a column of `W` lies in the span of the basis to 10⁻¹⁰ — an
 //!    invariant subspace, as happens with repeated eigenvalues of symmetric meshes):
 //!    the column is replaced by a seeded random vector orthogonal to the basis, with a
