@@ -13,6 +13,13 @@ ROOT = Path(__file__).resolve().parent.parent
 MESHES = ROOT.parent / "shared" / "data" / "meshes"
 THREADS = int(os.environ.get("BENCH_THREADS", "2"))
 
+
+def mesh_path(name):
+    """A mesh argument: a path as given when it exists, else a name in MESHES (so that
+    `operators.py igea.ply` works from any directory)."""
+    path = Path(name)
+    return path if path.exists() else MESHES / name
+
 # The peers' own BLAS kernel. Some machines of this workplace set OPENBLAS_CORETYPE and
 # OPENBLAS_L2_SIZE (older OpenBLAS builds failed on their processors); with them the
 # current OpenBLAS in numpy's wheel runs an older kernel than the CPU's (Haswell's AVX2

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from common import MESHES, THREADS, build, load_vf, meshlap_bench, table, timeit
+from common import THREADS, build, load_vf, meshlap_bench, table, timeit, mesh_path
 
 
 def run_json(*args):
@@ -112,7 +112,7 @@ def main():
     meshes = meshes or ["stanford-bunny.obj", "igea.ply"]
     results = {}
     for name in meshes:
-        path = Path(name) if Path(name).exists() else MESHES / name
+        path = mesh_path(name)
         with tempfile.TemporaryDirectory() as tmp:
             clean = Path(tmp) / "clean.ply"
             subprocess.run([str(build() / "meshlap"), "clean", "--split-nonmanifold", path, clean],

@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from common import MESHES, THREADS, build, meshlap_bench, table
+from common import THREADS, build, meshlap_bench, table, mesh_path
 
 CASES = [
     # key, label, CLI arguments, scipy method, matrix file, rhs scaled by the degrees
@@ -94,7 +94,7 @@ def main():
     if len(sys.argv) > 1 and sys.argv[1] == "--worker":
         worker(*sys.argv[2:6])
         return
-    path = sys.argv[1] if len(sys.argv) > 1 else str(MESHES / "igea.ply")
+    path = str(mesh_path(sys.argv[1] if len(sys.argv) > 1 else "igea.ply"))
     lam = float(sys.argv[2]) if len(sys.argv) > 2 else 30.0
     rounds = int(sys.argv[3]) if len(sys.argv) > 3 else 7
     import scipy.io

@@ -48,7 +48,7 @@ import numpy as np
 import scipy.io
 import scipy.sparse as sp
 
-from common import MESHES, THREADS, build, limit_threads, load_vf, meshlap_bench, table, timeit
+from common import THREADS, build, limit_threads, load_vf, meshlap_bench, table, timeit, mesh_path
 
 
 def adjacency(F, n):
@@ -158,7 +158,7 @@ def write_rates(mib=128, repeat=5):
 
 def main():
     import igl
-    path = sys.argv[1] if len(sys.argv) > 1 else str(MESHES / "igea.ply")
+    path = str(mesh_path(sys.argv[1] if len(sys.argv) > 1 else "igea.ply"))
     V, F = load_vf(path)
     n = len(V)
     build()

@@ -30,7 +30,7 @@ import scipy.io
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from common import MESHES, THREADS, limit_threads, load_vf, meshlap_bench, table, timeit
+from common import THREADS, limit_threads, load_vf, meshlap_bench, table, timeit, mesh_path
 from operators import kirchhoff, sql, tutte
 
 REPEAT = 5
@@ -58,7 +58,7 @@ def rel_residual(A, X, B):
 
 
 def main():
-    path = sys.argv[1] if len(sys.argv) > 1 else str(MESHES / "igea.ply")
+    path = str(mesh_path(sys.argv[1] if len(sys.argv) > 1 else "igea.ply"))
     lam = float(sys.argv[2]) if len(sys.argv) > 2 else 30.0
     rounds = int(sys.argv[3]) if len(sys.argv) > 3 else 5
     bench_args = ("solvers", path, "--repeat", REPEAT, "--lambda", lam)
