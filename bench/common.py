@@ -20,6 +20,7 @@ def mesh_path(name):
     path = Path(name)
     return path if path.exists() else MESHES / name
 
+
 # The peers' own BLAS kernel. Some machines of this workplace set OPENBLAS_CORETYPE and
 # OPENBLAS_L2_SIZE (older OpenBLAS builds failed on their processors); with them the
 # current OpenBLAS in numpy's wheel runs an older kernel than the CPU's (Haswell's AVX2

@@ -107,8 +107,8 @@ const MAX_STEP: f64 = 0.55;
 /// `refinement_lowers_the_residuals_and_keeps_the_spectrum` requires, so they are
 /// not the default yet. The pairs of the window below `U` were kept by the band
 /// before; deflating them from the new band's search, or starting its iteration
-/// from them, saved solves but no time (BENCHMARKS.md, "Partial spectra and partitioning",
-/// forty-fifth session).
+/// from them, saved solves but no time (BENCHMARKS.md, "Partial spectra and
+/// partitioning", forty-fifth session).
 pub(super) fn next_shift(upper: f64, r: f64, spacing: f64, b_next: usize, delta: f64) -> f64 {
     let step = (1.0 - REACH_MARGIN) * 0.5 * b_next as f64 * spacing;
     upper
