@@ -3,7 +3,7 @@
 
 use super::factor::{count_below, factor_at, negative_pivots, symbolic_of, ShiftedPattern};
 use super::mass::Metric;
-use super::polish::polish;
+use super::polish::{polish, replace_with_refined};
 use super::residuals::finish;
 use super::solve::{ShiftInvert, TreeSplit, TREE_SPLIT_MIN_DIM};
 use super::{BandInfo, PartialParams, PartialSpectrum};
@@ -297,8 +297,8 @@ pub(super) fn banded(
         if opts.refine {
             work.solves += found.len();
             if let Some(refined) = on_worker(|| polish(&op, k, metric, &found, &mut basis)) {
-                if refined.iter().filter(|(l, _)| in_window(*l)).count() == expected {
-                    found = refined;
+                if refined.iter().filter(|&&l| in_window(l)).count() == expected {
+                    replace_with_refined(&mut found, &refined, basis.as_ref());
                 }
             }
         }

@@ -12,13 +12,22 @@
 //!
 //! 1. `Y = A_σ W` for the band's vectors `W` (n×b);
 //! 2. with the columns of `Y` normalised, `G = YᵀY = L Lᵀ` (Cholesky; `Y` is
-//!    nearly orthonormal, so `G` is well conditioned) and `H = Yᵀ Â Y`;
+//!    nearly orthonormal, so `G` is well conditioned) and `H = Yᵀ Â Y`, computed as
+//!    `XᵀK X` with `X = C⁻ᵀY` (`Â = C⁻¹ K C⁻ᵀ`, `C = M^{1/2}` for a diagonal `M`);
 //! 3. `L⁻¹ H L⁻ᵀ = U Θ Uᵀ` (b×b, symmetrised; faer's dense self-adjoint
-//!    eigensolver), and the pairs `(θᵢ, Y L⁻ᵀ uᵢ)` (normalised).
+//!    eigensolver), and the pairs `(θᵢ, Y L⁻ᵀ uᵢ)` (normalised), the vectors formed as
+//!    `Cᵀ(X L⁻ᵀ uᵢ)`.
 //!
 //! This is Rayleigh–Ritz refinement as in Saad, *Numerical Methods for Large
 //! Eigenvalue Problems* (2011), §5.2 (subspace iteration with projection). It costs
-//! b solves, three n×b×b products and a b×b eigenproblem per band.
+//! b solves, three n×b×b products and a b×b eigenproblem per band, in two n×b work
+//! matrices: `K X` overwrites `Y`, which `Cᵀ X` gives back, and the refined vectors
+//! stay in the work matrices until the caller has checked their values, then
+//! overwrite the band's own vectors ([`replace_with_refined`]). A third n×b matrix
+//! for `K X` and new columns for the result took memory the process had not used
+//! before (slow on a VM: the first touch of each page) and raised the peak memory;
+//! measured on the million-vertex torus in BENCHMARKS.md ("Partial spectra and
+//! partitioning", forty-sixth session).
 
 use super::mass::Metric;
 use super::solve::ShiftInvert;
@@ -28,32 +37,34 @@ use crate::SparseMatrix;
 use faer::linalg::triangular_solve::{
     solve_lower_triangular_in_place, solve_upper_triangular_in_place,
 };
-use faer::{Accum, Col, Mat, Par, Side};
+use faer::{Accum, Col, Mat, MatRef, Par, Side};
 
-/// The refined pairs `(θ, w)` (ascending θ, `‖w‖ = 1`) of the band's pairs `found`
-/// (symmetric coordinates), or `None` when the refinement cannot be trusted (a
-/// rank-deficient product, a failed eigensolve, or non-finite values) and the
-/// Krylov–Schur pairs should be kept.
+/// The refined eigenvalues θ (ascending) of the band's pairs `found` (symmetric
+/// coordinates, n×1 each, b pairs), with their unit vectors left in the first b
+/// columns of `work` (column j for θ_j); or `None` when the refinement cannot be
+/// trusted (a rank-deficient product, a failed eigensolve, or non-finite values) and
+/// the Krylov–Schur pairs should be kept. [`replace_with_refined`] moves the result
+/// into `found`.
 ///
 /// `work` is scratch storage: its first 2b columns hold the two n×b work matrices
 /// when it has n rows and at least 2b columns (the band's Krylov–Schur basis, which
 /// has about 2.5 b), else it is replaced by a new n×2b matrix. Its contents on entry
-/// do not matter (every entry used is written first) and are unspecified on return.
+/// do not matter (every entry used is written first); on return its first b
+/// columns hold the refined vectors and the rest is unspecified.
 pub(super) fn polish(
     op: &ShiftInvert<'_>,
     k: &SparseMatrix,
     metric: &Metric,
     found: &[(f64, Col<f64>)],
     work: &mut Mat<f64>,
-) -> Option<Vec<(f64, Col<f64>)>> {
+) -> Option<Vec<f64>> {
     let n = op.dim();
     let b = found.len();
     if b == 0 || b >= n {
         return None;
     }
-    // Two n×b work matrices in `work`: `x` holds W, then C⁻ᵀY; `y` holds Y, then
-    // the new vectors (in place). With the product K C⁻ᵀY and the output, at most
-    // four n×b matrices are alive besides `found`.
+    // Two n×b work matrices in `work`: `x` holds W, then X = C⁻ᵀY, then the new
+    // vectors (in place); `y` holds Y, then K X.
     crate::spectral::krylov_schur::reuse_or_zeroed(work, n, 2 * b);
     let (mut x, mut y) = work.as_mut().subcols_mut(0, 2 * b).split_at_col_mut(b);
     for (j, (_, w)) in found.iter().enumerate() {
@@ -81,13 +92,12 @@ pub(super) fn polish(
     let g = tn(y.as_ref(), y.as_ref());
     let llt = g.llt(Side::Lower).ok()?;
     let l = llt.L();
-    // Â Y: x = M^{-1/2} Y (C⁻ᵀ Y), K x, then M^{-1/2} (C⁻¹) again.
+    // YᵀÂY = XᵀK X with X = C⁻ᵀY; K X overwrites Y (given back below as Cᵀ X).
     x.copy_from(y.as_ref());
     metric.solve_ct(x.as_mut());
-    let mut kx = crate::mem::zeroed_mat(n, b);
     // Split by columns (each column's product alone, in one order).
     by_column_halves(
-        kx.as_mut(),
+        y.as_mut(),
         x.as_ref(),
         rayon::current_num_threads(),
         2,
@@ -102,9 +112,7 @@ pub(super) fn polish(
             )
         },
     );
-    metric.solve_c(kx.as_mut());
-    let h = tn(y.as_ref(), kx.as_ref());
-    drop(kx);
+    let h = tn(x.as_ref(), y.as_ref());
     // Ĥ = L⁻¹ H L⁻ᵀ (H symmetrised), by two triangular solves.
     let mut hh = Mat::from_fn(b, b, |i, j| 0.5 * (h[(i, j)] + h[(j, i)]));
     solve_lower_triangular_in_place(l, hh.as_mut(), Par::Seq);
@@ -112,21 +120,40 @@ pub(super) fn polish(
     solve_lower_triangular_in_place(l, hh.as_mut(), Par::Seq);
     let hs = Mat::from_fn(b, b, |i, j| 0.5 * (hh[(i, j)] + hh[(j, i)]));
     let evd = hs.self_adjoint_eigen(Side::Lower).ok()?;
-    // Coefficients C = L⁻ᵀ U, then the vectors Y C (normalised below).
+    // Coefficients L⁻ᵀ U, then the vectors Y L⁻ᵀ U = Cᵀ (X L⁻ᵀ U), normalised.
     let mut c = evd.U().to_owned();
     solve_upper_triangular_in_place(l.transpose(), c.as_mut(), Par::Seq);
-    nn_in_place(y.as_mut(), c.as_ref());
+    nn_in_place(x.as_mut(), c.as_ref());
+    metric.mul_ct(x.as_mut());
     let s = evd.S();
-    let mut out = Vec::with_capacity(b);
+    let mut values = Vec::with_capacity(b);
     for j in 0..b {
         let theta = s[j];
-        let mut col = y.as_ref().col(j).to_owned();
-        let norm = crate::spectral::thin_products::col_norm2(col.as_ref());
+        let norm = crate::spectral::thin_products::col_norm2(x.as_ref().col(j));
         if !(theta.is_finite() && norm.is_finite() && norm > 0.0) {
             return None;
         }
-        col.iter_mut().for_each(|v| *v /= norm);
-        out.push((theta, col));
+        x.as_mut().col_mut(j).iter_mut().for_each(|v| *v /= norm);
+        values.push(theta);
     }
-    Some(out)
+    Some(values)
+}
+
+/// Overwrites the band's pairs `found` with the refined ones of [`polish`]: θ_j from
+/// `values` and the vector from column j of `work` (the order of `values`), into
+/// `found[j]`'s own storage (no new n-vectors).
+///
+/// # Panics
+/// If `values`, `found` and `work`'s leading columns disagree in count or length
+/// (a caller's bug: `polish` returned `values` for this `found` and `work`).
+pub(super) fn replace_with_refined(
+    found: &mut [(f64, Col<f64>)],
+    values: &[f64],
+    work: MatRef<'_, f64>,
+) {
+    assert_eq!(found.len(), values.len(), "one refined value per pair");
+    for (j, ((l, w), &theta)) in found.iter_mut().zip(values).enumerate() {
+        *l = theta;
+        w.copy_from(work.col(j));
+    }
 }

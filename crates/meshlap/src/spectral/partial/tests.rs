@@ -468,15 +468,26 @@ fn refinement_on_a_reused_work_matrix_gives_the_same_bits() {
             (values[j], v)
         })
         .collect();
-    let fresh = super::polish::polish(&si, &op.matrix, &identity, &found, &mut Mat::new())
-        .expect("refined");
+    // The refined pairs, moved into a copy of the band's pairs as the driver does.
+    let refine = |work: &mut Mat<f64>| {
+        let values =
+            super::polish::polish(&si, &op.matrix, &identity, &found, work).expect("refined");
+        let mut pairs = found.clone();
+        super::polish::replace_with_refined(&mut pairs, &values, work.as_ref());
+        pairs
+    };
+    let fresh = refine(&mut Mat::new());
     let mut reused = Mat::from_fn(n, 31, |_, _| f64::NAN);
-    let again =
-        super::polish::polish(&si, &op.matrix, &identity, &found, &mut reused).expect("refined");
+    let again = refine(&mut reused);
     let bits = |c: &Col<f64>| c.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     for ((l0, v0), (l1, v1)) in fresh.iter().zip(&again) {
         assert_eq!(l0.to_bits(), l1.to_bits());
         assert_eq!(bits(v0), bits(v1));
+    }
+    // Ascending values, unit vectors.
+    assert!(fresh.windows(2).all(|p| p[0].0 <= p[1].0));
+    for (_, v) in &fresh {
+        assert!((v.norm_l2() - 1.0).abs() < 1e-14);
     }
     // And the refinement did its job: residuals below the perturbation's.
     for (l, v) in &fresh {
