@@ -248,14 +248,6 @@ fn nn_product(
     go(out, a, (accum, c, alpha), row_threads(a.nrows()))
 }
 
-/// The Ritz vectors `V Q[:, which]` (n×|which|) for the listed columns of `Q`.
-fn ritz_vectors(v: MatRef<'_, f64>, q: MatRef<'_, f64>, which: &[usize]) -> Mat<f64> {
-    let qsel = Mat::from_fn(q.nrows(), which.len(), |i, j| q[(i, which[j])]);
-    let mut y = crate::mem::zeroed_mat(v.nrows(), which.len());
-    nn_product(y.as_mut(), Accum::Replace, v, qsel.as_ref(), 1.0);
-    y
-}
-
 /// Makes `work` usable as n × at least `cols` storage: kept as it is when it has n
 /// rows and at least `cols` columns (its contents are then whatever it held), else
 /// replaced by a zeroed n × `cols` matrix, the old one freed first so that the two are
@@ -621,8 +613,8 @@ pub fn largest_magnitude(
 /// page fault and a page clearing for every 4 KiB of its n × (m + p) values.
 /// The iteration reads only basis columns it has written, so what
 /// the storage held before does not matter: the result has the same bits either way.
-/// On return `basis` holds the final basis in its first columns (unspecified
-/// contents to the caller).
+/// On return `basis` holds the eigenvectors in its first `nev` columns (the
+/// `vectors` returned are a copy of them) and unspecified values in the rest.
 pub fn largest_magnitude_in(
     op: &dyn BlockOperator,
     nev: usize,
@@ -630,6 +622,40 @@ pub fn largest_magnitude_in(
     params: &KrylovSchurParams,
     basis: &mut Mat<f64>,
 ) -> Result<RitzPairs, KrylovSchurError> {
+    let got = largest_magnitude_in_place(op, nev, deflate, params, basis)?;
+    Ok(RitzPairs {
+        values: got.values,
+        vectors: basis.as_ref().subcols(0, nev).to_owned(),
+        residuals: got.residuals,
+        info: got.info,
+    })
+}
+
+/// Eigenvalues found by [`largest_magnitude_in_place`], whose eigenvectors are in
+/// the basis.
+#[derive(Clone, Debug)]
+pub(crate) struct RitzValues {
+    /// Eigenvalues θ by decreasing |θ|.
+    pub(crate) values: Vec<f64>,
+    /// Residual estimates `‖A y − θ y‖`.
+    pub(crate) residuals: Vec<f64>,
+    /// Statistics.
+    pub(crate) info: KrylovSchurInfo,
+}
+
+/// [`largest_magnitude_in`] without the copy of the eigenvectors: on return (`Ok`)
+/// the first `nev` columns of `basis` (n rows) hold them, orthonormal, in the order
+/// of `values`; the caller takes what it needs from there. For a caller that copies
+/// them elsewhere anyway (the bands of [`super::partial`] keep each pair as a
+/// column of its own), this saves an n×nev matrix of memory the process has not
+/// used (slow on a VM: the first touch of each page).
+pub(crate) fn largest_magnitude_in_place(
+    op: &dyn BlockOperator,
+    nev: usize,
+    deflate: Option<MatRef<'_, f64>>,
+    params: &KrylovSchurParams,
+    basis: &mut Mat<f64>,
+) -> Result<RitzValues, KrylovSchurError> {
     let n = op.dim();
     let d = deflate.map_or(0, |x| x.ncols());
     let free = n.saturating_sub(d);
@@ -782,10 +808,12 @@ pub fn largest_magnitude_in(
                     restarts: info.restarts,
                 });
             }
-            let vectors = ritz_vectors(v.as_ref().subcols(0, s), q, &order[..nev]);
-            return Ok(RitzPairs {
+            // The Ritz vectors V Q[:, order[..nev]], in place (see `nn_in_place`):
+            // no n×nev matrix of fresh memory beside the basis.
+            let qsel = Mat::from_fn(s, nev, |i, j| q[(i, order[j])]);
+            thin_products::nn_in_place(v.as_mut().subcols_mut(0, s), qsel.as_ref());
+            return Ok(RitzValues {
                 values: order[..nev].iter().map(|&i| theta[i]).collect(),
-                vectors,
                 residuals: res[..nev].to_vec(),
                 info,
             });
@@ -885,6 +913,34 @@ mod tests {
             let col = |m: &Mat<f64>| m.col(j).iter().map(|x| x.to_bits()).collect::<Vec<_>>();
             assert_eq!(col(&fresh.vectors), col(&reused.vectors), "vector {j}");
         }
+    }
+
+    #[test]
+    fn in_place_leaves_the_vectors_in_the_basis() {
+        // The eigenvectors of a diagonal operator are unit vectors: the first 20
+        // columns of the basis must be ±e_i for the 20 largest entries, orthonormal,
+        // and the bits of `largest_magnitude_in`'s copy.
+        let vals: Vec<f64> = (0..400).map(|i| 1.0 / (1.0 + i as f64)).collect();
+        let params = KrylovSchurParams {
+            block: 4,
+            max_dim: 48,
+            ..Default::default()
+        };
+        let copied = largest_magnitude(&Diagonal(vals.clone()), 20, None, &params).unwrap();
+        let mut basis = Mat::from_fn(400, 70, |_, _| f64::NAN);
+        let got =
+            largest_magnitude_in_place(&Diagonal(vals), 20, None, &params, &mut basis).unwrap();
+        assert_eq!(got.values, copied.values);
+        let v = basis.as_ref().subcols(0, 20);
+        for j in 0..20 {
+            let col = |m: MatRef<'_, f64>| m.col(j).iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(col(v), col(copied.vectors.as_ref()), "vector {j}");
+            // θ_j = 1/(1 + j): the vector is ±e_j.
+            assert!((got.values[j] - 1.0 / (1.0 + j as f64)).abs() < 1e-12);
+            assert!((v[(j, j)].abs() - 1.0).abs() < 1e-10, "vector {j}");
+        }
+        let gram = v.transpose() * v;
+        assert!((&gram - Mat::<f64>::identity(20, 20)).norm_max() < 1e-12);
     }
 
     #[test]

@@ -8,7 +8,9 @@ use super::residuals::finish;
 use super::solve::{ShiftInvert, TreeSplit, TREE_SPLIT_MIN_DIM};
 use super::{BandInfo, PartialParams, PartialSpectrum};
 use crate::par::on_worker;
-use crate::spectral::krylov_schur::{largest_magnitude_in, KrylovSchurError, KrylovSchurParams};
+use crate::spectral::krylov_schur::{
+    largest_magnitude_in_place, KrylovSchurError, KrylovSchurParams,
+};
 use crate::spectral::SpectralError;
 use crate::SparseMatrix;
 use faer::{Col, Mat, MatRef};
@@ -16,11 +18,12 @@ use faer::{Col, Mat, MatRef};
 /// The `b` eigenpairs of largest |μ| of `A_σ` (on the complement of `deflate`, when
 /// given) as (λ = σ + 1/μ, w) with `w` in the symmetric coordinates (`w = M^{1/2} v`),
 /// by block Krylov–Schur, with its basis in `basis` (kept from band to band, see
-/// [`largest_magnitude_in`]). Unless `keep_basis`, the basis is freed as soon as
-/// the iteration returns, before its pairs are copied out: in the last band it is
-/// not needed again, and keeping it alive beside the Ritz vectors and their copies
-/// would raise the peak memory of a one-band run by about a basis (BENCHMARKS.md,
-/// "Partial spectra").
+/// [`largest_magnitude_in`](crate::spectral::krylov_schur::largest_magnitude_in)).
+/// The iteration leaves the vectors in the basis' first columns
+/// ([`largest_magnitude_in_place`]), from which each is copied into a column of its
+/// own. Unless `keep_basis`, the basis is then freed: in the last band it is not
+/// needed again, and keeping it alive beside the pairs would raise the peak memory
+/// of a one-band run by about a basis (BENCHMARKS.md, "Partial spectra").
 #[allow(clippy::too_many_arguments)]
 fn shift_invert_pairs(
     op: &ShiftInvert<'_>,
@@ -34,7 +37,14 @@ fn shift_invert_pairs(
     keep_basis: bool,
 ) -> Result<Vec<(f64, Col<f64>)>, SpectralError> {
     let params = krylov_params(opts, b, seed);
-    let got = largest_magnitude_in(op, b, deflate, &params, basis);
+    let got = largest_magnitude_in_place(op, b, deflate, &params, basis);
+    let pairs = got.as_ref().ok().map(|got| {
+        got.values
+            .iter()
+            .enumerate()
+            .map(|(j, &mu)| (sigma + 1.0 / mu, basis.col(j).to_owned()))
+            .collect()
+    });
     if !keep_basis {
         *basis = Mat::new();
     }
@@ -57,12 +67,7 @@ fn shift_invert_pairs(
     work.restarts += got.info.restarts;
     work.solves += got.info.applications;
     work.stagnated |= got.info.stagnated;
-    Ok(got
-        .values
-        .iter()
-        .enumerate()
-        .map(|(j, &mu)| (sigma + 1.0 / mu, got.vectors.col(j).to_owned()))
-        .collect())
+    Ok(pairs.unwrap_or_default())
 }
 
 /// Work counters of one band (reported in [`BandInfo`]).
