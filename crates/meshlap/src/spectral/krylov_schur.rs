@@ -891,17 +891,24 @@ mod tests {
             .collect()
     }
 
-    /// A basis storage reused from an earlier run (here: NaN everywhere, and wider
-    /// than needed) gives the bits of a fresh one, through restarts: the iteration
-    /// reads only columns it has written.
-    #[test]
-    fn a_reused_basis_gives_the_same_bits() {
-        let vals: Vec<f64> = (0..400).map(|i| 1.0 / (1.0 + i as f64)).collect();
+    /// Eigenvalues 1/(1 + i), i < 400, with a basis small enough for 20 pairs to
+    /// need restarts.
+    fn restarting_diagonal() -> (Vec<f64>, KrylovSchurParams) {
+        let vals = (0..400).map(|i| 1.0 / (1.0 + i as f64)).collect();
         let params = KrylovSchurParams {
             block: 4,
             max_dim: 48,
             ..Default::default()
         };
+        (vals, params)
+    }
+
+    /// A basis storage reused from an earlier run (here: NaN everywhere, and wider
+    /// than needed) gives the bits of a fresh one, through restarts: the iteration
+    /// reads only columns it has written.
+    #[test]
+    fn a_reused_basis_gives_the_same_bits() {
+        let (vals, params) = restarting_diagonal();
         let fresh = largest_magnitude(&Diagonal(vals.clone()), 20, None, &params).unwrap();
         assert!(fresh.info.restarts > 0, "the test wants restarts");
         let mut basis = Mat::from_fn(400, 70, |_, _| f64::NAN);
@@ -920,12 +927,7 @@ mod tests {
         // The eigenvectors of a diagonal operator are unit vectors: the first 20
         // columns of the basis must be ±e_i for the 20 largest entries, orthonormal,
         // and the bits of `largest_magnitude_in`'s copy.
-        let vals: Vec<f64> = (0..400).map(|i| 1.0 / (1.0 + i as f64)).collect();
-        let params = KrylovSchurParams {
-            block: 4,
-            max_dim: 48,
-            ..Default::default()
-        };
+        let (vals, params) = restarting_diagonal();
         let copied = largest_magnitude(&Diagonal(vals.clone()), 20, None, &params).unwrap();
         let mut basis = Mat::from_fn(400, 70, |_, _| f64::NAN);
         let got =

@@ -37,18 +37,19 @@ fn shift_invert_pairs(
     keep_basis: bool,
 ) -> Result<Vec<(f64, Col<f64>)>, SpectralError> {
     let params = krylov_params(opts, b, seed);
-    let got = largest_magnitude_in_place(op, b, deflate, &params, basis);
-    let pairs = got.as_ref().ok().map(|got| {
-        got.values
+    let got = largest_magnitude_in_place(op, b, deflate, &params, basis).map(|got| {
+        let pairs: Vec<(f64, Col<f64>)> = got
+            .values
             .iter()
             .enumerate()
             .map(|(j, &mu)| (sigma + 1.0 / mu, basis.col(j).to_owned()))
-            .collect()
+            .collect();
+        (got.info, pairs)
     });
     if !keep_basis {
         *basis = Mat::new();
     }
-    let got = got.map_err(|e| match e {
+    let (info, pairs) = got.map_err(|e| match e {
         KrylovSchurError::NoConvergence {
             converged,
             wanted,
@@ -64,10 +65,10 @@ fn shift_invert_pairs(
             source,
         },
     })?;
-    work.restarts += got.info.restarts;
-    work.solves += got.info.applications;
-    work.stagnated |= got.info.stagnated;
-    Ok(pairs.unwrap_or_default())
+    work.restarts += info.restarts;
+    work.solves += info.applications;
+    work.stagnated |= info.stagnated;
+    Ok(pairs)
 }
 
 /// Work counters of one band (reported in [`BandInfo`]).
