@@ -194,6 +194,7 @@ impl ShiftInvert<'_> {
         for (j0, w) in column_groups(c) {
             let cols = out.rb_mut().subcols_mut(j0, w);
             match w {
+                16 => self.solve_dispatch::<16>(sym, cols),
                 8 => self.solve_dispatch::<8>(sym, cols),
                 4 => self.solve_dispatch::<4>(sym, cols),
                 _ => self.solve_dispatch::<1>(sym, cols),
@@ -271,13 +272,20 @@ impl ShiftInvert<'_> {
 }
 
 /// The groups `(first column, width)` in which the solves take c columns: as many
-/// groups of 8 as fit, then one of 4, then single columns.
+/// groups of 16 as fit, then one of 8, one of 4, then single columns.
+///
+/// A Krylov–Schur block has 8 columns; the refinement's b columns ([`super::polish`])
+/// go by 16, which reads each factor entry once per 16 right-hand sides instead of
+/// once per 8: a fifth less time per column on Igea's, the million-vertex torus' and
+/// icosphere 6's factors. Groups of 32 were no faster than 16 (BENCHMARKS.md,
+/// "Partial spectra and partitioning", forty-seventh session).
 fn column_groups(c: usize) -> impl Iterator<Item = (usize, usize)> {
     let mut j0 = 0;
     std::iter::from_fn(move || {
         let left = c - j0;
         let w = match left {
             0 => return None,
+            16.. => 16,
             8.. => 8,
             4.. => 4,
             _ => 1,
@@ -409,7 +417,7 @@ impl<const W: usize> crate::cpu::Kernel for Range<'_, W> {
 
 impl ShiftInvert<'_> {
     /// `out ← M^{1/2} (K − σM)^{-1} M^{1/2} out` forest by forest (see [`TreeSplit`]),
-    /// in groups of at most 8 interleaved columns.
+    /// in groups of at most 16 interleaved columns ([`column_groups`]).
     fn solve_split(&self, split: TreeSplit, mut out: MatMut<'_, f64>) {
         use faer::sparse::linalg::cholesky::SymbolicCholeskyRaw;
         let SymbolicCholeskyRaw::Supernodal(sym) = self.symbolic.raw() else {
@@ -419,6 +427,7 @@ impl ShiftInvert<'_> {
         for (j0, w) in column_groups(c) {
             let cols = out.rb_mut().subcols_mut(j0, w);
             match w {
+                16 => self.solve_split_fixed::<16>(sym, split, cols),
                 8 => self.solve_split_fixed::<8>(sym, split, cols),
                 4 => self.solve_split_fixed::<4>(sym, split, cols),
                 _ => self.solve_split_fixed::<1>(sym, split, cols),

@@ -102,7 +102,7 @@ fn interleaved_supernodal_solve_matches_faer_for_both_orderings() {
         n,
     )
     .unwrap();
-    let mut x = Mat::<f64>::zeros(n, 13);
+    let mut x = Mat::<f64>::zeros(n, 29);
     super::super::krylov_schur::random_fill(x.as_mut(), 42);
     for custom in [false, true] {
         let ordering = if custom {
@@ -145,7 +145,8 @@ fn interleaved_supernodal_solve_matches_faer_for_both_orderings() {
                 .num_threads(threads)
                 .build()
                 .unwrap();
-            for (q, p) in [1usize, 3, 8, 13].into_iter().enumerate() {
+            // Groups of 1, 4, 8 and 16 columns (29 = 16 + 8 + 4 + 1).
+            for (q, p) in [1usize, 3, 8, 13, 29].into_iter().enumerate() {
                 let xb = x.as_ref().subcols(0, p);
                 let mut ours = Mat::<f64>::zeros(n, p);
                 pool.install(|| si.apply_block(xb, ours.as_mut()));
