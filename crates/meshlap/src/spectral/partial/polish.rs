@@ -29,15 +29,15 @@
 //! measured on the million-vertex torus in BENCHMARKS.md ("Partial spectra and
 //! partitioning", forty-sixth session).
 
-use super::mass::Metric;
+use super::mass::{symmetric_mul_block, Metric};
 use super::solve::ShiftInvert;
 use crate::spectral::krylov_schur::BlockOperator;
-use crate::spectral::thin_products::{by_column_halves, nn_in_place, tn};
+use crate::spectral::thin_products::{nn_in_place, tn};
 use crate::SparseMatrix;
 use faer::linalg::triangular_solve::{
     solve_lower_triangular_in_place, solve_upper_triangular_in_place,
 };
-use faer::{Accum, Col, Mat, MatRef, Par, Side};
+use faer::{Col, Mat, MatRef, Par, Side};
 
 /// The refined eigenvalues θ (ascending) of the band's pairs `found` (symmetric
 /// coordinates, n×1 each, b pairs), with their unit vectors left in the first b
@@ -95,23 +95,7 @@ pub(super) fn polish(
     // YᵀÂY = XᵀK X with X = C⁻ᵀY; K X overwrites Y (given back below as Cᵀ X).
     x.copy_from(y.as_ref());
     metric.solve_ct(x.as_mut());
-    // Split by columns (each column's product alone, in one order).
-    by_column_halves(
-        y.as_mut(),
-        x.as_ref(),
-        rayon::current_num_threads(),
-        2,
-        &|out, x| {
-            faer::sparse::linalg::matmul::sparse_dense_matmul(
-                out,
-                Accum::Replace,
-                k.as_ref(),
-                x,
-                1.0,
-                Par::Seq,
-            )
-        },
-    );
+    symmetric_mul_block(k, x.as_ref(), y.as_mut());
     let h = tn(x.as_ref(), y.as_ref());
     // Ĥ = L⁻¹ H L⁻ᵀ (H symmetrised), by two triangular solves.
     let mut hh = Mat::from_fn(b, b, |i, j| 0.5 * (h[(i, j)] + h[(j, i)]));
