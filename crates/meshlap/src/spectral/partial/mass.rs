@@ -379,6 +379,10 @@ pub(super) fn symmetric_mul(k: &SparseMatrix, x: &[f64]) -> Vec<f64> {
 /// for a band's refinement (b = 200) on a million-vertex mesh streams `K` (112 MB)
 /// 200 times. Each entry of `Y` is summed over column i of `K` in its stored order,
 /// whatever the thread count.
+///
+/// # Panics
+/// If the shapes disagree or a column of `X` is not contiguous (a caller's bug: the
+/// refinement passes columns of its own column-major work matrix).
 pub(super) fn symmetric_mul_block(k: &SparseMatrix, x: MatRef<'_, f64>, y: MatMut<'_, f64>) {
     use rayon::prelude::*;
     const ROWS: usize = 2048;

@@ -276,9 +276,9 @@ impl ShiftInvert<'_> {
 ///
 /// A Krylov–Schur block has 8 columns; the refinement's b columns ([`super::polish`])
 /// go by 16, which reads each factor entry once per 16 right-hand sides instead of
-/// once per 8: a fifth less time per column on Igea's, the million-vertex torus' and
-/// icosphere 6's factors. Groups of 32 were no faster than 16 (BENCHMARKS.md,
-/// "Partial spectra and partitioning", forty-seventh session).
+/// once per 8 and takes less time per column on both orderings' factors; groups of
+/// 32 were no faster than 16 (BENCHMARKS.md, "Partial spectra and partitioning",
+/// forty-seventh session).
 fn column_groups(c: usize) -> impl Iterator<Item = (usize, usize)> {
     let mut j0 = 0;
     std::iter::from_fn(move || {
