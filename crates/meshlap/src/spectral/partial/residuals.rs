@@ -68,37 +68,38 @@ fn finish_diagonal(
     let m = eigenvectors.ncols();
     // K V by rows (K is symmetric: row i of K V gathers over column i of K), on
     // interleaved chunks of 8 vectors; then the Rayleigh quotients and residuals.
+    // The two interleaved n×8 buffers are allocated once for all chunks: at a million
+    // vertices each is 64 MB, above the allocator's mmap threshold, so new ones per
+    // chunk were fresh pages to fault in every time (BENCHMARKS.md, "Partial spectra
+    // and partitioning", forty-seventh session).
     let mut eigenvalues = vec![0.0f64; m];
     let mut residuals = vec![0.0f64; m];
     const CW: usize = 8;
+    let mut vt = crate::mem::zeroed_vec([0.0f64; CW], n);
+    let mut kvt = crate::mem::zeroed_vec([0.0f64; CW], n);
     let mut j0 = 0;
     while j0 < m {
         let w = CW.min(m - j0);
-        let vt: Vec<[f64; CW]> = (0..n)
-            .into_par_iter()
-            .map(|i| {
-                std::array::from_fn(|t| {
-                    if t < w {
-                        eigenvectors[(i, j0 + t)]
-                    } else {
-                        0.0
-                    }
-                })
-            })
-            .collect();
-        let kvt: Vec<[f64; CW]> = (0..n)
-            .into_par_iter()
-            .map(|i| {
-                let mut acc = [0.0f64; CW];
-                for (&r, &a) in k.row_idx_of_col_raw(i).iter().zip(k.val_of_col(i)) {
-                    let x = &vt[r];
-                    for t in 0..CW {
-                        acc[t] += a * x[t];
-                    }
+        vt.par_iter_mut().enumerate().for_each(|(i, row)| {
+            *row = std::array::from_fn(|t| {
+                if t < w {
+                    eigenvectors[(i, j0 + t)]
+                } else {
+                    0.0
                 }
-                acc
             })
-            .collect();
+        });
+        let vt = &vt;
+        kvt.par_iter_mut().enumerate().for_each(|(i, acc)| {
+            *acc = [0.0f64; CW];
+            for (&r, &a) in k.row_idx_of_col_raw(i).iter().zip(k.val_of_col(i)) {
+                let x = &vt[r];
+                for t in 0..CW {
+                    acc[t] += a * x[t];
+                }
+            }
+        });
+        let kvt = &kvt;
         // Σ v·Kv and Σ v²m per vector, then Σ ((Kv − λMv)/√m)², each summed over
         // fixed row blocks in parallel and the block sums added in order: the same
         // bits on every run and thread count (a rayon fold groups rows by how the
