@@ -499,8 +499,8 @@ fn refinement_on_a_reused_work_matrix_gives_the_same_bits() {
 
 #[test]
 fn blocked_symmetric_product_matches_column_products() {
-    // icosphere:4 (2,562 vertices, more than one block of rows) and a jittered
-    // grid's cotan (boundary rows); 21 = 8 + 8 + 5 columns: full and partial groups.
+    // icosphere:4's SQL (2,562 vertices: more than one block of rows) and a grid's
+    // cotan (boundary rows); 21 = 8 + 8 + 5 columns: full and partial groups.
     let sphere = builtin::icosphere(4).unwrap();
     let grid = builtin::grid(40).unwrap();
     for (name, k) in [
