@@ -21,9 +21,12 @@ use faer::{Col, Mat, MatRef};
 /// [`largest_magnitude_in`](crate::spectral::krylov_schur::largest_magnitude_in)).
 /// The iteration leaves the vectors in the basis' first columns
 /// ([`largest_magnitude_in_place`]), from which each is copied into a column of its
-/// own. Unless `keep_basis`, the basis is then freed: in the last band it is not
-/// needed again, and keeping it alive beside the pairs would raise the peak memory
-/// of a one-band run by about a basis (BENCHMARKS.md, "Partial spectra").
+/// own. Unless `keep_basis`, the basis is then freed: in the last band only the
+/// refinement would use it again (as work storage it can allocate anew), and kept
+/// alive beside the pairs through the band's inertia count (a second numeric
+/// factorization) it raised the million-vertex torus' peak from 6.7 to 7.4 GiB
+/// and made the run slower (BENCHMARKS.md, "Partial spectra and partitioning",
+/// forty-eighth session).
 #[allow(clippy::too_many_arguments)]
 fn shift_invert_pairs(
     op: &ShiftInvert<'_>,
