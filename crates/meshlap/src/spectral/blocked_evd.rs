@@ -56,9 +56,12 @@ use faer::linalg::matmul::triangular::{self, BlockStructure};
 use faer::prelude::{Reborrow, ReborrowMut};
 use faer::{Accum, Mat, MatMut, MatRef, Par};
 
-/// Columns reduced per panel before the trailing `syr2k` update (LAPACK's default
-/// `NB` for `dsytrd`).
-pub const PANEL: usize = 32;
+/// Columns reduced per panel before the trailing `syr2k` update. LAPACK's default
+/// `NB` for `dsytrd` is 32; 16 reduced faster at n = 500–2903 on 1 and 2 threads
+/// (BENCHMARKS.md, "Spectra", forty-ninth session, on an Intel Xeon; not profiled:
+/// a narrower panel makes shorter products with `V` and `W` per column, for a
+/// `syr2k` pass over the trailing triangle every 16 columns instead of every 32).
+pub const PANEL: usize = 16;
 
 /// Below this trailing size the fused product runs on one thread.
 const PAR_MIN: usize = 224;
@@ -943,9 +946,11 @@ mod tests {
 
     #[test]
     fn random_matrices_across_panel_boundaries() {
-        for (k, n) in [1usize, 2, 3, 31, 32, 33, 34, 65, 130, 200, 401, 500]
-            .into_iter()
-            .enumerate()
+        for (k, n) in [
+            1usize, 2, 3, 15, 16, 17, 31, 32, 33, 34, 65, 130, 200, 401, 500,
+        ]
+        .into_iter()
+        .enumerate()
         {
             let a = random_symmetric(n, 17 + k as u64);
             check(&a, Par::Seq);

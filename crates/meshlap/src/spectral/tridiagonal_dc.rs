@@ -63,9 +63,12 @@ use faer::linalg::matmul::matmul;
 use faer::prelude::{Reborrow, ReborrowMut};
 use faer::{Accum, Mat, MatMut, MatRef, Par};
 
-/// Blocks of at most this many rows are solved by the implicit QL algorithm
-/// (LAPACK's default `SMLSIZ` for `dstedc`).
-pub const LEAF: usize = 25;
+/// Blocks of at most this many rows are solved by the implicit QL algorithm.
+/// LAPACK's default `SMLSIZ` for `dstedc` is 25; leaves of 64 made the divide and
+/// conquer faster at n = 500–2903 (BENCHMARKS.md, "Spectra", forty-ninth session, on
+/// an Intel Xeon): two levels fewer of merges, each with its secular equations,
+/// Löwner products and matrix products, for QL sweeps on larger leaves.
+pub const LEAF: usize = 64;
 
 /// Below this block size the two halves are solved one after the other even when
 /// `par` has several threads.
