@@ -7,15 +7,16 @@
 //!
 //! **Why by hand.** faer's `self_adjoint_evd` reduces one column at a time: each step
 //! reads *and writes* the whole trailing triangle (a fused rank-2 update and product).
-//! LAPACK's `dsytrd` reduces a panel of [`PANEL`] columns with products against the
-//! not-yet-updated trailing matrix plus low-rank corrections (`dlatrd`), and updates
-//! the trailing matrix once per panel with a rank-2·[`PANEL`] `syr2k` (a matrix
-//! product, compute-bound): per column one *read* of the trailing triangle instead of
-//! a read and a write. At the sizes of the paper's experiments (n ≈ 500–3000, 2–70 MB)
-//! the reduction is bound by memory traffic, so this halves its dominant cost. faer's
-//! own divide and conquer (`tridiagonal_self_adjoint_evd`) multiplies full n×n
-//! blocks at every merge, deflated columns included, hence [`super::tridiagonal_dc`];
-//! the back-transformation is faer's. The better home for both is a contribution to
+//! LAPACK's `dsytrd`, and this module after it, reduces a panel of columns ([`PANEL`]
+//! here) with products against the not-yet-updated trailing matrix plus low-rank
+//! corrections (`dlatrd`), and updates the trailing matrix once per panel with a
+//! rank-2·[`PANEL`] `syr2k` (a matrix product, compute-bound): per column one *read*
+//! of the trailing triangle instead of a read and a write. At the sizes of the
+//! paper's experiments (n ≈ 500–3000, 2–70 MB) the reduction is bound by memory
+//! traffic, so this halves its dominant cost. faer's own divide and conquer
+//! (`tridiagonal_self_adjoint_evd`) multiplies full n×n blocks at every merge,
+//! deflated columns included, hence [`super::tridiagonal_dc`]; the
+//! back-transformation is faer's. The better home for both is a contribution to
 //! faer.
 //!
 //! **Method** (Golub & Van Loan §8.3.1, LAPACK `dsytrd`, `dlatrd`, `dlarfg`,
