@@ -13,7 +13,8 @@
 //!    of `T₂` lose `|β|`). Solve the halves recursively (in parallel with
 //!    `rayon::join` when `par` has more than one thread); blocks of at most [`LEAF`]
 //!    rows are solved by the implicit QL algorithm with Wilkinson shifts, the
-//!    rotations accumulated into the block of `Z` (`dsteqr`).
+//!    rotations accumulated into the block of `Z` (`dsteqr`), through the CPU
+//!    dispatch so that the rotations run in vector registers.
 //! 3. Merge (`dlaed1`): `diag(T₁, T₂) = Q D Qᵀ` with `Q = diag(Q₁, Q₂)`, so
 //!    `T = Q (D + ρ z zᵀ) Qᵀ` with `z = Qᵀ v / √2` (the last row of `Q₁`, the first
 //!    row of `Q₂`), `ρ = 2|β|`. Deflate (`dlaed2`): a component with `ρ|z_i| ≤ tol`
@@ -33,9 +34,10 @@
 //!
 //!    Steps 4 and 5 divide once per pole and root, O(k²) divisions per merge: their
 //!    loops (the kernels `PoleSums`, `Lowner` and `Normalise`) run through meshlap's
-//!    CPU dispatch ([`crate::cpu`]), where they vectorise over four lanes (AVX2,
-//!    AVX-512); the baseline x86-64 build divides one lane at a time there. The same
-//!    bits on every build.
+//!    CPU dispatch ([`crate::cpu`]) in four lanes. `Lowner` is left to LLVM, which
+//!    vectorises it; `PoleSums` and `Normalise` are written with AVX2 intrinsics,
+//!    since LLVM left their divisions scalar on both vector builds. The baseline
+//!    x86-64 build divides one lane at a time. The same bits on every build.
 //! 6. The undeflated eigenvectors of `T` are `Q` times those, as two matrix products
 //!    (`faer::linalg::matmul::matmul` with `par`), each only over the rows of its half
 //!    and the columns nonzero there; the deflated ones stay where they are, or move
@@ -629,13 +631,12 @@ impl crate::cpu::Kernel for Normalise<'_> {
 
     #[inline(always)]
     fn portable(self) {
-        let Normalise { what, c, v, order } = self;
         let mut lanes = [0.0f64; 4];
-        let k4 = what.len() / 4 * 4;
-        for ((vc, wc), cc) in v[..k4]
+        let k4 = self.what.len() / 4 * 4;
+        for ((vc, wc), cc) in self.v[..k4]
             .chunks_exact_mut(4)
-            .zip(what[..k4].chunks_exact(4))
-            .zip(c[..k4].chunks_exact(4))
+            .zip(self.what[..k4].chunks_exact(4))
+            .zip(self.c[..k4].chunks_exact(4))
         {
             for l in 0..4 {
                 let x = wc[l] / cc[l];
@@ -643,15 +644,54 @@ impl crate::cpu::Kernel for Normalise<'_> {
                 lanes[l] += x * x;
             }
         }
-        for i in k4..what.len() {
-            let x = what[i] / c[i];
-            v[i] = x;
-            lanes[0] += x * x;
+        normalise_tail(self, k4, lanes);
+    }
+
+    /// The same lanes and the same operations as [`Self::portable`], in AVX2
+    /// registers: LLVM leaves the portable loop's divisions scalar (`vdivsd`) in both
+    /// vector builds.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn avx2_fma(self) {
+        use std::arch::x86_64::*;
+        let k4 = self.what.len() / 4 * 4;
+        let (what, c) = (&self.what[..k4], &self.c[..k4]);
+        let v = &mut self.v[..k4];
+        let mut lanes = [0.0f64; 4];
+        // SAFETY: every access is at i..i + 4 with i + 4 <= k4, the length of what, c
+        // and v here; the caller is compiled with AVX2.
+        unsafe {
+            let mut acc = _mm256_setzero_pd();
+            let mut i = 0;
+            while i < k4 {
+                let x = _mm256_div_pd(
+                    _mm256_loadu_pd(what.as_ptr().add(i)),
+                    _mm256_loadu_pd(c.as_ptr().add(i)),
+                );
+                _mm256_storeu_pd(v.as_mut_ptr().add(i), x);
+                acc = _mm256_add_pd(acc, _mm256_mul_pd(x, x));
+                i += 4;
+            }
+            _mm256_storeu_pd(lanes.as_mut_ptr(), acc);
         }
-        let inv = 1.0 / ((lanes[0] + lanes[1]) + (lanes[2] + lanes[3])).sqrt();
-        for (ci, &ii) in c.iter_mut().zip(order) {
-            *ci = v[ii] * inv;
-        }
+        normalise_tail(self, k4, lanes);
+    }
+}
+
+/// The end of both builds of [`Normalise`]: the entries past the last group of four
+/// (`k4..`) added into lane 0, the lanes summed pairwise, and the normalised vector
+/// written back in the given order.
+#[inline(always)]
+fn normalise_tail(k: Normalise<'_>, k4: usize, mut lanes: [f64; 4]) {
+    let Normalise { what, c, v, order } = k;
+    for i in k4..what.len() {
+        let x = what[i] / c[i];
+        v[i] = x;
+        lanes[0] += x * x;
+    }
+    let inv = 1.0 / ((lanes[0] + lanes[1]) + (lanes[2] + lanes[3])).sqrt();
+    for (ci, &ii) in c.iter_mut().zip(order) {
+        *ci = v[ii] * inv;
     }
 }
 
@@ -677,7 +717,34 @@ fn merge_sorted(d: &[f64], a: &[usize], b: &[usize]) -> Vec<usize> {
 /// entries) by the implicit QL algorithm with Wilkinson shifts (Golub & Van Loan
 /// §8.3; the `tqli` form), the rotations accumulated into `q` (m×m, set to the
 /// identity here). On return `d` is ascending and column i of `q` its eigenvector.
-fn leaf(d: &mut [f64], e: &[f64], mut q: MatMut<'_, f64>) -> Result<(), TridiagonalEvdError> {
+///
+/// Runs through [`crate::cpu::dispatch`], so that the rotations' loop over the rows
+/// runs in the widest vector build the CPU has (each row's rotation is the same two
+/// products and one sum or difference on every build: the same bits).
+fn leaf(d: &mut [f64], e: &[f64], q: MatMut<'_, f64>) -> Result<(), TridiagonalEvdError> {
+    crate::cpu::dispatch(Leaf { d, e, q })
+}
+
+/// The arguments of [`leaf`], as a kernel of [`crate::cpu::dispatch`].
+struct Leaf<'a, 'b> {
+    d: &'a mut [f64],
+    e: &'a [f64],
+    q: MatMut<'b, f64>,
+}
+
+impl crate::cpu::Kernel for Leaf<'_, '_> {
+    type Output = Result<(), TridiagonalEvdError>;
+
+    #[inline(always)]
+    fn portable(self) -> Result<(), TridiagonalEvdError> {
+        let Leaf { d, e, q } = self;
+        leaf_ql(d, e, q)
+    }
+}
+
+/// The body of [`leaf`].
+#[inline(always)]
+fn leaf_ql(d: &mut [f64], e: &[f64], mut q: MatMut<'_, f64>) -> Result<(), TridiagonalEvdError> {
     let m = d.len();
     q.fill(0.0);
     for i in 0..m {
@@ -1108,22 +1175,15 @@ impl crate::cpu::Kernel for PoleSums<'_> {
 
     #[inline(always)]
     fn portable(self) -> (f64, f64, f64) {
-        let PoleSums {
-            d,
-            z,
-            delta,
-            origin,
-            tau,
-            w0,
-            step,
-        } = self;
+        let (origin, tau, step) = (self.origin, self.tau, self.step);
         let (mut s, mut ds, mut e) = ([0.0f64; 4], [0.0f64; 4], [0.0f64; 4]);
+        let w0 = self.w0;
         let mut wl = [w0, w0 + step, w0 + 2.0 * step, w0 + 3.0 * step];
-        let n4 = d.len() / 4 * 4;
-        for ((dc, zc), delc) in d[..n4]
+        let n4 = self.d.len() / 4 * 4;
+        for ((dc, zc), delc) in self.d[..n4]
             .chunks_exact(4)
-            .zip(z[..n4].chunks_exact(4))
-            .zip(delta[..n4].chunks_exact_mut(4))
+            .zip(self.z[..n4].chunks_exact(4))
+            .zip(self.delta[..n4].chunks_exact_mut(4))
         {
             for l in 0..4 {
                 let dl = (dc[l] - origin) - tau;
@@ -1136,21 +1196,87 @@ impl crate::cpu::Kernel for PoleSums<'_> {
                 wl[l] += 4.0 * step;
             }
         }
-        for j in n4..d.len() {
-            let dl = (d[j] - origin) - tau;
-            delta[j] = dl;
-            let t = z[j] / dl;
-            let u = z[j] * t;
-            s[0] += u;
-            ds[0] += t * t;
-            e[0] += (w0 + step * j as f64) * u;
-        }
-        (
-            (s[0] + s[1]) + (s[2] + s[3]),
-            (ds[0] + ds[1]) + (ds[2] + ds[3]),
-            (e[0] + e[1]) + (e[2] + e[3]),
-        )
+        pole_sums_tail(self, n4, s, ds, e)
     }
+
+    /// The same lanes and the same operations as [`Self::portable`], in AVX2
+    /// registers: LLVM leaves the portable loop's four divisions scalar (`vdivsd`) in
+    /// both vector builds.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn avx2_fma(self) -> (f64, f64, f64) {
+        use std::arch::x86_64::*;
+        let (origin, tau, w0, step) = (self.origin, self.tau, self.w0, self.step);
+        let n4 = self.d.len() / 4 * 4;
+        let (d, z) = (&self.d[..n4], &self.z[..n4]);
+        let delta = &mut self.delta[..n4];
+        let (mut s, mut ds, mut e) = ([0.0f64; 4], [0.0f64; 4], [0.0f64; 4]);
+        // SAFETY: every access is at j..j + 4 with j + 4 <= n4, the length of d, z and
+        // delta here; the caller is compiled with AVX2.
+        unsafe {
+            let (vo, vt) = (_mm256_set1_pd(origin), _mm256_set1_pd(tau));
+            let mut wl = _mm256_setr_pd(w0, w0 + step, w0 + 2.0 * step, w0 + 3.0 * step);
+            let w4 = _mm256_set1_pd(4.0 * step);
+            let (mut vs, mut vds, mut ve) = (
+                _mm256_setzero_pd(),
+                _mm256_setzero_pd(),
+                _mm256_setzero_pd(),
+            );
+            let mut j = 0;
+            while j < n4 {
+                let dv = _mm256_loadu_pd(d.as_ptr().add(j));
+                let zv = _mm256_loadu_pd(z.as_ptr().add(j));
+                let dl = _mm256_sub_pd(_mm256_sub_pd(dv, vo), vt);
+                _mm256_storeu_pd(delta.as_mut_ptr().add(j), dl);
+                let t = _mm256_div_pd(zv, dl);
+                let u = _mm256_mul_pd(zv, t);
+                vs = _mm256_add_pd(vs, u);
+                vds = _mm256_add_pd(vds, _mm256_mul_pd(t, t));
+                ve = _mm256_add_pd(ve, _mm256_mul_pd(wl, u));
+                wl = _mm256_add_pd(wl, w4);
+                j += 4;
+            }
+            _mm256_storeu_pd(s.as_mut_ptr(), vs);
+            _mm256_storeu_pd(ds.as_mut_ptr(), vds);
+            _mm256_storeu_pd(e.as_mut_ptr(), ve);
+        }
+        pole_sums_tail(self, n4, s, ds, e)
+    }
+}
+
+/// The end of both builds of [`PoleSums`]: the poles past the last group of four
+/// (`n4..`) added into lane 0, then the lanes summed pairwise.
+#[inline(always)]
+fn pole_sums_tail(
+    k: PoleSums<'_>,
+    n4: usize,
+    mut s: [f64; 4],
+    mut ds: [f64; 4],
+    mut e: [f64; 4],
+) -> (f64, f64, f64) {
+    let PoleSums {
+        d,
+        z,
+        delta,
+        origin,
+        tau,
+        w0,
+        step,
+    } = k;
+    for j in n4..d.len() {
+        let dl = (d[j] - origin) - tau;
+        delta[j] = dl;
+        let t = z[j] / dl;
+        let u = z[j] * t;
+        s[0] += u;
+        ds[0] += t * t;
+        e[0] += (w0 + step * j as f64) * u;
+    }
+    (
+        (s[0] + s[1]) + (s[2] + s[3]),
+        (ds[0] + ds[1]) + (ds[2] + ds[3]),
+        (e[0] + e[1]) + (e[2] + e[3]),
+    )
 }
 
 /// `dlaed5`: the `i`-th eigenvalue of `diag(d) + ρ z zᵀ` for two entries; `delta`
@@ -1697,9 +1823,10 @@ mod tests {
         assert!(lam[0].abs() < 1e-12 && lam[0] >= -1e-12);
     }
 
-    /// The dispatched kernels of the secular equation and of `dlaed3` (the build
-    /// `crate::cpu::dispatch` picks on this CPU) give the bits of their portable
-    /// build, on runs of every length modulo the four lanes and of both signs.
+    /// The dispatched kernels of the secular equation, of `dlaed3` and of the leaves'
+    /// QL iteration (the build `crate::cpu::dispatch` picks on this CPU) give the bits
+    /// of their portable build, on runs of every length modulo the four lanes and of
+    /// both signs.
     #[test]
     fn dispatched_kernels_match_their_portable_build() {
         use crate::cpu::{dispatch, Kernel};
@@ -1773,6 +1900,29 @@ mod tests {
             let vn = v.iter().map(|x| x * x).sum::<f64>().sqrt();
             for (j, &i) in order.iter().enumerate() {
                 assert!((cp[j] - v[i] / vn).abs() <= 1e-15 * (1.0 + v[i].abs() / vn));
+            }
+            // The leaves' QL iteration.
+            let (dl, el) = random(k, 7 + k as u64);
+            let (mut dp, mut dd) = (dl.clone(), dl.clone());
+            let (mut qp, mut qd) = (Mat::<f64>::zeros(k, k), Mat::<f64>::zeros(k, k));
+            Leaf {
+                d: &mut dp,
+                e: &el,
+                q: qp.as_mut(),
+            }
+            .portable()
+            .unwrap();
+            dispatch(Leaf {
+                d: &mut dd,
+                e: &el,
+                q: qd.as_mut(),
+            })
+            .unwrap();
+            assert!(dp.iter().zip(&dd).all(|(a, b)| a.to_bits() == b.to_bits()));
+            for j in 0..k {
+                for i in 0..k {
+                    assert_eq!(qp[(i, j)].to_bits(), qd[(i, j)].to_bits());
+                }
             }
         }
     }
