@@ -12,7 +12,8 @@
 //! builds the inverse iteration's and the QL iteration's row steps are intrinsics,
 //! the same IEEE operations per lane as the portable steps), the codec's predictor,
 //! the blocked reduction's symmetric products and its divide and conquer's secular
-//! equation and eigenvector kernels (`spectral::tridiagonal_dc`), the geometric
+//! equation, eigenvector and leaf kernels (`spectral::tridiagonal_dc`; the secular
+//! sums and the eigenvectors' normalisation are AVX2 intrinsics), the geometric
 //! operators' per-face lanes, the SDL's row weights, the sparse assembly's one-ring
 //! merge and two-ring sort (`operator::assemble`, AVX2 intrinsics gated by
 //! [`avx2_fma`]) and the shift-invert solves of the
