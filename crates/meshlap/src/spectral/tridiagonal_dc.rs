@@ -14,7 +14,8 @@
 //!    `rayon::join` when `par` has more than one thread); blocks of at most [`LEAF`]
 //!    rows are solved by the implicit QL algorithm with Wilkinson shifts, the
 //!    rotations accumulated into the block of `Z` (`dsteqr`), through the CPU
-//!    dispatch so that the rotations run in vector registers.
+//!    dispatch so that the rotations run in vector registers; each rotation's norm
+//!    is `√(f² + g²)` in `dlartg`'s safe range, libm's `hypot` outside it.
 //! 3. Merge (`dlaed1`): `diag(T₁, T₂) = Q D Qᵀ` with `Q = diag(Q₁, Q₂)`, so
 //!    `T = Q (D + ρ z zᵀ) Qᵀ` with `z = Qᵀ v / √2` (the last row of `Q₁`, the first
 //!    row of `Q₂`), `ρ = 2|β|`. Deflate (`dlaed2`): a component with `ρ|z_i| ≤ tol`
@@ -770,7 +771,7 @@ fn leaf_ql(d: &mut [f64], e: &[f64], mut q: MatMut<'_, f64>) -> Result<(), Tridi
             }
             budget -= 1;
             let mut g = (d[l + 1] - d[l]) / (2.0 * e[l]);
-            let mut r = g.hypot(1.0);
+            let mut r = rotation_norm(g, 1.0);
             g = d[mm] - d[l] + e[l] / (g + r.copysign(g));
             let (mut s, mut c, mut p) = (1.0f64, 1.0f64, 0.0f64);
             let mut i = mm;
@@ -779,7 +780,7 @@ fn leaf_ql(d: &mut [f64], e: &[f64], mut q: MatMut<'_, f64>) -> Result<(), Tridi
                 i -= 1;
                 let f = s * e[i];
                 let b = c * e[i];
-                r = f.hypot(g);
+                r = rotation_norm(f, g);
                 e[i + 1] = r;
                 if r == 0.0 {
                     d[i + 1] -= p;
@@ -831,6 +832,25 @@ fn leaf_ql(d: &mut [f64], e: &[f64], mut q: MatMut<'_, f64>) -> Result<(), Tridi
         }
     }
     Ok(())
+}
+
+/// `√(f² + g²)`, as LAPACK's `dlartg` forms it: directly where `|f|` and `|g|` are
+/// both in `(√safmin, √(safmax/2))`, so that neither square overflows or underflows
+/// and the sum cannot overflow (at most one rounding more than `hypot`'s, the same
+/// on every build: no fused operations), else by `f64::hypot`. libm's `hypot` is a
+/// call on the leaf's critical path, once per rotation.
+#[inline(always)]
+fn rotation_norm(f: f64, g: f64) -> f64 {
+    /// `√f64::MIN_POSITIVE`.
+    const RT_MIN: f64 = 1.4916681462400413e-154;
+    /// `√(f64::MAX / 2)`.
+    const RT_MAX: f64 = 9.480751908109176e153;
+    let (af, ag) = (f.abs(), g.abs());
+    if af > RT_MIN && af < RT_MAX && ag > RT_MIN && ag < RT_MAX {
+        (f * f + g * g).sqrt()
+    } else {
+        f.hypot(g)
+    }
 }
 
 /// `dlaed4`: the `i`-th (0-based) eigenvalue `λ` of `diag(d) + ρ z zᵀ` (d strictly
@@ -1925,5 +1945,44 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn rotation_norm_is_hypot_to_rounding_and_safe_at_the_extremes() {
+        // The safe range's ends are √safmin and √(safmax/2).
+        assert_eq!(
+            1.4916681462400413e-154f64.to_bits(),
+            f64::MIN_POSITIVE.sqrt().to_bits()
+        );
+        assert_eq!(
+            9.480751908109176e153f64.to_bits(),
+            (f64::MAX / 2.0).sqrt().to_bits()
+        );
+        let mut rng = SplitMix64::new(5);
+        for _ in 0..100_000 {
+            // Magnitudes over 10^±20 around random scales, signs random.
+            let scale = 10f64.powi(rng.below(41) as i32 - 20);
+            let (f, g) = (rng.next_signed() * scale, rng.next_signed() * scale * 1e3);
+            let (got, want) = (rotation_norm(f, g), f.hypot(g));
+            assert!((got - want).abs() <= 2.0 * f64::EPSILON * want, "{f} {g}");
+        }
+        // Outside the safe range: libm's hypot, which neither overflows nor flushes.
+        for (f, g) in [
+            (1e300, 1e300),
+            (1e-300, 1e-300),
+            (0.0, 3.0),
+            (-4.0, 0.0),
+            (0.0, 0.0),
+            (5e-324, 5e-324),
+            (1e200, 1.0),
+        ] {
+            assert_eq!(
+                rotation_norm(f, g).to_bits(),
+                f.hypot(g).to_bits(),
+                "{f} {g}"
+            );
+        }
+        assert!(rotation_norm(1e300, 1e300).is_finite());
+        assert!(rotation_norm(1e-300, 1e-300) > 0.0);
     }
 }
