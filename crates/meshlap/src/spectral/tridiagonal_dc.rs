@@ -836,9 +836,9 @@ fn leaf_ql(d: &mut [f64], e: &[f64], mut q: MatMut<'_, f64>) -> Result<(), Tridi
 
 /// `√(f² + g²)`, as LAPACK's `dlartg` forms it: directly where `|f|` and `|g|` are
 /// both in `(√safmin, √(safmax/2))`, so that neither square overflows or underflows
-/// and the sum cannot overflow (at most one rounding more than `hypot`'s, the same
-/// on every build: no fused operations), else by `f64::hypot`. libm's `hypot` is a
-/// call on the leaf's critical path, once per rotation.
+/// and the sum cannot overflow (within two ulps of `hypot`, which the tests check;
+/// the same bits on every build: no fused operations), else by `f64::hypot`. libm's
+/// `hypot` is a call on the leaf's critical path, once per rotation.
 #[inline(always)]
 fn rotation_norm(f: f64, g: f64) -> f64 {
     /// `√f64::MIN_POSITIVE`.
