@@ -31,7 +31,25 @@ pub fn write_matrix_market(path: &Path, m: SparseColMatRef<'_, usize, f64>) -> R
     })
 }
 
-/// Reads a Matrix Market coordinate real (general or symmetric) file.
+/// Column pointers a Matrix Market file may make the reader allocate beyond
+/// [`COLUMNS_PER_BYTE`] per byte of the file (256 KiB of pointers).
+const FREE_COLUMNS: usize = 1 << 15;
+
+/// Column pointers (8 bytes each) allowed per byte of a Matrix Market file: the
+/// readers' memory bound, 64 bytes per byte present (`tests/hostile_alloc.rs`).
+const COLUMNS_PER_BYTE: usize = 8;
+
+/// Reads a Matrix Market coordinate real (general or symmetric) file into an
+/// `nrows × ncols` compressed-column matrix (a symmetric file's entries mirrored).
+///
+/// # Errors
+/// [`IoError`] for a file that cannot be read, a malformed banner, size line or entry,
+/// an index out of range, or too few entries. The matrix has one column pointer per
+/// column whatever the entries, so a size line declaring more columns than
+/// `8 · (file bytes) + 32,768` is [`IoError::Unsupported`] (such a file's columns are
+/// almost all empty; without the limit a 60-byte file could commit gigabytes): the
+/// reader's memory stays within a small multiple of the file, as every reader's does.
+/// faer's error ([`IoError::Matrix`]) when the matrix cannot be allocated.
 pub fn read_matrix_market(path: &Path) -> Result<SparseMatrix, IoError> {
     let file = path.display().to_string();
     let bytes = std::fs::read(path).map_err(|source| IoError::Open {
@@ -64,6 +82,20 @@ pub fn read_matrix_market(path: &Path) -> Result<SparseMatrix, IoError> {
         parse_num::<usize>(t[1], &file, ln, "a column count")?,
         parse_num::<usize>(t[2], &file, ln, "an entry count")?,
     );
+    let max_cols = bytes
+        .len()
+        .saturating_mul(COLUMNS_PER_BYTE)
+        .saturating_add(FREE_COLUMNS);
+    if nc > max_cols {
+        return Err(IoError::Unsupported {
+            file,
+            message: format!(
+                "{nc} columns in a {}-byte file (at most {max_cols}: the matrix stores one \
+                 pointer per column, and columns beyond that are almost all empty)",
+                bytes.len()
+            ),
+        });
+    }
     let mut trip = Vec::with_capacity(nnz.min(bytes.len() / 6));
     for _ in 0..nnz {
         let (ln, l) = it.next().ok_or_else(|| IoError::Truncated {
@@ -104,5 +136,49 @@ mod tests {
         write_matrix_market(&p, s.as_ref()).unwrap();
         let back = read_matrix_market(&p).unwrap();
         assert_eq!(back.to_dense(), s.to_dense());
+    }
+
+    /// Writes `text` to a scratch `.mtx` file and reads it back.
+    fn read_text(text: &str) -> Result<SparseMatrix, IoError> {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("m.mtx");
+        std::fs::write(&p, text).unwrap();
+        read_matrix_market(&p)
+    }
+
+    #[test]
+    fn columns_beyond_the_file_are_refused_before_allocating() {
+        // A fuzz finding: 99,567,296 columns in a 117-byte file took 0.8 GB and ~1 s.
+        for nc in ["99567296", "100000000000"] {
+            let text =
+                format!("%%MatrixMarket matrix coordinate real general\n3 {nc} 1\n1 1 2.0\n");
+            match read_text(&text) {
+                Err(IoError::Unsupported { message, .. }) => {
+                    assert!(
+                        message.starts_with(&format!("{nc} columns in a")),
+                        "{message}"
+                    )
+                }
+                other => panic!("{nc} columns: {other:?}"),
+            }
+        }
+        // At the limit: 8 per byte of the file plus 32,768 columns, all empty but one.
+        let head = "%%MatrixMarket matrix coordinate real general\n3 ";
+        let tail = " 1\n1 1 2.0\n";
+        let len = head.len() + tail.len() + 5;
+        let at = len * COLUMNS_PER_BYTE + FREE_COLUMNS;
+        assert_eq!(at.to_string().len(), 5);
+        let m = read_text(&format!("{head}{at}{tail}")).unwrap();
+        assert_eq!((m.nrows(), m.ncols(), m.compute_nnz()), (3, at, 1));
+        assert!(matches!(
+            read_text(&format!("{head}{}{tail}", at + 1)),
+            Err(IoError::Unsupported { .. })
+        ));
+        // Rows cost nothing: a tall matrix of 10^12 rows reads.
+        let m = read_text(
+            "%%MatrixMarket matrix coordinate real general\n1000000000000 3 1\n7 2 1.5\n",
+        )
+        .unwrap();
+        assert_eq!(m.nrows(), 1_000_000_000_000);
     }
 }
