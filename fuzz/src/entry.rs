@@ -191,8 +191,8 @@ pub fn reseal(data: &[u8]) -> Option<Vec<u8>> {
         sections.push((kind, &data[pos..pos + len]));
         pos += len;
     }
-    // Keep the input's format version (4 and 5 are both read): the checksums cover
-    // the sections only.
+    // Keep the input's format version (every version from `container::MIN_VERSION`
+    // to `container::VERSION` is read): the checksums cover the sections only.
     let mut out = container::write(&sections).ok()?;
     out[4..6].copy_from_slice(&data[4..6]);
     Some(out)
