@@ -140,6 +140,12 @@ fn parse_header(bytes: &[u8], file: &str) -> Result<Header, IoError> {
                 let count_tok = t.next().unwrap_or(b"");
                 let count =
                     super::text::parse_num::<usize>(count_tok, file, line_no, "an element count")?;
+                // Face indices refer to the one vertex element (a second one was read
+                // into the positions by the record-by-record path and replaced them in
+                // the fast path: a finding of the differential fuzz target).
+                if name == b"vertex" && elements.iter().any(|e| e.name == b"vertex") {
+                    return Err(err(format!("line {line_no}: a second `vertex` element")));
+                }
                 elements.push(Element {
                     name: name.to_vec(),
                     count,
@@ -425,6 +431,7 @@ fn fixed_vertices(
     el: &Element,
     idx: [usize; 3],
     little_endian: bool,
+    per_task: usize,
 ) -> Option<Result<(Vec<[f64; 3]>, usize), usize>> {
     let mut offsets = Vec::with_capacity(el.props.len());
     let mut stride = 0;
@@ -443,13 +450,13 @@ fn fixed_vertices(
     // x, y and z are properties of the record, so `stride` is at least 3.
     let positions = if layout.at.iter().all(|&(_, t)| t == s) {
         with_scalar!(s, T => if little_endian {
-            vertices_as::<T, true>(data, layout, el.count)
+            vertices_as::<T, true>(data, layout, el.count, per_task)
         } else {
-            vertices_as::<T, false>(data, layout, el.count)
+            vertices_as::<T, false>(data, layout, el.count, per_task)
         })
     } else {
         let at = layout.at;
-        vertices_with(data, stride, el.count, |rec| {
+        vertices_with(data, stride, el.count, per_task, |rec| {
             at.map(|(o, s)| decode(&rec[o..], s, little_endian))
         })
     };
@@ -462,10 +469,11 @@ fn vertices_as<T: Bin, const LE: bool>(
     data: &[u8],
     layout: Layout,
     n: usize,
+    per_task: usize,
 ) -> Result<Vec<[f64; 3]>, usize> {
     let [(ox, _), (oy, _), (oz, _)] = layout.at;
     if layout.stride == 3 * T::SIZE && [ox, oy, oz] == [0, T::SIZE, 2 * T::SIZE] {
-        vertices_with(data, 3 * T::SIZE, n, |rec| {
+        vertices_with(data, 3 * T::SIZE, n, per_task, |rec| {
             [
                 T::get::<LE>(rec),
                 T::get::<LE>(&rec[T::SIZE..]),
@@ -473,7 +481,7 @@ fn vertices_as<T: Bin, const LE: bool>(
             ]
         })
     } else {
-        vertices_with(data, layout.stride, n, |rec| {
+        vertices_with(data, layout.stride, n, per_task, |rec| {
             [
                 T::get::<LE>(&rec[ox..]),
                 T::get::<LE>(&rec[oy..]),
@@ -484,19 +492,22 @@ fn vertices_as<T: Bin, const LE: bool>(
 }
 
 /// Decodes `n` records of `stride` bytes (`data` holds exactly that) with `xyz`, in
-/// parallel blocks of [`RECORDS_PER_TASK`] written in place; `Err(v)` names the first
-/// vertex with a NaN or infinite coordinate.
+/// parallel blocks of `per_task` records (at least 1; [`RECORDS_PER_TASK`] in
+/// [`read`]) written in place; `Err(v)` names the first vertex with a NaN or infinite
+/// coordinate.
 #[inline(always)]
 fn vertices_with(
     data: &[u8],
     stride: usize,
     n: usize,
+    per_task: usize,
     xyz: impl Fn(&[u8]) -> [f64; 3] + Sync,
 ) -> Result<Vec<[f64; 3]>, usize> {
+    let per_task = per_task.max(1);
     let mut out = crate::mem::zeroed_vec([0.0f64; 3], n);
     let bad = out
-        .par_chunks_mut(RECORDS_PER_TASK)
-        .zip(data.par_chunks(RECORDS_PER_TASK * stride))
+        .par_chunks_mut(per_task)
+        .zip(data.par_chunks(per_task * stride))
         .enumerate()
         .filter_map(|(k, (out, data))| {
             let mut finite = true;
@@ -508,7 +519,7 @@ fn vertices_with(
                 return None;
             }
             let v = out.iter().position(|p| !p.iter().all(|c| c.is_finite()))?;
-            Some(k * RECORDS_PER_TASK + v)
+            Some(k * per_task + v)
         })
         .min();
     match bad {
@@ -531,6 +542,7 @@ fn fixed_triangles(
     li: usize,
     n_vertices: usize,
     little_endian: bool,
+    per_task: usize,
 ) -> Option<(Vec<[u32; 3]>, usize)> {
     let mut stride = 0;
     let mut list_at = (0, Scalar::U8, Scalar::I32);
@@ -551,7 +563,7 @@ fn fixed_triangles(
     let first = at + count.size();
     macro_rules! typed {
         ($C:ty, $I:ty, $LE:literal) => {
-            triangles_with(data, stride, el.count, |rec| {
+            triangles_with(data, stride, el.count, per_task, |rec| {
                 let rec = &rec[at..];
                 if <$C>::get::<$LE>(rec) != 3.0 {
                     return None;
@@ -578,7 +590,7 @@ fn fixed_triangles(
         (Scalar::U8, Scalar::U32, false) => typed!(u8, u32, false),
         (Scalar::I32, Scalar::I32, false) => typed!(i32, i32, false),
         (Scalar::U32, Scalar::U32, false) => typed!(u32, u32, false),
-        _ => triangles_with(data, stride, el.count, |rec| {
+        _ => triangles_with(data, stride, el.count, per_task, |rec| {
             if decode(&rec[at..], count, little_endian) != 3.0 {
                 return None;
             }
@@ -597,22 +609,24 @@ fn fixed_triangles(
 }
 
 /// Decodes `n` records of `stride` bytes (`data` holds exactly that) with `triangle`,
-/// in parallel blocks of [`RECORDS_PER_TASK`] written in place; `None` as soon as one
-/// record gives `None`.
+/// in parallel blocks of `per_task` records (at least 1) written in place; `None` as
+/// soon as one record gives `None`.
 #[inline(always)]
 fn triangles_with(
     data: &[u8],
     stride: usize,
     n: usize,
+    per_task: usize,
     triangle: impl Fn(&[u8]) -> Option<[u32; 3]> + Sync,
 ) -> Option<Vec<[u32; 3]>> {
     if stride == 0 {
         return None;
     }
+    let per_task = per_task.max(1);
     let mut out = crate::mem::zeroed_vec([0u32; 3], n);
     let fits = out
-        .par_chunks_mut(RECORDS_PER_TASK)
-        .zip(data.par_chunks(RECORDS_PER_TASK * stride))
+        .par_chunks_mut(per_task)
+        .zip(data.par_chunks(per_task * stride))
         .all(|(out, data)| {
             out.iter_mut()
                 .zip(data.chunks_exact(stride))
@@ -639,16 +653,18 @@ fn min_element_bytes(el: &Element, enc: Encoding) -> usize {
 }
 
 pub(crate) fn read(bytes: &[u8], file: &str, info: &mut ReadInfo) -> Result<TriMesh, IoError> {
-    read_with(bytes, file, info, true)
+    read_with(bytes, file, info, Some(RECORDS_PER_TASK))
 }
 
-/// [`read`]; `fixed: false` reads binary elements record by record, without the
-/// fixed-record fast paths (the reference the tests compare them with).
-fn read_with(
+/// [`read`] with the binary fixed-record fast paths decoding parallel blocks of
+/// `fixed = Some(records)` records (tests and the differential fuzz target cut small
+/// files finely); `fixed: None` reads binary elements record by record, without the
+/// fast paths (the reference they are compared with).
+pub(super) fn read_with(
     bytes: &[u8],
     file: &str,
     info: &mut ReadInfo,
-    fixed: bool,
+    fixed: Option<usize>,
 ) -> Result<TriMesh, IoError> {
     let h = parse_header(bytes, file)?;
     let mut r = Reader {
@@ -691,9 +707,10 @@ fn read_with(
                     });
                 }
                 let idx = idx.map(|i| i.unwrap_or(0));
-                if fixed && h.encoding != Encoding::Ascii {
+                if let (Some(per_task), false) = (fixed, h.encoding == Encoding::Ascii) {
                     let little = h.encoding == Encoding::Little;
-                    if let Some(fixed) = fixed_vertices(&bytes[r.pos..], el, idx, little) {
+                    let found = fixed_vertices(&bytes[r.pos..], el, idx, little, per_task);
+                    if let Some(fixed) = found {
                         let (p, used) = fixed.map_err(|v| IoError::NonFinite {
                             file: file.to_string(),
                             line: 0,
@@ -746,9 +763,10 @@ fn read_with(
                         message: format!("{what} has no vertex_indices list"),
                     });
                 };
-                if fixed && !strips && h.encoding != Encoding::Ascii {
+                if let (Some(per_task), false) = (fixed, strips || h.encoding == Encoding::Ascii) {
                     let little = h.encoding == Encoding::Little;
-                    if let Some((f, used)) = fixed_triangles(&bytes[r.pos..], el, li, nv, little) {
+                    let found = fixed_triangles(&bytes[r.pos..], el, li, nv, little, per_task);
+                    if let Some((f, used)) = found {
                         if faces.is_empty() {
                             faces = f;
                         } else {
@@ -998,13 +1016,15 @@ mod tests {
         b
     }
 
+    fn read_fixed(b: &[u8], fixed: Option<usize>) -> Result<(TriMesh, ReadInfo), String> {
+        let mut info = ReadInfo::new(crate::io::Format::Ply);
+        read_with(b, "t.ply", &mut info, fixed)
+            .map(|m| (m, info))
+            .map_err(|e| e.to_string())
+    }
+
     fn read_both(b: &[u8]) -> [Result<(TriMesh, ReadInfo), String>; 2] {
-        [true, false].map(|fixed| {
-            let mut info = ReadInfo::new(crate::io::Format::Ply);
-            read_with(b, "t.ply", &mut info, fixed)
-                .map(|m| (m, info))
-                .map_err(|e| e.to_string())
-        })
+        [Some(RECORDS_PER_TASK), None].map(|fixed| read_fixed(b, fixed))
     }
 
     #[test]
@@ -1078,6 +1098,100 @@ mod tests {
             n += 1;
         }
         assert!(n >= 3);
+    }
+
+    #[test]
+    fn small_blocks_equal_the_record_by_record_read() {
+        // Blocks of 1..=9 records on a small file: block ends fall everywhere, and the
+        // failing record (a non-finite vertex, an index out of range) is found in a
+        // later block but reported as the sequential read reports it.
+        let nv = 23;
+        let tri: Vec<Vec<i64>> = (0..31)
+            .map(|k| vec![k % nv, (k * 7 + 1) % nv, (k * 13 + 5) % nv])
+            .collect();
+        let mut bad_face = tri.clone();
+        bad_face[17][2] = nv;
+        let mut quad = tri.clone();
+        quad[29].push(4);
+        let mut files = Vec::new();
+        for big in [false, true] {
+            for coord in ["float", "short"] {
+                files.push(big_binary(big, coord, big, "int", nv as usize, &tri));
+            }
+        }
+        files.push(big_binary(
+            false,
+            "double",
+            false,
+            "uint",
+            nv as usize,
+            &bad_face,
+        ));
+        files.push(big_binary(true, "float", true, "int", nv as usize, &quad));
+        let mut nan = big_binary(false, "double", false, "int", nv as usize, &tri);
+        let header = nan.len() - nv as usize * 24 - tri.len() * 13;
+        for v in [13, 19] {
+            nan[header + v * 24..header + v * 24 + 8].copy_from_slice(&f64::NAN.to_le_bytes());
+        }
+        files.push(nan);
+        for (k, b) in files.iter().enumerate() {
+            let reference = read_fixed(b, None);
+            for per_task in 0..=9 {
+                assert_eq!(
+                    read_fixed(b, Some(per_task)),
+                    reference,
+                    "file {k}, {per_task}"
+                );
+            }
+        }
+        assert!(read_fixed(&files[4], None)
+            .unwrap_err()
+            .contains("face index 23"));
+        assert!(read_fixed(&files[6], None)
+            .unwrap_err()
+            .contains("vertex 13"));
+        assert_eq!(
+            read_fixed(&files[5], None).unwrap().1.polygons_triangulated,
+            1
+        );
+    }
+
+    #[test]
+    fn a_second_vertex_element_is_refused() {
+        // Found by the differential fuzz target: the record-by-record read appended
+        // the second element's positions, the binary fast path kept only them.
+        let head = "element vertex 1\nproperty float x\nproperty float y\nproperty float z\n";
+        let file = |format: &str, body: &[u8]| {
+            let mut b = format!(
+                "ply\nformat {format} 1.0\n{head}{head}element face 1\n\
+                 property list uchar int vertex_indices\nend_header\n"
+            )
+            .into_bytes();
+            b.extend_from_slice(body);
+            b
+        };
+        let mut body = Vec::new();
+        for v in [[0f32, 0., 0.], [1., 0., 0.]] {
+            for c in v {
+                body.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+        body.push(3);
+        for i in [0i32, 1, 0] {
+            body.extend_from_slice(&i.to_le_bytes());
+        }
+        for b in [
+            file("binary_little_endian", &body),
+            file("ascii", b"0 0 0\n1 0 0\n3 0 1 0\n"),
+        ] {
+            for fixed in [Some(RECORDS_PER_TASK), Some(1), None] {
+                let e = read_fixed(&b, fixed).unwrap_err();
+                assert_eq!(
+                    e, "t.ply: bad header: line 7: a second `vertex` element",
+                    "{fixed:?}"
+                );
+            }
+        }
     }
 
     #[test]
