@@ -8,7 +8,7 @@ target=$1
 secs=${2:-1800}
 runs=${3:-1000000}
 case $target in
-  obj) dict=obj ;; off) dict=off ;; ply_ascii|ply_binary) dict=ply ;;
+  obj|obj_variants) dict=obj ;; off) dict=off ;; ply_ascii|ply_binary|ply_variants) dict=ply ;;
   stl_ascii|stl_binary) dict=stl ;; mtx) dict=mtx ;; npy) dict=npy ;; *) dict= ;;
 esac
 mkdir -p "corpus/$target" logs

@@ -96,6 +96,20 @@ def ply_binary_seeds():
     return seeds
 
 
+def obj_variants_seeds():
+    # First byte: the smallest chunk, 1 + byte % 64 (see fuzz/src/entry.rs).
+    return {f"chunk{1 + b % 64}_{name}": bytes([b]) + content.encode()
+            for b, (name, content) in zip([0, 6, 63], obj_seeds().items())}
+
+
+def ply_variants_seeds():
+    # The files of ply_binary; the mode byte's top three bits set the blocks, 1 + bits.
+    seeds = {}
+    for k, (name, content) in enumerate(sorted(ply_binary_seeds().items())):
+        seeds[f"blocks{1 + k % 8}_{name}"] = bytes([content[0] | (k % 8) << 5]) + content[1:]
+    return seeds
+
+
 def stl_ascii_seeds():
     out = "solid tet\n"
     for f in F:
@@ -165,21 +179,32 @@ def main():
     write("obj", obj_seeds())
     copy_matching("obj", "*.obj")
     copy_matching("obj", "*.obj", DATA / "mlz")
+    write("obj_variants", obj_variants_seeds())
     write("off", off_seeds())
     copy_matching("off", "*.off")
     write("ply_ascii", ply_ascii_seeds())
     copy_matching("ply_ascii", "*.ply")
     write("ply_binary", ply_binary_seeds())
+    write("ply_variants", ply_variants_seeds())
     write("stl_ascii", stl_ascii_seeds())
     copy_matching("stl_ascii", "*.stl")
     write("stl_binary", stl_binary_seeds())
     copy_matching("mlz", "*.mlz", DATA / "mlz")
+    copy_matching("mlz_threads", "*.mlz", DATA / "mlz")
     write("mtx", mtx_seeds())
     write("npy", npy_seeds())
     # The committed minimised corpora (from earlier runs).
     for committed in sorted((DATA / "fuzz").glob("*")):
         if committed.is_dir():
             copy_matching(committed.name, "*", committed)
+    # The differential targets start from the plain targets' corpora too: OBJ files
+    # behind a chunk byte, binary PLY inputs as they are (their mode bytes' top bits
+    # pick the blocks).
+    for k, p in enumerate(sorted((DATA / "fuzz" / "obj").glob("*"))):
+        if p.is_file() and p.stat().st_size <= 16384:
+            (OUT / "obj_variants" / f"obj-{p.name}").write_bytes(bytes([k * 37 % 256]) + p.read_bytes())
+    copy_matching("ply_variants", "*", DATA / "fuzz" / "ply_binary")
+    copy_matching("mlz_threads", "*", DATA / "fuzz" / "mlz")
     for d in sorted(OUT.iterdir()):
         print(f"{d.name}: {len(list(d.iterdir()))} seeds")
 

@@ -2,7 +2,11 @@
 //! public entry point. Errors are expected and ignored; a panic, an abort, a timeout or
 //! an allocation over the limit is a finding. A successful read must also satisfy the
 //! reader's contract (asserted here): every face index in range, every coordinate
-//! finite.
+//! finite. The differential targets (`obj_variants`, `ply_variants`) read the same
+//! bytes through a reader's internal variants (`meshlap::io::variants`: parallel
+//! chunks, the line scanner, the binary fast paths) and assert that each gives
+//! exactly what the sequential reference gives: the same bits, report and error;
+//! `mlz_threads` does the same for the decoder on one thread and on two.
 //!
 //! Shared by the fuzz targets (`fuzz/fuzz_targets/*.rs`, nightly, libFuzzer) and the
 //! stable replay test `crates/meshlap/tests/fuzz_replay.rs` (through `#[path]`), so
@@ -10,21 +14,24 @@
 //! code on stable.
 
 use meshlap::codec::container::{self, SectionKind};
-use meshlap::io::{read_mesh_from_bytes, Format};
+use meshlap::io::{read_mesh_from_bytes, variants, Format, IoError, ReadInfo};
 use meshlap::TriMesh;
 
 /// A fuzz target's entry point.
 pub type Target = fn(&[u8]);
 
 /// Every target, by name (the names of the `[[bin]]`s and of the corpus folders).
-pub const TARGETS: [(&str, Target); 10] = [
+pub const TARGETS: [(&str, Target); 13] = [
     ("obj", obj),
+    ("obj_variants", obj_variants),
     ("off", off),
     ("ply_ascii", ply_ascii),
     ("ply_binary", ply_binary),
+    ("ply_variants", ply_variants),
     ("stl_ascii", stl_ascii),
     ("stl_binary", stl_binary),
     ("mlz", mlz),
+    ("mlz_threads", mlz_threads),
     ("mtx", mtx),
     ("npy", npy),
     ("watermark_detect", watermark_detect),
@@ -50,9 +57,43 @@ fn read(data: &[u8], format: Format) {
     }
 }
 
+/// What a reader variant gave, in a form compared exactly: the mesh's coordinates as
+/// bits (so `-0.0` and `0.0` differ), its faces, the report, or the error's message.
+type Outcome = Result<(Vec<[u64; 3]>, Vec<[u32; 3]>, ReadInfo), String>;
+
+fn outcome(r: Result<(TriMesh, ReadInfo), IoError>) -> Outcome {
+    r.map(|(m, info)| {
+        check_mesh(&m);
+        let bits = m.positions.iter().map(|p| p.map(f64::to_bits)).collect();
+        (bits, m.faces, info)
+    })
+    .map_err(|e| e.to_string())
+}
+
 /// Wavefront OBJ, raw bytes.
 pub fn obj(data: &[u8]) {
     read(data, Format::Obj);
+}
+
+/// Wavefront OBJ, differential. The first byte sets the smallest chunk, 1 to 64 bytes,
+/// so that even small inputs are cut into several chunks parsed in parallel (the
+/// reader's own threshold is 1 MiB, beyond any fuzz input); the rest is the file. The
+/// scanner on one chunk (what `read_mesh` does with small files), the scanner on small
+/// chunks and the tokens on small chunks must each give what the tokens give on one
+/// chunk.
+pub fn obj_variants(data: &[u8]) {
+    let Some((&b, file)) = data.split_first() else {
+        return;
+    };
+    let chunk = 1 + usize::from(b % 64);
+    let reference = outcome(variants::obj(file, usize::MAX, false));
+    for (min_chunk, scan) in [(usize::MAX, true), (chunk, true), (chunk, false)] {
+        let got = outcome(variants::obj(file, min_chunk, scan));
+        assert!(
+            got == reference,
+            "chunks of {min_chunk}, scan {scan}: {got:?}\nreference: {reference:?}"
+        );
+    }
 }
 
 /// OFF, raw bytes.
@@ -76,12 +117,36 @@ const PLY_TYPES: [&str; 8] = [
 /// and the rest is the body, so mutations reach the binary decoding (including the
 /// fixed-size fast paths) instead of dying in the header.
 pub fn ply_binary(data: &[u8]) {
-    let Some((&mode, rest)) = data.split_first() else {
+    if let Some((_, file)) = ply_binary_file(data) {
+        read(&file, Format::Ply);
+    }
+}
+
+/// Binary PLY, differential: the file of [`ply_binary`]; the mode byte's top three bits
+/// set the fast paths' parallel blocks, 1 to 8 records, so that block ends fall inside
+/// small inputs (the reader's own blocks hold 16,384 records). The fast paths with
+/// those blocks and with the reader's own must each give what the record-by-record
+/// read gives.
+pub fn ply_variants(data: &[u8]) {
+    let Some((mode, file)) = ply_binary_file(data) else {
         return;
     };
+    let records = 1 + usize::from(mode >> 5);
+    let reference = outcome(variants::ply(&file, None));
+    for blocks in [records, 1 << 14] {
+        let got = outcome(variants::ply(&file, Some(blocks)));
+        assert!(
+            got == reference,
+            "blocks of {blocks}: {got:?}\nreference: {reference:?}"
+        );
+    }
+}
+
+/// The mode byte and the PLY file of [`ply_binary`]'s input; `None` when it is empty.
+fn ply_binary_file(data: &[u8]) -> Option<(u8, Vec<u8>)> {
+    let (&mode, rest) = data.split_first()?;
     if mode & 1 == 0 || rest.len() < 5 {
-        read(rest, Format::Ply);
-        return;
+        return Some((mode, rest.to_vec()));
     }
     let order = if mode & 2 == 0 {
         "binary_little_endian"
@@ -111,7 +176,7 @@ pub fn ply_binary(data: &[u8]) {
     file.push_str("end_header\n");
     let mut bytes = file.into_bytes();
     bytes.extend_from_slice(&rest[5..]);
-    read(&bytes, Format::Ply);
+    Some((mode, bytes))
 }
 
 /// ASCII STL, raw bytes (binary detection included: a file whose size matches its
@@ -159,6 +224,37 @@ pub fn mlz(data: &[u8]) {
             check_mesh(&m);
         }
     }
+}
+
+/// The `.mlz` decoder, differential: the input re-sealed as in [`mlz`] (or as it is,
+/// when it holds no container header) decoded on one thread, which runs the
+/// entropy decoder and the patches' synthesis one after the other, and on the global
+/// pool, where they overlap on two threads and the synthesis fans out: the same mesh,
+/// bit for bit, or the same error.
+pub fn mlz_threads(data: &[u8]) {
+    static ONE: std::sync::OnceLock<rayon::ThreadPool> = std::sync::OnceLock::new();
+    let one = ONE.get_or_init(|| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .expect("a one-thread pool")
+    });
+    let bytes = reseal(data).unwrap_or_else(|| data.to_vec());
+    let decode = || {
+        meshlap::codec::decompress(&bytes)
+            .map(|m| {
+                check_mesh(&m);
+                let bits: Vec<[u64; 3]> = m.positions.iter().map(|p| p.map(f64::to_bits)).collect();
+                (bits, m.faces)
+            })
+            .map_err(|e| e.to_string())
+    };
+    let sequential = one.install(decode);
+    let threaded = decode();
+    assert!(
+        threaded == sequential,
+        "threaded: {threaded:?}\none thread: {sequential:?}"
+    );
 }
 
 /// Parses `data` with the container's layout (see `codec::container`) but ignores the

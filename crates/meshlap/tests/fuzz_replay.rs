@@ -3,7 +3,9 @@
 //! points (`fuzz/src/entry.rs`, compiled in here), so a reader or decoder regression
 //! that panics fails `cargo test` without nightly or libFuzzer. Errors are fine; a
 //! panic (or a successful read with an out-of-range face index or a non-finite
-//! coordinate) is not.
+//! coordinate, or, in the differential targets, a variant of a reader or of the
+//! decoder that gives other bits or another error than its sequential reference) is
+//! not.
 
 #[path = "../../../fuzz/src/entry.rs"]
 mod entry;

@@ -445,7 +445,8 @@ fn compress_cow(
     })
 }
 
-/// Decompresses an `.mlz` file image (version 4, 5 or 6). Connectivity is rebuilt
+/// Decompresses an `.mlz` file image (any format version from
+/// [`container::MIN_VERSION`] to [`container::VERSION`]). Connectivity is rebuilt
 /// exactly (a cut mesh re-joined); geometry to the coded precision; the vertex order
 /// is the input's if it was stored.
 ///

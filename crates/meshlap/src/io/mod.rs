@@ -325,6 +325,36 @@ fn read_any(bytes: &[u8], format: Format, name: &str) -> Result<(TriMesh, ReadIn
     Ok((mesh, info))
 }
 
+/// The readers' internal variants, for differential fuzzing (`fuzz/src/entry.rs`, whose
+/// `obj_variants` and `ply_variants` targets check that every variant of a reader gives
+/// the same mesh, report and error as its plain sequential reference) and for the
+/// stable replay of its corpora. Not part of the API: these may change or go at any
+/// time. Use [`read_mesh`] and [`read_mesh_from_bytes`].
+#[doc(hidden)]
+pub mod variants {
+    use super::{obj, ply, Format, IoError, ReadInfo};
+    use crate::mesh::TriMesh;
+
+    /// OBJ `bytes` cut at line ends into chunks of at least `min_chunk` bytes (at most
+    /// four per rayon thread) parsed in parallel, each line by the scanner with the
+    /// token-based fallback (`scan: true`, what [`super::read_mesh`] does) or by the
+    /// tokens alone. `min_chunk = usize::MAX, scan = false` is the sequential
+    /// reference.
+    pub fn obj(bytes: &[u8], min_chunk: usize, scan: bool) -> Result<(TriMesh, ReadInfo), IoError> {
+        let mut info = ReadInfo::new(Format::Obj);
+        obj::read_in_chunks(bytes, "<memory>", &mut info, min_chunk, scan).map(|m| (m, info))
+    }
+
+    /// PLY `bytes` with the binary fixed-record fast paths decoding parallel blocks of
+    /// `Some(records)` records (at least 1), or (`None`) every binary element read
+    /// record by record: the sequential reference. ASCII files read the same either
+    /// way.
+    pub fn ply(bytes: &[u8], records: Option<usize>) -> Result<(TriMesh, ReadInfo), IoError> {
+        let mut info = ReadInfo::new(Format::Ply);
+        ply::read_with(bytes, "<memory>", &mut info, records).map(|m| (m, info))
+    }
+}
+
 /// Options of [`write_mesh`].
 #[derive(Clone, Copy, Debug, Default)]
 pub struct WriteOptions<'a> {

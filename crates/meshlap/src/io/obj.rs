@@ -37,9 +37,10 @@ pub(crate) fn read(bytes: &[u8], file: &str, info: &mut ReadInfo) -> Result<TriM
     read_in_chunks(bytes, file, info, CHUNK_BYTES, true)
 }
 
-/// [`read`] with chunks of at least `min_chunk` bytes (tests cut small files finely);
-/// `scan: false` parses every line with the token-based reader alone.
-fn read_in_chunks(
+/// [`read`] with chunks of at least `min_chunk` bytes (tests and the differential fuzz
+/// target cut small files finely); `scan: false` parses every line with the
+/// token-based reader alone.
+pub(super) fn read_in_chunks(
     bytes: &[u8],
     file: &str,
     info: &mut ReadInfo,
