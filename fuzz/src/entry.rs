@@ -62,12 +62,14 @@ fn read(data: &[u8], format: Format) {
 type Outcome = Result<(Vec<[u64; 3]>, Vec<[u32; 3]>, ReadInfo), String>;
 
 fn outcome(r: Result<(TriMesh, ReadInfo), IoError>) -> Outcome {
-    r.map(|(m, info)| {
-        check_mesh(&m);
-        let bits = m.positions.iter().map(|p| p.map(f64::to_bits)).collect();
-        (bits, m.faces, info)
-    })
-    .map_err(|e| e.to_string())
+    r.map(|(m, info)| (checked_bits(&m), m.faces, info))
+        .map_err(|e| e.to_string())
+}
+
+/// The coordinates of a mesh that keeps the contract ([`check_mesh`]), as bits.
+fn checked_bits(m: &TriMesh) -> Vec<[u64; 3]> {
+    check_mesh(m);
+    m.positions.iter().map(|p| p.map(f64::to_bits)).collect()
 }
 
 /// Wavefront OBJ, raw bytes.
@@ -242,11 +244,7 @@ pub fn mlz_threads(data: &[u8]) {
     let bytes = reseal(data).unwrap_or_else(|| data.to_vec());
     let decode = || {
         meshlap::codec::decompress(&bytes)
-            .map(|m| {
-                check_mesh(&m);
-                let bits: Vec<[u64; 3]> = m.positions.iter().map(|p| p.map(f64::to_bits)).collect();
-                (bits, m.faces)
-            })
+            .map(|m| (checked_bits(&m), m.faces))
             .map_err(|e| e.to_string())
     };
     let sequential = one.install(decode);
