@@ -41,6 +41,26 @@ pub(crate) trait FoldInOrder: rayon::iter::IndexedParallelIterator + Sized {
 
 impl<I: rayon::iter::IndexedParallelIterator> FoldInOrder for I {}
 
+/// Index of the first item of `items` for which `bad` holds, as a sequential scan
+/// would find it; in parallel over chunks of 4,096 items, each scanned sequentially,
+/// and only the first chunk with a hit searched for its position.
+///
+/// Rayon's `par_iter().position_first` checks a shared atomic at every item: on a
+/// 134k-vertex mesh's positions it took 0.79 ms where a sequential scan took 0.11 ms
+/// (2 threads); by chunks, 0.1 ms.
+pub(crate) fn position_first<T: Sync>(
+    items: &[T],
+    bad: impl Fn(&T) -> bool + Sync,
+) -> Option<usize> {
+    use rayon::prelude::*;
+    const CHUNK: usize = 1 << 12;
+    let c = items
+        .par_chunks(CHUNK)
+        .position_first(|c| c.iter().any(&bad))?;
+    let start = c * CHUNK;
+    items[start..].iter().position(&bad).map(|k| start + k)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -70,6 +90,36 @@ mod tests {
                 assert_eq!(got.to_bits(), want.to_bits(), "{threads} threads");
             }
         }
+    }
+
+    #[test]
+    fn position_first_finds_the_first_hit_on_any_thread_count() {
+        let n = 50_000;
+        for hits in [
+            vec![],
+            vec![0],
+            vec![n - 1],
+            vec![4095, 4096],
+            vec![9000, 30_000, 4097],
+        ] {
+            let mut v = vec![false; n];
+            for &h in &hits {
+                v[h] = true;
+            }
+            let want = v.iter().position(|&b| b);
+            for threads in [1, 2, 3] {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                assert_eq!(
+                    pool.install(|| position_first(&v, |&b| b)),
+                    want,
+                    "{hits:?}"
+                );
+            }
+        }
+        assert_eq!(position_first(&[] as &[bool], |&b| b), None);
     }
 
     #[test]

@@ -155,10 +155,14 @@ pub(super) fn check_faces(n: usize, faces: &[[u32; 3]]) -> Result<(), MeshError>
         });
     }
     super::check_face_indices(faces, n)?;
-    if let Some(face) = faces
-        .par_iter()
-        .with_min_len(1 << 14)
-        .position_first(|t| t[0] == t[1] || t[1] == t[2] || t[0] == t[2])
+    check_distinct_corners(faces)
+}
+
+/// [`MeshError::RepeatedCorner`] for the first face (lowest index) that uses a vertex
+/// at two corners; in parallel.
+pub(super) fn check_distinct_corners(faces: &[[u32; 3]]) -> Result<(), MeshError> {
+    if let Some(face) =
+        crate::par::position_first(faces, |t| t[0] == t[1] || t[1] == t[2] || t[0] == t[2])
     {
         let t = faces[face];
         let vertex = if t[0] == t[1] || t[0] == t[2] {

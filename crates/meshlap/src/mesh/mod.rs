@@ -134,6 +134,17 @@ pub enum MeshError {
         /// The repeated vertex.
         vertex: usize,
     },
+    /// A face has the same three vertices as an earlier face (in any order or
+    /// orientation): an exact duplicate. Cleaning drops the later copy
+    /// ([`clean::CleanOptions::drop_duplicate_faces`]); [`clean::check_clean`]
+    /// refuses it.
+    #[error("face {face} repeats the vertices of face {first} (clean the mesh first)")]
+    DuplicateFace {
+        /// The later copy.
+        face: usize,
+        /// The first face with the same vertices.
+        first: usize,
+    },
     /// An edge is shared by more than two faces.
     #[error("edge ({a}, {b}) is shared by {faces} faces (non-manifold); run `meshlap clean --split-nonmanifold` first")]
     NonManifoldEdge {
@@ -184,9 +195,8 @@ pub enum MeshError {
 /// Checks that every corner of `faces` is below `n` ([`MeshError::IndexOutOfRange`]
 /// names the first face that is not).
 pub fn check_face_indices(faces: &[[u32; 3]], n: usize) -> Result<(), MeshError> {
-    use rayon::prelude::*;
     let bad = |t: &[u32; 3]| t.iter().any(|&v| v as usize >= n);
-    match faces.par_iter().with_min_len(1 << 14).position_first(bad) {
+    match crate::par::position_first(faces, bad) {
         Some(f) => {
             let index = faces[f]
                 .iter()
@@ -206,16 +216,11 @@ pub fn check_face_indices(faces: &[[u32; 3]], n: usize) -> Result<(), MeshError>
 /// [`TriMesh::validate`] on borrowed arrays, in parallel; the error names the first
 /// offending vertex or face, as a sequential scan would.
 pub(crate) fn validate_parts(positions: &[[f64; 3]], faces: &[[u32; 3]]) -> Result<(), MeshError> {
-    use rayon::prelude::*;
     if faces.is_empty() {
         return Err(MeshError::Empty);
     }
     let not_finite = |p: &[f64; 3]| !p.iter().all(|c| c.is_finite());
-    if let Some(vertex) = positions
-        .par_iter()
-        .with_min_len(1 << 14)
-        .position_first(not_finite)
-    {
+    if let Some(vertex) = crate::par::position_first(positions, not_finite) {
         return Err(MeshError::NonFinite { vertex });
     }
     check_face_indices(faces, positions.len())
