@@ -19,7 +19,6 @@ use super::graph::VertexGraph;
 use super::{EdgeId, FaceId, MeshError, TriMesh, VertexId};
 use crate::mem::Scatter;
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Marker for "no half-edge" (boundary or non-manifold edge).
 pub const INVALID: u32 = u32::MAX;
@@ -39,8 +38,12 @@ pub struct Topology {
     edge_he: Vec<u32>,
     edge_faces: Vec<u32>,
     adj_edge: Vec<u32>,
-    vertex_out: Vec<u32>,
-    vertex_manifold: Vec<bool>,
+    /// Per vertex, one outgoing half-edge (see [`Self::outgoing`]): computed on first
+    /// use, since the operators never rotate around a vertex.
+    vertex_out: std::sync::OnceLock<Vec<u32>>,
+    /// Per vertex, whether it is manifold: computed on first use (fan walks), since
+    /// the operators, the most common users, never ask.
+    vertex_manifold: std::sync::OnceLock<Vec<bool>>,
     inconsistent_edges: usize,
     /// How many edges have more than two faces: 0 lets [`Topology::non_manifold_edges`]
     /// skip its scan (the operators ask on every call).
@@ -200,32 +203,7 @@ impl Topology {
         debug_assert!(
             (0..n).all(|v| adj[adj_offsets[v] as usize..adj_offsets[v + 1] as usize].is_sorted())
         );
-        // One outgoing half-edge per vertex, preferring a boundary one so that rotation
-        // from it sweeps the whole fan.
-        // The smallest boundary half-edge leaving v, else the smallest half-edge: the
-        // minimum of `(has twin, h)` over v's outgoing half-edges.
-        let out_key: Vec<AtomicU64> = (0..n)
-            .into_par_iter()
-            .map(|_| AtomicU64::new(u64::MAX))
-            .collect();
-        twin.par_iter()
-            .enumerate()
-            .with_min_len(1 << 12)
-            .for_each(|(h, &tw)| {
-                let v = faces[h / 3][h % 3] as usize;
-                out_key[v].fetch_min(
-                    (u64::from(tw != INVALID) << 32) | h as u64,
-                    Ordering::Relaxed,
-                );
-            });
-        let vertex_out: Vec<u32> = out_key
-            .into_par_iter()
-            .map(|k| match k.into_inner() {
-                u64::MAX => INVALID,
-                k => k as u32,
-            })
-            .collect();
-        let mut topo = Topology {
+        let topo = Topology {
             graph: VertexGraph {
                 n,
                 faces: faces.to_vec(),
@@ -238,12 +216,11 @@ impl Topology {
             edge_he,
             edge_faces,
             adj_edge,
-            vertex_out,
-            vertex_manifold: Vec::new(),
+            vertex_out: std::sync::OnceLock::new(),
+            vertex_manifold: std::sync::OnceLock::new(),
             inconsistent_edges,
             non_manifold_edges,
         };
-        topo.vertex_manifold = topo.compute_manifold_vertices();
         Ok(topo)
     }
 
@@ -251,12 +228,47 @@ impl Topology {
     /// walk through its fan sweeps all its faces (each face at v holds two of v's
     /// edges, so the face count is half the sum of its edges' face counts). The walk
     /// ignores orientation, so an inconsistently oriented neighbour (reported
-    /// separately) does not make a vertex non-manifold.
+    /// separately) does not make a vertex non-manifold. Computed once, on first use
+    /// (see [`Self::outgoing`] for why sequentially).
+    fn manifold_flags(&self) -> &[bool] {
+        self.vertex_manifold
+            .get_or_init(|| self.compute_manifold_vertices())
+    }
+
+    /// One outgoing half-edge per vertex, preferring a boundary one so that rotation
+    /// from it sweeps the whole fan: the smallest boundary half-edge leaving v, else
+    /// the smallest half-edge (the minimum of `(has twin, h)` over v's outgoing
+    /// half-edges); [`INVALID`] for an isolated vertex.
+    ///
+    /// Computed once, on first use, in one sequential pass over the half-edges: a
+    /// parallel pass inside the initialisation could let its thread pick up, while it
+    /// waits, a pending task of the caller's own parallel loop that asks for the same
+    /// cell, and block on itself.
+    fn outgoing(&self) -> &[u32] {
+        self.vertex_out.get_or_init(|| {
+            let mut key = vec![u64::MAX; self.graph.n];
+            for (f, t) in self.graph.faces.iter().enumerate() {
+                for (c, &v) in t.iter().enumerate() {
+                    let h = 3 * f + c;
+                    let k = (u64::from(self.twin[h] != INVALID) << 32) | h as u64;
+                    let slot = &mut key[v as usize];
+                    *slot = (*slot).min(k);
+                }
+            }
+            key.into_iter()
+                .map(|k| match k {
+                    u64::MAX => INVALID,
+                    k => k as u32,
+                })
+                .collect()
+        })
+    }
+
+    /// The flags of [`Self::manifold_flags`], sequentially (see [`Self::outgoing`]).
     fn compute_manifold_vertices(&self) -> Vec<bool> {
         (0..self.graph.n)
-            .into_par_iter()
             .map(|v| {
-                if self.vertex_out[v] == INVALID {
+                if self.outgoing()[v] == INVALID {
                     return true; // isolated vertex: nothing non-manifold about it
                 }
                 let mut incident2 = 0u32;
@@ -321,7 +333,7 @@ impl Topology {
     /// `vertex_out` (a boundary half-edge when `v` has an outgoing one) stops at a
     /// boundary midway, which needs inconsistent orientation.
     fn fan_sweep(&self, v: u32) -> (u32, bool, usize) {
-        let h = self.vertex_out[v as usize];
+        let h = self.outgoing()[v as usize];
         if self.inconsistent_edges == 0 {
             // Consistent orientation: rotate by twin(prev(·)) from the outgoing
             // (boundary, if any) half-edge, touching only `twin`.
@@ -519,7 +531,7 @@ impl Topology {
     /// consistently, counter-clockwise oriented mesh), starting at a boundary neighbour
     /// on the boundary. `None` for a non-manifold or isolated vertex.
     pub fn one_ring(&self, v: VertexId) -> Option<Vec<u32>> {
-        if !self.vertex_manifold[v.idx()] || self.vertex_out[v.idx()] == INVALID {
+        if !self.manifold_flags()[v.idx()] || self.outgoing()[v.idx()] == INVALID {
             return None;
         }
         let (start, closed, _) = self.fan_sweep(v.0);
@@ -542,7 +554,7 @@ impl Topology {
     /// True when the faces around `v` form a single fan (disk or half-disk) with no
     /// non-manifold edge. Isolated vertices count as manifold.
     pub fn is_manifold_vertex(&self, v: VertexId) -> bool {
-        self.vertex_manifold[v.idx()]
+        self.manifold_flags()[v.idx()]
     }
 
     /// Edges with more than two incident faces, ascending. Empty without a scan when
@@ -560,8 +572,9 @@ impl Topology {
 
     /// Vertices that are not [manifold](Topology::is_manifold_vertex).
     pub fn non_manifold_vertices(&self) -> impl Iterator<Item = VertexId> + '_ {
+        let flags = self.manifold_flags();
         (0..self.graph.n)
-            .filter(|&v| !self.vertex_manifold[v])
+            .filter(move |&v| !flags[v])
             .map(|v| VertexId(v as u32))
     }
 
@@ -580,7 +593,7 @@ impl Topology {
 
     /// True when the mesh is edge- and vertex-manifold.
     pub fn is_manifold(&self) -> bool {
-        self.non_manifold_edges == 0 && self.vertex_manifold.iter().all(|&m| m)
+        self.non_manifold_edges == 0 && self.manifold_flags().iter().all(|&m| m)
     }
 
     /// Number of boundary loops: connected components of the graph formed by the

@@ -146,7 +146,7 @@ fn matches_naive_construction_on_random_soups() {
                 want_out[v] = h as u32;
             }
         }
-        assert_eq!(t.vertex_out, want_out);
+        assert_eq!(t.outgoing(), want_out);
         let mut naive: BTreeMap<(u32, u32), Vec<u32>> = BTreeMap::new();
         for (f, tri) in faces.iter().enumerate() {
             for c in 0..3 {
@@ -250,5 +250,40 @@ fn repeated_corner_is_an_error_not_a_panic_downstream() {
     match Topology::from_faces(3, &faces) {
         Err(MeshError::RepeatedCorner { face: 1, vertex: 1 }) => {}
         other => panic!("{other:?}"),
+    }
+}
+
+/// The lazily computed outgoing half-edges and manifold flags, first asked for from
+/// inside a parallel loop over the vertices on several threads, give what a topology
+/// asked from one thread gives. (Their initialisation runs sequentially so that it
+/// cannot block on its own cell; a parallel one passed this test too, its hazard
+/// depending on timing.)
+#[test]
+fn lazy_vertex_data_first_asked_for_in_parallel() {
+    use rayon::prelude::*;
+    let mesh = builtin::icosphere(5).unwrap();
+    let want: Vec<Option<Vec<u32>>> = {
+        let t = Topology::new(&mesh).unwrap();
+        (0..mesh.n_vertices() as u32)
+            .map(|v| t.one_ring(VertexId(v)))
+            .collect()
+    };
+    for threads in [2, 3, 4] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        for _ in 0..5 {
+            let t = Topology::new(&mesh).unwrap();
+            let got: Vec<Option<Vec<u32>>> = pool.install(|| {
+                (0..mesh.n_vertices() as u32)
+                    .into_par_iter()
+                    .with_max_len(64)
+                    .map(|v| t.one_ring(VertexId(v)))
+                    .collect()
+            });
+            assert_eq!(got, want, "{threads} threads");
+            assert!(t.is_manifold());
+        }
     }
 }
