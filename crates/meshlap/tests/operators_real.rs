@@ -10,12 +10,24 @@ use meshlap::SparseMatrix;
 
 /// KL, GL and SQL are symmetric by construction; the SSTL sums TᵀT in a symmetric
 /// order: all four exactly.
-const EXACTLY_SYMMETRIC: [OperatorKind; 4] = [
+const EXACTLY_SYMMETRIC: [OperatorKind; 5] = [
     OperatorKind::Kirchhoff,
     OperatorKind::Graph,
     OperatorKind::Sql,
     OperatorKind::Sstl,
+    OperatorKind::Cotan,
 ];
+
+#[test]
+fn the_exactly_symmetric_kinds_are_the_ones_the_library_names() {
+    for kind in OperatorKind::ALL {
+        assert_eq!(
+            kind.is_symmetric(),
+            EXACTLY_SYMMETRIC.contains(&kind),
+            "{kind}"
+        );
+    }
+}
 
 fn max_abs_row_sum(m: &SparseMatrix) -> f64 {
     let mut rs = vec![0.0; m.nrows()];
@@ -56,7 +68,8 @@ fn zero_row_sums_and_symmetry_on_every_test_mesh() {
         for kind in EXACTLY_SYMMETRIC {
             let op = Operator::assemble(kind, &mesh, &topo, &OperatorOptions::default()).unwrap();
             // KL, GL and SQL are symmetric by construction; the SSTL sums TᵀT in a
-            // symmetric order: all four exactly.
+            // symmetric order; the cotan writes both entries of an edge from its
+            // one weight: all five exactly.
             assert!(asymmetry(&op.matrix) == 0.0, "{name} {kind}");
         }
     }

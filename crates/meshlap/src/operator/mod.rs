@@ -22,6 +22,7 @@
 
 pub(crate) mod assemble;
 pub mod cotan;
+pub mod csr;
 pub(crate) mod geometry;
 pub mod graph;
 pub mod kirchhoff;
@@ -165,7 +166,10 @@ impl OperatorKind {
         )
     }
 
-    /// True when the operator is symmetric by construction.
+    /// True when the operator is symmetric by construction, exactly: each
+    /// off-diagonal pair `F_ij`, `F_ji` is written from one computed value, so the
+    /// matrix equals its transpose bit for bit (tested on every test mesh;
+    /// [`csr::csr_of`] relies on it).
     pub fn is_symmetric(self) -> bool {
         matches!(
             self,
@@ -261,6 +265,14 @@ impl Operator {
             OperatorKind::MeanValue => mean_value::mean_value(mesh, topo)?,
         };
         Ok(Operator { kind, matrix, mass })
+    }
+
+    /// The matrix as compressed rows (`scipy.sparse.csr_array`'s layout), sign
+    /// `F = D − W`: the CSC arrays moved as they are for an exactly symmetric kind
+    /// ([`OperatorKind::is_symmetric`]), a parallel transpose for the others
+    /// ([`csr::csr_of`]).
+    pub fn into_csr(self) -> csr::Csr {
+        csr::csr_of(self.matrix, self.kind.is_symmetric())
     }
 }
 
