@@ -44,9 +44,22 @@ def test_bad_meshes(V, F, match):
 
 def test_library_checks_reach_python(tet):
     V, F = tet
-    # A face with a repeated corner is refused by the library (not cleaned silently).
-    with pytest.raises(meshlap.Error):
-        meshlap.operator(V, np.vstack([F, [[0, 0, 1]]]), "kirchhoff")
+    # A face with a repeated corner, or with the vertices of an earlier face, is
+    # refused by the library (not cleaned silently), naming both faces.
+    n = len(F)
+    for dtype in [np.int64, np.uint32]:
+        bad = np.vstack([F, [[0, 0, 1]]]).astype(dtype)
+        with pytest.raises(meshlap.MeshError, match=rf"F\[{n}\] = \[0, 0, 1\] repeats a vertex"):
+            meshlap.operator(V, bad, "kirchhoff")
+        dup = np.vstack([F, F[1][::-1]]).astype(dtype)
+        msg = rf"F\[{n}\] = \[{F[1][2]}, {F[1][1]}, {F[1][0]}\] repeats face F\[1\]; clean the mesh first"
+        for fn in [lambda: meshlap.operator(V, dup, "kirchhoff"),
+                   lambda: meshlap.write_mesh("never-written.ply", V, dup)]:
+            with pytest.raises(meshlap.MeshError, match=msg):
+                fn()
+    # Cleaning drops the copy instead.
+    V2, F2, rep = meshlap.clean(V, np.vstack([F, F[1][::-1]]))
+    assert rep["dropped_duplicate_faces"] == 1 and len(F2) == n
     with pytest.raises(meshlap.OperatorError, match="unknown operator `nope`"):
         meshlap.operator(V, F, "nope")
     with pytest.raises(meshlap.OperatorError, match="unknown SQL boundary diagonal"):

@@ -26,6 +26,22 @@ def test_combinatorial_operators_equal_scipy_construction(mesh, request):
         assert isinstance(L, sp.csr_array)
         assert L.dtype == np.float64 and L.shape == (n, n)
         np.testing.assert_allclose(dense(L), dense(ref), atol=1e-14, err_msg=kind)
+    # The second-order ones: T² is not symmetric (its rows must not come out as its
+    # columns), TᵀT is (its compressed columns are returned as the rows).
+    for kind, ref in [("tutte2", T @ T), ("sstl", T.T @ T)]:
+        L = meshlap.operator(V, F, kind)
+        np.testing.assert_allclose(dense(L), dense(ref), atol=1e-13, err_msg=kind)
+
+
+@pytest.mark.parametrize("kind", meshlap.OPERATOR_KINDS)
+def test_every_operator_is_a_canonical_csr_array(sphere, kind):
+    V, F = sphere
+    L = meshlap.operator(V, F, kind)
+    assert isinstance(L, sp.csr_array) and L.has_canonical_format
+    assert L.indptr.dtype == np.int64 and L.indices.dtype == np.int64
+    checked = sp.csr_array((L.data, L.indices, L.indptr), shape=L.shape)
+    checked.check_format(full_check=True)
+    assert checked.has_sorted_indices
 
 
 def test_sql_closed_mesh_weights_and_unit_diagonal(sphere):

@@ -148,40 +148,39 @@ pub(crate) fn mesh_named(
     f: &FaceArray<'_>,
     names: Names,
 ) -> PyResult<meshlap::input::Input> {
+    let mesh = checked_named(py, v, f, names)?;
+    compute(py, || meshlap::input::from_mesh_as_given("array", mesh)).or_raise(py)
+}
+
+/// The mesh of `(V, F)` as given and refused if it needs cleaning: [`raw_named`], then
+/// [`meshlap::mesh::clean::check_clean`] (the library's operators assume what
+/// cleaning guarantees, and silently dropping a face would change the caller's
+/// arrays); no connectivity.
+pub(crate) fn checked_named(
+    py: Python<'_>,
+    v: &PyReadonlyArray2<'_, f64>,
+    f: &FaceArray<'_>,
+    names: Names,
+) -> PyResult<meshlap::TriMesh> {
+    use meshlap::mesh::MeshError;
     let raw = raw_named(py, v, f, names)?;
     let fname = names.1;
-    // The library's operators assume what cleaning guarantees; refuse (never drop
-    // silently) faces with a repeated corner and duplicate faces.
-    if let Some((i, t)) = raw
-        .faces
-        .iter()
-        .enumerate()
-        .find(|(_, t)| t[0] == t[1] || t[1] == t[2] || t[0] == t[2])
-    {
-        return Err(raise_as(
-            py,
-            "MeshError",
-            format!("{fname}[{i}] = {t:?} repeats a vertex; clean the mesh first (meshlap.clean)"),
-        ));
-    }
-    let mut seen = std::collections::HashMap::with_capacity(raw.faces.len());
-    for (i, t) in raw.faces.iter().enumerate() {
-        let mut key = *t;
-        key.sort_unstable();
-        if let Some(j) = seen.insert(key, i) {
-            return Err(raise_as(
-                py,
-                "MeshError",
-                format!("{fname}[{i}] = {t:?} repeats face {fname}[{j}]; clean the mesh first (meshlap.clean)"),
-            ));
-        }
-    }
-    let keep = meshlap::mesh::clean::CleanOptions {
-        drop_degenerate_faces: false,
-        drop_duplicate_faces: false,
-        drop_unreferenced_vertices: false,
+    let checked = compute(py, || {
+        meshlap::mesh::clean::check_clean(raw.n_vertices(), &raw.faces)
+    });
+    let message = match checked {
+        Ok(()) => return Ok(raw),
+        Err(MeshError::RepeatedCorner { face, .. }) => format!(
+            "{fname}[{face}] = {:?} repeats a vertex; clean the mesh first (meshlap.clean)",
+            raw.faces[face]
+        ),
+        Err(MeshError::DuplicateFace { face, first }) => format!(
+            "{fname}[{face}] = {:?} repeats face {fname}[{first}]; clean the mesh first (meshlap.clean)",
+            raw.faces[face]
+        ),
+        Err(e) => return Err(raise(py, e)),
     };
-    compute(py, || meshlap::input::from_mesh("array", raw, None, &keep)).or_raise(py)
+    Err(raise_as(py, "MeshError", message))
 }
 
 /// The mesh of `(V, F)` exactly as given, checked by [`meshlap::TriMesh::validate`]
@@ -195,6 +194,17 @@ pub(crate) fn raw_mesh(
     raw_named(py, v, f, VF)
 }
 
+/// Face indices as borrowed from numpy, before conversion.
+#[derive(Clone, Copy)]
+enum FaceSlice<'a> {
+    I64(&'a [i64]),
+    U32(&'a [u32]),
+}
+
+/// Why [`raw_named`]'s conversion refused a face: its index, its corners, and whether
+/// one is negative (else one is out of range).
+type BadFace = (usize, [i64; 3], bool);
+
 fn raw_named(
     py: Python<'_>,
     v: &PyReadonlyArray2<'_, f64>,
@@ -202,7 +212,36 @@ fn raw_named(
     (vname, fname): Names,
 ) -> PyResult<meshlap::TriMesh> {
     let (vs, n, _) = slice2(py, v, vname, Some(3))?;
-    let positions: Vec<[f64; 3]> = vs.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    let fs = match f {
+        FaceArray::U32(a) => FaceSlice::U32(slice2(py, a, fname, Some(3))?.0),
+        FaceArray::I64(a) => FaceSlice::I64(slice2(py, a, fname, Some(3))?.0),
+    };
+    // Copies and checks without the GIL, in parallel (the library's validation names
+    // the first offender, as a sequential scan would; so does the index check here).
+    let made = compute(py, || -> Result<meshlap::TriMesh, BadFace> {
+        let positions: Vec<[f64; 3]> = vs.as_chunks::<3>().0.to_vec();
+        let faces: Vec<[u32; 3]> = match fs {
+            FaceSlice::U32(fs) => fs.as_chunks::<3>().0.to_vec(),
+            FaceSlice::I64(fs) => {
+                use rayon::prelude::*;
+                let fs = fs.as_chunks::<3>().0;
+                let bad = |t: &[i64; 3]| t.iter().any(|&x| x < 0 || x > i64::from(u32::MAX));
+                // The first bad chunk, then the first bad face in it (rayon's
+                // per-item `position_first` is several times slower).
+                const CHUNK: usize = 1 << 12;
+                if let Some(c) = fs.par_chunks(CHUNK).position_first(|c| c.iter().any(bad)) {
+                    let i = c * CHUNK + fs[c * CHUNK..].iter().position(bad).unwrap_or(0);
+                    let t = fs[i];
+                    return Err((i, t, t.iter().any(|&x| x < 0)));
+                }
+                fs.par_iter()
+                    .with_min_len(1 << 14)
+                    .map(|t| t.map(|x| x as u32))
+                    .collect()
+            }
+        };
+        Ok(meshlap::TriMesh::new(positions, faces))
+    });
     let bad_face = |i: usize, t: [i64; 3], what: &str| {
         raise_as(
             py,
@@ -211,29 +250,12 @@ fn raw_named(
         )
     };
     let out_of_range = format!("refers to a vertex >= {n}, but {vname} has {n} vertices");
-    let faces: Vec<[u32; 3]> = match f {
-        FaceArray::U32(a) => {
-            let (fs, _, _) = slice2(py, a, fname, Some(3))?;
-            fs.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
-        }
-        FaceArray::I64(a) => {
-            let (fs, _, _) = slice2(py, a, fname, Some(3))?;
-            let mut out = Vec::with_capacity(fs.len() / 3);
-            for (i, c) in fs.chunks_exact(3).enumerate() {
-                let t = [c[0], c[1], c[2]];
-                if t.iter().any(|&x| x < 0) {
-                    return Err(bad_face(i, t, "has a negative vertex index"));
-                }
-                match t.map(u32::try_from) {
-                    [Ok(a), Ok(b), Ok(c)] => out.push([a, b, c]),
-                    _ => return Err(bad_face(i, t, &out_of_range)),
-                }
-            }
-            out
-        }
+    let mesh = match made {
+        Ok(mesh) => mesh,
+        Err((i, t, true)) => return Err(bad_face(i, t, "has a negative vertex index")),
+        Err((i, t, false)) => return Err(bad_face(i, t, &out_of_range)),
     };
-    let mesh = meshlap::TriMesh::new(positions, faces);
-    match mesh.validate() {
+    match compute(py, || mesh.validate()) {
         Ok(()) => Ok(mesh),
         Err(meshlap::mesh::MeshError::Empty) => Err(raise_as(
             py,
@@ -257,13 +279,23 @@ fn raw_named(
 /// A mesh as numpy arrays: V float64 (n, 3), F int64 (m, 3).
 pub(crate) type MeshOut<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<i64>>);
 
-/// `(V, F)` numpy arrays of a mesh: float64 (n, 3) and int64 (m, 3).
-pub(crate) fn mesh_arrays<'py>(py: Python<'py>, m: &meshlap::TriMesh) -> PyResult<MeshOut<'py>> {
-    let v: Vec<f64> = m.positions.iter().flatten().copied().collect();
-    let f: Vec<i64> = m.faces.iter().flatten().map(|&i| i64::from(i)).collect();
+/// `(V, F)` numpy arrays of a mesh: float64 (n, 3) and int64 (m, 3). The positions
+/// move into the array without a copy; the indices are widened in parallel.
+pub(crate) fn mesh_arrays<'py>(py: Python<'py>, m: meshlap::TriMesh) -> PyResult<MeshOut<'py>> {
+    use rayon::prelude::*;
+    let (n, nf) = (m.n_vertices(), m.n_faces());
+    let v: Vec<f64> = m.positions.into_flattened();
+    let f: Vec<i64> = compute(py, || {
+        m.faces
+            .as_flattened()
+            .par_iter()
+            .with_min_len(1 << 15)
+            .map(|&i| i64::from(i))
+            .collect()
+    });
     Ok((
-        PyArray1::from_vec(py, v).reshape([m.n_vertices(), 3])?,
-        PyArray1::from_vec(py, f).reshape([m.n_faces(), 3])?,
+        PyArray1::from_vec(py, v).reshape([n, 3])?,
+        PyArray1::from_vec(py, f).reshape([nf, 3])?,
     ))
 }
 
@@ -289,35 +321,26 @@ pub(crate) type CsrParts<'py> = (
     (usize, usize),
 );
 
-pub(crate) fn csr_out<'py>(py: Python<'py>, m: &meshlap::SparseMatrix) -> CsrParts<'py> {
-    // CSR of `m` by a counting transpose of its columns (rows come out sorted).
-    let (nr, nc) = (m.nrows(), m.ncols());
-    let mut ptr = vec![0i64; nr + 1];
-    for j in 0..nc {
-        for &i in m.row_idx_of_col_raw(j) {
-            ptr[i + 1] += 1;
-        }
-    }
-    for i in 0..nr {
-        ptr[i + 1] += ptr[i];
-    }
-    let nnz = ptr[nr] as usize;
-    let mut next: Vec<usize> = ptr[..nr].iter().map(|&p| p as usize).collect();
-    let mut idx = vec![0i64; nnz];
-    let mut val = vec![0.0f64; nnz];
-    for j in 0..nc {
-        for (&i, &v) in m.row_idx_of_col_raw(j).iter().zip(m.val_of_col(j)) {
-            idx[next[i]] = j as i64;
-            val[next[i]] = v;
-            next[i] += 1;
-        }
-    }
+pub(crate) fn csr_out<'py>(py: Python<'py>, op: meshlap::operator::Operator) -> CsrParts<'py> {
+    // The library's compressed rows (the CSC arrays moved for a symmetric operator, a
+    // parallel transpose otherwise), handed to numpy without a copy.
+    let c = compute(py, || op.into_csr());
     (
-        PyArray1::from_vec(py, ptr),
-        PyArray1::from_vec(py, idx),
-        PyArray1::from_vec(py, val),
-        (nr, nc),
+        PyArray1::from_vec(py, indices_as_i64(c.row_ptr)),
+        PyArray1::from_vec(py, indices_as_i64(c.col)),
+        PyArray1::from_vec(py, c.val),
+        (c.nrows, c.ncols),
     )
+}
+
+/// A vector of indices as numpy's int64, reusing its allocation.
+fn indices_as_i64(v: Vec<usize>) -> Vec<i64> {
+    // Same size and alignment on the 64-bit targets PyO3's wheels are built for (a
+    // compile error elsewhere), and every index of an allocation is below
+    // isize::MAX, so each value keeps its meaning; the standard library reuses the
+    // allocation for a map between types of one layout.
+    const _: () = assert!(std::mem::size_of::<usize>() == std::mem::size_of::<i64>());
+    v.into_iter().map(|i| i as i64).collect()
 }
 
 /// A report as JSON text (the Python layer parses it into a dict).

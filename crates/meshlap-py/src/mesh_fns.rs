@@ -3,7 +3,8 @@
 //! same library function with the same defaults.
 
 use crate::{
-    compute, json, mesh_arrays, mesh_named, mesh_of, raise_as, raw_mesh, slice2, FaceArray, OrRaise,
+    checked_named, compute, json, mesh_arrays, mesh_named, mesh_of, raise_as, raw_mesh, slice2,
+    FaceArray, OrRaise, VF,
 };
 use meshlap::codec::{CompressOptions, GeometryMode, Keep, Quantization};
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
@@ -49,8 +50,8 @@ fn read_mesh<'py>(py: Python<'py>, path: &str, format: Option<&str>) -> PyResult
         format,
         ..Default::default()
     };
-    let input = compute(py, || meshlap::input::open(path, &opts)).or_raise(py)?;
-    mesh_arrays(py, &input.mesh)
+    let (mesh, _) = compute(py, || meshlap::input::open_mesh(path, &opts)).or_raise(py)?;
+    mesh_arrays(py, mesh)
 }
 
 /// `write_mesh(path, V, F, scalars, scalar_name, colors, format, ascii)`: atomic.
@@ -68,7 +69,7 @@ fn write_mesh(
     format: Option<&str>,
     ascii: bool,
 ) -> PyResult<()> {
-    let input = mesh_of(py, &v, &f)?;
+    let mesh = checked_named(py, &v, &f, VF)?;
     let format = format
         .map(|s| parse::<meshlap::io::Format>(py, s, "format", "MeshIOError"))
         .transpose()?;
@@ -87,7 +88,7 @@ fn write_mesh(
         ply_ascii: ascii,
     };
     let p = std::path::Path::new(path);
-    compute(py, || meshlap::io::write_mesh(p, &input.mesh, &opts)).or_raise(py)
+    compute(py, || meshlap::io::write_mesh(p, &mesh, &opts)).or_raise(py)
 }
 
 /// `info(V, F)` → JSON of `meshlap info --json` (`Input::info`; the mesh is cleaned
@@ -118,7 +119,7 @@ fn clean<'py>(
         Ok(input.cleaned(split_nonmanifold)?)
     })
     .or_raise(py)?;
-    let (va, fa) = mesh_arrays(py, &mesh)?;
+    let (va, fa) = mesh_arrays(py, mesh)?;
     Ok((va, fa, json(py, &out)?))
 }
 
@@ -140,7 +141,7 @@ fn repair_sql<'py>(
         ..Default::default()
     };
     let (mesh, report) = compute(py, || repair_sql(&input.mesh, &opts)).or_raise(py)?;
-    let (va, fa) = mesh_arrays(py, &mesh)?;
+    let (va, fa) = mesh_arrays(py, mesh)?;
     Ok((va, fa, json(py, &report)?))
 }
 
@@ -232,7 +233,7 @@ fn compress<'py>(
 #[pyfunction]
 fn decompress<'py>(py: Python<'py>, data: &[u8]) -> PyResult<Mesh<'py>> {
     let mesh = compute(py, || meshlap::codec::decompress(data)).or_raise(py)?;
-    mesh_arrays(py, &mesh)
+    mesh_arrays(py, mesh)
 }
 
 /// `compare(Va, Fa, Vb, Fb, map=None, samples=200000)` → JSON of `meshlap compare`.

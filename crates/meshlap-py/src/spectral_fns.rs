@@ -67,7 +67,7 @@ fn operator<'py>(
 ) -> PyResult<CsrParts<'py>> {
     let input = mesh_of(py, &v, &f)?;
     let op = assemble(py, &input, kind, sql_diagonal, mass)?;
-    Ok(csr_out(py, &op.matrix))
+    Ok(csr_out(py, op))
 }
 
 /// `mass_matrix(V, F, kind)` → the lumped mass diagonal (n,) of the cotangent

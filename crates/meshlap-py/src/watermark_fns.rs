@@ -64,7 +64,7 @@ fn watermark_embed<'py>(
         embed(&input.mesh, &params)
     })
     .or_raise(py)?;
-    let (positions, _) = mesh_arrays(py, &marked)?;
+    let (positions, _) = mesh_arrays(py, marked)?;
     Ok((positions, json(py, &report)?))
 }
 

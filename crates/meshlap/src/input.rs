@@ -140,6 +140,38 @@ pub fn open(spec: &str, opts: &OpenOptions) -> Result<Input> {
     from_mesh(spec, raw, read_info, &opts.clean)
 }
 
+/// An in-memory mesh used as given, not cleaned: its connectivity, and a clean report
+/// that removes nothing (identity vertex map). For a mesh that needs no cleaning
+/// ([`crate::mesh::clean::check_clean`] passed: the Python package checks its `(V, F)`
+/// arguments so and names them in its messages); [`Topology::new`]'s own checks
+/// (indices, repeated corners, size) still apply.
+pub fn from_mesh_as_given(source: &str, mesh: TriMesh) -> Result<Input> {
+    use rayon::prelude::*;
+    let topology = Topology::new(&mesh)?;
+    let clean = CleanReport {
+        vertex_map: (0..mesh.n_vertices() as u32)
+            .into_par_iter()
+            .map(Some)
+            .collect(),
+        ..Default::default()
+    };
+    Ok(Input {
+        source: source.to_string(),
+        mesh,
+        topology,
+        read_info: None,
+        clean,
+    })
+}
+
+/// Reads (or generates) `spec` and cleans it as [`open`] does, without building the
+/// connectivity: for callers that want the arrays only (the Python package's
+/// `read_mesh`). The same mesh as `open(spec, opts)?.mesh`.
+pub fn open_mesh(spec: &str, opts: &OpenOptions) -> Result<(TriMesh, CleanReport)> {
+    let (raw, _) = read_raw(spec, opts.format)?;
+    Ok(clean_owned(raw, &opts.clean)?)
+}
+
 /// Cleans an in-memory mesh and builds its connectivity.
 pub fn from_mesh(
     source: &str,

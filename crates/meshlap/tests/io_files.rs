@@ -316,3 +316,34 @@ fn ply_with_scalar_and_colours() {
         assert!(!path.exists());
     }
 }
+
+/// `open_mesh` (read and clean, no connectivity) gives `open`'s mesh and clean report
+/// on every test mesh (some need cleaning) and on a generated one, and each cleaned
+/// mesh passes `check_clean`.
+#[test]
+fn open_mesh_equals_open_without_the_connectivity() {
+    use meshlap::input::{open, open_mesh, OpenOptions};
+    let opts = OpenOptions::default();
+    let mut specs: Vec<String> = CLOSED
+        .iter()
+        .chain(WITH_BOUNDARY)
+        .chain(NON_MANIFOLD)
+        .map(|m| data(m))
+        .collect();
+    specs.push("builtin:icosphere:3".into());
+    for spec in &specs {
+        let input = open(spec, &opts).unwrap();
+        let (mesh, report) = open_mesh(spec, &opts).unwrap();
+        assert_eq!(mesh, input.mesh, "{spec}");
+        assert_eq!(
+            serde_json::to_string(&report).unwrap(),
+            serde_json::to_string(&input.clean).unwrap(),
+            "{spec}"
+        );
+        assert_eq!(
+            meshlap::mesh::clean::check_clean(mesh.n_vertices(), &mesh.faces),
+            Ok(()),
+            "{spec}"
+        );
+    }
+}
