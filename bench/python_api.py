@@ -1,7 +1,7 @@
 """meshlap's Python API side by side with its peers, in one process.
 
 Run: python3 bench/python_api.py [--small] [--rounds N] [--k K] [--tols T1,T2]
-     [--eigsh-only] [--json-out FILE]
+     [--eigsh-only | --no-eigsh] [--json-out FILE]
 
 Creates bench/.venv-python on first use (numpy, scipy, threadpoolctl, trimesh,
 robust_laplacian, libigl, and meshlap itself built with `pip install .` in release
@@ -16,7 +16,8 @@ Comparisons (the issue's benchmark):
   ‖Lv − λMv‖ of each side so equal accuracy is checked, not assumed; meshlap at each
   tolerance of --tols (the default 1e-10, and 1e-12, where its residuals reach
   ARPACK's), each alternated with scipy;
-- meshlap.operator(kind="cotan") vs igl.cotmatrix;
+- meshlap.operator(kind="cotan") vs igl.cotmatrix, at least 15 rounds, and again
+  after meshlap.keep_freed_memory() (process-wide: both sides reuse freed buffers);
 - meshlap.read_mesh vs trimesh.load;
 - the binding overhead on a 1k-vertex mesh: meshlap.operator (argument checks,
   conversions, csr_array) against the raw extension call on prepared arrays.
@@ -161,6 +162,8 @@ def main():
                     help="meshlap.eigsh tolerances, each alternated with scipy (default: the "
                          "default 1e-10 and 1e-12, where meshlap's residuals match ARPACK's)")
     ap.add_argument("--eigsh-only", action="store_true", help="only the eigsh rows")
+    ap.add_argument("--no-eigsh", action="store_true",
+                    help="skip the eigsh rows (the cotangent operator, read_mesh and the binding only)")
     args = ap.parse_args()
     tols = [float(t) for t in args.tols.split(",")]
     ensure_venv()
@@ -202,7 +205,7 @@ def main():
     with threadpool_limits(limits=THREADS):
         for mesh in meshes:
             V, F = meshlap.read_mesh(mesh)
-            for name, L, M, Lc, Mc, sigma in eigen_problems(V, F):
+            for name, L, M, Lc, Mc, sigma in [] if args.no_eigsh else eigen_problems(V, F):
                 for tol in tols:
                     ta, tb, ra, rb = rounds(
                         lambda: meshlap.eigsh(L, k, M, tol=tol),
@@ -223,7 +226,9 @@ def main():
             try:
                 import igl
 
-                ta, tb, _, _ = rounds(lambda: meshlap.operator(V, F, "cotan"), lambda: igl.cotmatrix(V, F), n_rounds)
+                # Calls of a few milliseconds: at least 15 alternated rounds.
+                ta, tb, _, _ = rounds(lambda: meshlap.operator(V, F, "cotan"), lambda: igl.cotmatrix(V, F),
+                                      max(n_rounds, 15))
                 row("cotan operator vs igl.cotmatrix", mesh, ta, tb)
             except ImportError:
                 print("libigl missing: skipped", file=sys.stderr)
@@ -231,7 +236,8 @@ def main():
                 try:
                     import trimesh
 
-                    ta, tb, _, _ = rounds(lambda: meshlap.read_mesh(mesh), lambda: trimesh.load(mesh, process=False), n_rounds)
+                    ta, tb, _, _ = rounds(lambda: meshlap.read_mesh(mesh), lambda: trimesh.load(mesh, process=False),
+                                          max(n_rounds, 15))
                     row("read_mesh vs trimesh.load", mesh, ta, tb)
                 except ImportError:
                     print("trimesh missing: skipped", file=sys.stderr)
@@ -248,6 +254,21 @@ def main():
             max(n_rounds, 20),
         )
         row("binding overhead (1k, full vs raw)", "builtin:torus:40:25", tb, ta, {"overhead": ta / tb - 1})
+        # Last, since it cannot be undone: glibc told to keep freed memory, which the
+        # process-wide setting gives both sides (igl's Eigen buffers come from the
+        # same malloc), and the cotangent rows again.
+        if not args.eigsh_only:
+            try:
+                import igl
+
+                kept = meshlap.keep_freed_memory()
+                for mesh in meshes:
+                    V, F = meshlap.read_mesh(mesh)
+                    ta, tb, _, _ = rounds(lambda: meshlap.operator(V, F, "cotan"), lambda: igl.cotmatrix(V, F),
+                                          max(n_rounds, 15))
+                    row("cotan vs igl, freed memory kept", mesh, ta, tb, {"keep_freed_memory": kept})
+            except ImportError:
+                pass
     if args.json_out:
         Path(args.json_out).write_text(json.dumps({"threads": THREADS, "rows": rows}, indent=2))
 
