@@ -477,6 +477,19 @@ mod tests {
     use super::*;
     use crate::mesh::builtin;
 
+    /// Inserts, at a random place, a copy of a random face rotated and possibly
+    /// reversed (the same vertex set).
+    fn plant_duplicate(rng: &mut crate::rng::SplitMix64, faces: &mut Vec<[u32; 3]>) {
+        let f = faces[rng.below(faces.len() as u64) as usize];
+        let r = rng.below(3) as usize;
+        let mut g = [f[r], f[(r + 1) % 3], f[(r + 2) % 3]];
+        if rng.below(2) == 1 {
+            g.swap(0, 1);
+        }
+        let at = rng.below(faces.len() as u64 + 1) as usize;
+        faces.insert(at, g);
+    }
+
     /// The parallel cleaning equals a sequential reference (a hash set of sorted
     /// vertex triples, first occurrence kept) on random soups with planted duplicates
     /// in every order and orientation, degenerate faces and unused vertices, and does
@@ -496,14 +509,7 @@ mod tests {
                 })
                 .collect();
             for _ in 0..n / 4 {
-                let f = faces[rng.below(faces.len() as u64) as usize];
-                let r = rng.below(3) as usize;
-                let mut g = [f[r], f[(r + 1) % 3], f[(r + 2) % 3]];
-                if rng.below(2) == 1 {
-                    g.swap(0, 1);
-                }
-                let at = rng.below(faces.len() as u64 + 1) as usize;
-                faces.insert(at, g);
+                plant_duplicate(&mut rng, &mut faces);
             }
             let positions = (0..n).map(|i| [i as f64, 0.0, 1.0]).collect();
             let m = TriMesh::new(positions, faces.clone());
@@ -577,14 +583,7 @@ mod tests {
             // duplicates, 8–11 plant duplicates and a degenerate face.
             if case >= 4 {
                 for _ in 0..3 {
-                    let f = faces[rng.below(faces.len() as u64) as usize];
-                    let r = rng.below(3) as usize;
-                    let mut g = [f[r], f[(r + 1) % 3], f[(r + 2) % 3]];
-                    if rng.below(2) == 1 {
-                        g.swap(0, 1);
-                    }
-                    let at = rng.below(faces.len() as u64 + 1) as usize;
-                    faces.insert(at, g);
+                    plant_duplicate(&mut rng, &mut faces);
                 }
             }
             if case >= 8 {
