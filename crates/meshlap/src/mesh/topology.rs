@@ -9,6 +9,8 @@
 //! thread (`mem::bucket_sort`), and the result independent of the thread
 //! count), with no hashing, so a 1M-vertex mesh builds in a
 //! fraction of a second (`meshlap-bench topology builtin:icosphere:9`; BENCHMARKS.md).
+//! The outgoing half-edges and the manifold flags, which the operators never use, are
+//! computed on first use instead, each by one sequential pass.
 //!
 //! Non-manifold input is represented, not rejected: an edge with more than two faces
 //! has no twins (each of its half-edges behaves like a boundary half-edge for rotation)
