@@ -45,9 +45,9 @@ impl<I: rayon::iter::IndexedParallelIterator> FoldInOrder for I {}
 /// would find it; in parallel over chunks of 4,096 items, each scanned sequentially,
 /// and only the first chunk with a hit searched for its position.
 ///
-/// Rayon's `par_iter().position_first` checks a shared atomic at every item: on a
-/// 134k-vertex mesh's positions it took 0.79 ms where a sequential scan took 0.11 ms
-/// (2 threads); by chunks, 0.1 ms.
+/// Rayon's `par_iter().position_first` checks a shared atomic at every item, which
+/// made a mesh's validation several times slower than a sequential scan (figures in
+/// BENCHMARKS.md, "Python API", fifty-fourth session).
 pub(crate) fn position_first<T: Sync>(
     items: &[T],
     bad: impl Fn(&T) -> bool + Sync,

@@ -115,7 +115,7 @@ fn clean_parts(
             .map(|_| AtomicBool::new(false))
             .collect();
         // Per face, not `flatten()`: that makes every face a parallel iterator of its
-        // own (5.5 ms against under 1 on a 134k-vertex mesh, 2 threads).
+        // own, several times slower (BENCHMARKS.md, "Python API").
         faces.par_iter().with_min_len(1 << 12).for_each(|f| {
             for &v in f {
                 used[v as usize].store(true, Ordering::Relaxed);
