@@ -18,6 +18,7 @@ Comparisons (the issue's benchmark):
   ARPACK's), each alternated with scipy;
 - meshlap.operator(kind="cotan") vs igl.cotmatrix, at least 15 rounds, and again
   after meshlap.keep_freed_memory() (process-wide: both sides reuse freed buffers);
+- meshlap.mass_matrix vs igl.massmatrix (Voronoi), with the largest difference;
 - meshlap.read_mesh vs trimesh.load;
 - the binding overhead on a 1k-vertex mesh: meshlap.operator (argument checks,
   conversions, csr_array) against the raw extension call on prepared arrays.
@@ -230,6 +231,14 @@ def main():
                 ta, tb, _, _ = rounds(lambda: meshlap.operator(V, F, "cotan"), lambda: igl.cotmatrix(V, F),
                                       max(n_rounds, 15))
                 row("cotan operator vs igl.cotmatrix", mesh, ta, tb)
+                # The lumped Voronoi mass alone (no stiffness, no connectivity on our
+                # side), with the largest relative difference to igl's.
+                ta, tb, ra, rb = rounds(lambda: meshlap.mass_matrix(V, F),
+                                        lambda: igl.massmatrix(V, F, igl.MASSMATRIX_TYPE_VORONOI),
+                                        max(n_rounds, 15))
+                da, db = ra.diagonal(), rb.diagonal()
+                row("mass_matrix vs igl.massmatrix", mesh, ta, tb,
+                    {"max_relative_difference": float(abs(da - db).max() / abs(db).max())})
             except ImportError:
                 print("libigl missing: skipped", file=sys.stderr)
             if not mesh.startswith("builtin:"):

@@ -255,9 +255,12 @@ def operator(
 
 
 def mass_matrix(V: Any, F: Any, kind: str = "voronoi"):
-    """The lumped mass matrix of the cotangent operator as a diagonal n×n
+    """The lumped mass matrix M of the cotangent operator as a diagonal n×n
     ``scipy.sparse.csr_array``: ``voronoi`` (mixed Voronoi areas, Meyer et al. 2003)
-    or ``barycentric`` (a third of the incident triangle areas)."""
+    or ``barycentric`` (a third of the incident triangle areas), for ``L v = λ M v``
+    with ``L = operator(V, F, "cotan")`` (sign ``F = D − W``, positive semi-definite).
+    Computed face by face, without the stiffness matrix or the connectivity; a
+    degenerate face raises ``OperatorError`` as ``operator`` does."""
     import scipy.sparse as sp
 
     v, f = _mesh(V, F)

@@ -54,6 +54,7 @@ def test_library_checks_reach_python(tet):
         dup = np.vstack([F, F[1][::-1]]).astype(dtype)
         msg = rf"F\[{n}\] = \[{F[1][2]}, {F[1][1]}, {F[1][0]}\] repeats face F\[1\]; clean the mesh first"
         for fn in [lambda: meshlap.operator(V, dup, "kirchhoff"),
+                   lambda: meshlap.mass_matrix(V, dup),
                    lambda: meshlap.write_mesh("never-written.ply", V, dup)]:
             with pytest.raises(meshlap.MeshError, match=msg):
                 fn()
@@ -71,6 +72,8 @@ def test_library_checks_reach_python(tet):
     flat[:] = 0
     with pytest.raises(meshlap.OperatorError, match="degenerate"):
         meshlap.operator(flat, F, "cotan")
+    with pytest.raises(meshlap.OperatorError, match="face 0 .* is degenerate"):
+        meshlap.mass_matrix(flat, F)
 
 
 def test_eigsh_bad_input():

@@ -3,8 +3,12 @@
 //! spectral projection and compaction, filtering, and HKS/WKS. Operators are
 //! positive semi-definite, `F = D − W` (Zhang 2004).
 
-use crate::{compute, csr_out, json, mat_out, mesh_of, raise_as, CsrParts, FaceArray, OrRaise};
+use crate::{
+    checked_named, compute, csr_out, json, mat_out, mesh_of, raise_as, CsrParts, FaceArray,
+    OrRaise, VF,
+};
 use faer::MatRef;
+use meshlap::operator::cotan::{self, MassKind};
 use meshlap::operator::{Operator, OperatorKind, OperatorOptions};
 use meshlap::spectral::descriptors;
 use meshlap::spectral::partial::{
@@ -71,7 +75,9 @@ fn operator<'py>(
 }
 
 /// `mass_matrix(V, F, kind)` → the lumped mass diagonal (n,) of the cotangent
-/// operator (`voronoi`: mixed Voronoi areas, Meyer et al. 2003; `barycentric`).
+/// operator (`voronoi`: mixed Voronoi areas, Meyer et al. 2003; `barycentric`), by
+/// [`meshlap::operator::cotan::mass`]: neither the stiffness matrix nor the
+/// connectivity is built.
 #[pyfunction]
 #[pyo3(signature = (v, f, kind="voronoi"))]
 fn mass_matrix<'py>(
@@ -80,9 +86,9 @@ fn mass_matrix<'py>(
     f: FaceArray<'_>,
     kind: &str,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    let input = mesh_of(py, &v, &f)?;
-    let op = assemble(py, &input, "cotan", "zero-row-sum", kind)?;
-    let m = op.mass.unwrap_or_default();
+    let kind: MassKind = kind.parse().or_raise(py)?;
+    let mesh = checked_named(py, &v, &f, VF)?;
+    let m = compute(py, || cotan::mass(&mesh, kind)).or_raise(py)?;
     Ok(PyArray1::from_vec(py, m))
 }
 

@@ -74,28 +74,7 @@ pub fn cotan(
         topo,
         0.0f64,
         |a, b| a + b,
-        |range, out| {
-            let first = range.start;
-            let bad = crate::cpu::dispatch(FaceGeometry {
-                pos: &mesh.positions,
-                faces: &faces[range],
-                mass_kind,
-                out,
-            });
-            match bad {
-                None => Ok(()),
-                Some(q) => {
-                    let t = faces[first + q];
-                    Err(OperatorError::DegenerateFace {
-                        face: (first + q) as u32,
-                        a: t[0],
-                        b: t[1],
-                        c: t[2],
-                        kind: "cotan",
-                    })
-                }
-            }
-        },
+        |range, out| face_geometry(&mesh.positions, faces, range, mass_kind, out),
     )?;
     // Edge e's weight ½(cot α + cot β), its half-edges in face order.
     let w = |e: u32| {
@@ -136,6 +115,95 @@ pub fn cotan(
     );
     super::check_finite_flagged(&l, flagged.into_inner(), Some(&mass), "cotan")?;
     Ok((l, mass))
+}
+
+/// The lumped mass diagonal (n) of the cotangent operator alone, without its
+/// stiffness matrix or the mesh's connectivity: per vertex the sum of its corners'
+/// shares ([`MassKind`]: mixed Voronoi areas, Meyer et al. 2003, or a third of each
+/// incident triangle's area), added face by face — the same bits as the mass
+/// [`cotan`] returns, on any number of threads.
+///
+/// `mesh.faces`: f×3 corner indices below n; positions n×3. An isolated vertex gets
+/// zero mass. Errors: a corner out of range ([`crate::mesh::MeshError::IndexOutOfRange`]);
+/// a degenerate face, a repeated corner included ([`OperatorError::DegenerateFace`],
+/// the lowest such face, as [`cotan`] names it); a mass that overflows
+/// ([`OperatorError::NonFinite`]). Unlike [`cotan`], stiffness weights that overflow
+/// while every mass is finite are no error here.
+pub fn mass(mesh: &TriMesh, mass_kind: MassKind) -> Result<Vec<f64>, OperatorError> {
+    use rayon::prelude::*;
+    const CHUNK: usize = 1024;
+    let faces = &mesh.faces[..];
+    crate::mesh::check_face_indices(faces, mesh.n_vertices())?;
+    let mut shares = vec![[0.0f64; 3]; faces.len()];
+    let first_bad = shares
+        .par_chunks_mut(CHUNK)
+        .enumerate()
+        .map_init(
+            || Vec::with_capacity(CHUNK),
+            |buf, (c, out)| {
+                buf.clear();
+                let range = c * CHUNK..c * CHUNK + out.len();
+                match face_geometry(&mesh.positions, faces, range, mass_kind, buf) {
+                    Ok(()) => {
+                        for (o, &(_, share)) in out.iter_mut().zip(buf.iter()) {
+                            *o = share;
+                        }
+                        None
+                    }
+                    Err(e) => Some((c, e)),
+                }
+            },
+        )
+        .flatten()
+        .min_by_key(|&(c, _)| c);
+    if let Some((_, e)) = first_bad {
+        return Err(e);
+    }
+    // Face by face, as `cotan` adds them.
+    let mut mass = vec![0.0f64; mesh.n_vertices()];
+    for (t, s) in faces.iter().zip(&shares) {
+        for k in 0..3 {
+            mass[t[k] as usize] += s[k];
+        }
+    }
+    match super::first_non_finite(&mass) {
+        Some(v) => Err(OperatorError::NonFinite {
+            vertex: v as u32,
+            kind: "cotan",
+        }),
+        None => Ok(mass),
+    }
+}
+
+/// [`FaceGeometry`] of `faces[range]` pushed onto `out`, or the degenerate face it
+/// met first, named.
+fn face_geometry(
+    pos: &[[f64; 3]],
+    faces: &[[u32; 3]],
+    range: std::ops::Range<usize>,
+    mass_kind: MassKind,
+    out: &mut Vec<([f64; 3], [f64; 3])>,
+) -> Result<(), OperatorError> {
+    let first = range.start;
+    let bad = crate::cpu::dispatch(FaceGeometry {
+        pos,
+        faces: &faces[range],
+        mass_kind,
+        out,
+    });
+    match bad {
+        None => Ok(()),
+        Some(q) => {
+            let t = faces[first + q];
+            Err(OperatorError::DegenerateFace {
+                face: (first + q) as u32,
+                a: t[0],
+                b: t[1],
+                c: t[2],
+                kind: "cotan",
+            })
+        }
+    }
 }
 
 /// Faces per group of lanes in [`FaceGeometry`].
@@ -382,9 +450,12 @@ mod tests {
                         .num_threads(threads)
                         .build()
                         .unwrap();
-                    let (_, mass) = pool.install(|| cotan(m, &t, kind).unwrap());
-                    let got: Vec<u64> = mass.iter().map(|x| x.to_bits()).collect();
-                    assert!(got == want, "{name} {kind:?} {threads} threads");
+                    let (_, with_stiffness) = pool.install(|| cotan(m, &t, kind).unwrap());
+                    let alone = pool.install(|| mass(m, kind).unwrap());
+                    for (what, got) in [("cotan", with_stiffness), ("mass", alone)] {
+                        let got: Vec<u64> = got.iter().map(|x| x.to_bits()).collect();
+                        assert!(got == want, "{what}: {name} {kind:?} {threads} threads");
+                    }
                 }
             }
         }
@@ -414,6 +485,40 @@ mod tests {
     #[test]
     fn the_first_degenerate_face_is_named_on_any_pool() {
         first_degenerate_face_is_named(|m, t| cotan(m, t, MassKind::Voronoi));
+        first_degenerate_face_is_named(|m, _| mass(m, MassKind::Voronoi));
+    }
+
+    #[test]
+    fn the_mass_alone_refuses_bad_corners_and_leaves_isolated_vertices_at_zero() {
+        let tri = |faces: Vec<[u32; 3]>| {
+            TriMesh::new(
+                vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [5.0, 5.0, 5.0]],
+                faces,
+            )
+        };
+        let m = mass(&tri(vec![[0, 1, 2]]), MassKind::Barycentric).unwrap();
+        assert_eq!(m, vec![0.5 / 3.0, 0.5 / 3.0, 0.5 / 3.0, 0.0]);
+        assert!(matches!(
+            mass(&tri(vec![[0, 1, 2], [0, 1, 4]]), MassKind::Voronoi),
+            Err(OperatorError::Mesh(
+                crate::mesh::MeshError::IndexOutOfRange { .. }
+            ))
+        ));
+        // A repeated corner is a face of zero area.
+        assert!(matches!(
+            mass(&tri(vec![[0, 1, 2], [1, 1, 3]]), MassKind::Voronoi),
+            Err(OperatorError::DegenerateFace { face: 1, .. })
+        ));
+        // Areas that overflow: degenerate, as in `cotan`.
+        let mut huge = tri(vec![[0, 1, 2]]);
+        huge.positions
+            .iter_mut()
+            .flatten()
+            .for_each(|x| *x *= 1e200);
+        assert!(matches!(
+            mass(&huge, MassKind::Voronoi),
+            Err(OperatorError::DegenerateFace { face: 0, .. })
+        ));
     }
 
     #[test]
