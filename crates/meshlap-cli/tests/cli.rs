@@ -609,3 +609,50 @@ fn closed_stdout_ends_quietly() {
     assert!(out.status.success(), "{:?}: {stderr}", out.status);
     assert!(!stderr.contains("panicked"), "{stderr}");
 }
+
+#[test]
+fn the_cotangent_mass_matrix_is_written_beside_the_stiffness() {
+    let dir = tempfile::tempdir().unwrap();
+    let (l, m) = (dir.path().join("L.mtx"), dir.path().join("M.mtx"));
+    let o = meshlap(&[
+        "operator",
+        &data("cow.obj"),
+        "--kind",
+        "cotan",
+        "--mass",
+        "barycentric",
+        "-o",
+        l.to_str().unwrap(),
+        "--mass-output",
+        m.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mass = meshlap::io::read_matrix_market(&m).unwrap();
+    let stiffness = meshlap::io::read_matrix_market(&l).unwrap();
+    let n = stiffness.nrows();
+    assert_eq!((mass.nrows(), mass.ncols(), mass.compute_nnz()), (n, n, n));
+    // The library's mass of the same (cleaned) mesh, value for value: a third of the
+    // incident triangle areas.
+    let input = meshlap::input::open(&data("cow.obj"), &Default::default()).unwrap();
+    let want = meshlap::operator::cotan::mass(
+        &input.mesh,
+        meshlap::operator::cotan::MassKind::Barycentric,
+    )
+    .unwrap();
+    assert_eq!(want.len(), n);
+    for (j, &w) in want.iter().enumerate() {
+        assert_eq!(mass.row_idx_of_col_raw(j), &[j]);
+        assert_eq!(mass.val_of_col(j), &[w]);
+    }
+    // Another kind has no mass matrix: refused before anything is read or written.
+    let o = meshlap(&[
+        "operator",
+        "builtin:icosphere:2",
+        "--kind",
+        "sql",
+        "--mass-output",
+        dir.path().join("none.mtx").to_str().unwrap(),
+    ]);
+    assert_one_line_error(&o, "--mass-output: the sql operator has no mass matrix");
+    assert!(!dir.path().join("none.mtx").exists());
+}

@@ -43,6 +43,11 @@ pub struct Args {
     /// by scipy.io.mmread, in the cleaned mesh's vertex order.
     #[arg(long, short, value_name = "FILE.mtx")]
     pub output: Option<PathBuf>,
+    /// Write the cotangent operator's lumped mass matrix (--mass; n×n, diagonal) as
+    /// Matrix Market, as --output writes the stiffness: `L v = λ M v` from the two
+    /// files. Only with --kind cotan.
+    #[arg(long, value_name = "FILE.mtx")]
+    pub mass_output: Option<PathBuf>,
     /// Print machine-readable JSON: every field of the report, including symmetric,
     /// negative_weights, max_abs_row_sum, gsml, lambda_min, lambda_max,
     /// gershgorin_max, zero_eigenvalue_multiplicity and, for TL and GL,
@@ -65,11 +70,20 @@ pub fn options(sql_boundary: BoundaryDiagonal, mass: MassKind) -> OperatorOption
 }
 
 pub fn run(args: &Args) -> meshlap::Result<()> {
+    if args.mass_output.is_some() && args.kind != OperatorKind::Cotan {
+        return Err(meshlap::Error::InvalidArgument(format!(
+            "--mass-output: the {} operator has no mass matrix (only --kind cotan has one)",
+            args.kind
+        )));
+    }
     let input = args.mesh.open()?;
     let opts = options(args.sql_diagonal, args.mass);
     let op = Operator::assemble(args.kind, &input.mesh, &input.topology, &opts)?;
     if let Some(path) = &args.output {
         meshlap::io::write_matrix_market(path, op.matrix.as_ref())?;
+    }
+    if let (Some(path), Some(mass)) = (&args.mass_output, op.mass_matrix()) {
+        meshlap::io::write_matrix_market(path, mass.as_ref())?;
     }
     let popts = PropertyOptions {
         dense_limit: args.dense_limit,
@@ -136,7 +150,7 @@ pub fn run(args: &Args) -> meshlap::Result<()> {
     } else {
         println!("GSML            no: fails {}", r.gsml.failing.join(", "));
     }
-    if let Some(p) = &args.output {
+    for p in args.output.iter().chain(&args.mass_output) {
         println!("wrote           {}", p.display());
     }
     Ok(())

@@ -12,7 +12,10 @@ use std::path::Path;
 pub fn write_matrix_market(path: &Path, m: SparseColMatRef<'_, usize, f64>) -> Result<(), IoError> {
     write_atomic(path, |w| {
         writeln!(w, "%%MatrixMarket matrix coordinate real general")?;
-        writeln!(w, "% written by meshlap (sign convention F = D - W)")?;
+        writeln!(
+            w,
+            "% written by meshlap (an operator's sign convention: F = D - W)"
+        )?;
         writeln!(w, "{} {} {}", m.nrows(), m.ncols(), m.compute_nnz())?;
         // One record per column: its entries' lines.
         super::encode::write_records(w, m.ncols(), |cols, out| {

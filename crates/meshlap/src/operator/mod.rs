@@ -267,6 +267,21 @@ impl Operator {
         Ok(Operator { kind, matrix, mass })
     }
 
+    /// The lumped mass as an n×n diagonal sparse matrix (the cotangent operator's,
+    /// [`cotan::MassKind`]); `None` for the other kinds, which have no mass matrix.
+    pub fn mass_matrix(&self) -> Option<SparseMatrix> {
+        let mass = self.mass.as_ref()?;
+        let n = mass.len();
+        let symbolic = faer::sparse::SymbolicSparseColMat::new_checked(
+            n,
+            n,
+            (0..=n).collect(),
+            None,
+            (0..n).collect(),
+        );
+        Some(faer::sparse::SparseColMat::new(symbolic, mass.clone()))
+    }
+
     /// The matrix as compressed rows (`scipy.sparse.csr_array`'s layout), sign
     /// `F = D − W`: the CSC arrays moved as they are for an exactly symmetric kind
     /// ([`OperatorKind::is_symmetric`]), a parallel transpose for the others
