@@ -17,7 +17,8 @@ Comparisons (the issue's benchmark):
   tolerance of --tols (the default 1e-10, and 1e-12, where its residuals reach
   ARPACK's), each alternated with scipy;
 - meshlap.operator(kind="cotan") vs igl.cotmatrix, at least 15 rounds, and again
-  after meshlap.keep_freed_memory() (process-wide: both sides reuse freed buffers);
+  after meshlap.keep_freed_memory() (glibc's setting, process-wide: igl's buffers are
+  reused too; meshlap's own come from its mimalloc, which reuses them either way);
 - meshlap.mass_matrix vs igl.massmatrix (Voronoi), with the largest difference;
 - meshlap.read_mesh vs trimesh.load;
 - the binding overhead on a 1k-vertex mesh: meshlap.operator (argument checks,

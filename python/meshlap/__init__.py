@@ -749,12 +749,15 @@ def keep_freed_memory() -> bool:
     block below 32 MiB from its heaps (``mallopt(M_TOP_PAD)`` and
     ``mallopt(M_MMAP_THRESHOLD)``).
 
-    Worth it in a loop of many calls (:func:`operator`, dense bases, :func:`eigs` on
-    meshes or patches): buffers are then reused instead of page-faulted in again on
-    every call. The ``meshlap`` command does this
-    at start; the package does not on import, since the setting also applies to
-    every other allocation of the interpreter. Returns whether the allocator took
-    the setting (``False`` without glibc, where nothing changes).
+    meshlap's own buffers (everything the extension allocates, the arrays of its
+    results included) do not need this: they come from the extension's allocator,
+    mimalloc, which keeps freed memory for reuse for about a second
+    (``MIMALLOC_PURGE_DELAY``, in milliseconds, changes that). This setting does the
+    same for glibc's allocations: numpy's arrays (the converted copies of float32 or
+    non-contiguous arguments among them) and other extensions. The ``meshlap``
+    command does it at start; the package does not on import, since the setting
+    applies to every other allocation of the interpreter. Returns whether the
+    allocator took the setting (``False`` without glibc, where nothing changes).
     """
     return bool(_meshlap.keep_freed_memory())
 

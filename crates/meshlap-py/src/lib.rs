@@ -14,6 +14,15 @@ use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2, PyUntypedArray
 use pyo3::prelude::*;
 use std::sync::{Arc, RwLock};
 
+/// Every allocation of the extension (its buffers and the arrays it hands to numpy)
+/// comes from mimalloc, which keeps freed memory for reuse for about a second
+/// (`MIMALLOC_PURGE_DELAY`, in milliseconds, changes that) instead of returning it
+/// to the kernel at once as glibc does with large blocks: repeated calls then reuse
+/// their buffers instead of page-faulting them in again. The interpreter and other
+/// extensions keep their own allocator.
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 /// Adds each `#[pyfunction]` named to the module `m`: `add_functions!(m; f, g)`.
 macro_rules! add_functions {
     ($m:expr; $($f:ident),+ $(,)?) => {{
@@ -377,8 +386,9 @@ fn get_threads() -> usize {
     }
 }
 
-/// `meshlap::keep_freed_memory`: keep freed memory in the allocator's heaps
-/// (process-wide); whether the allocator took the setting.
+/// `meshlap::keep_freed_memory`: keep freed memory in glibc's heaps (process-wide:
+/// numpy's arrays and other extensions; the extension's own allocations come from
+/// mimalloc, [`GLOBAL`]); whether glibc took the setting.
 #[pyfunction]
 fn keep_freed_memory() -> bool {
     meshlap::keep_freed_memory()

@@ -215,7 +215,8 @@ pub const MMAP_THRESHOLD_BYTES: usize = 32 << 20;
 /// large meshes' arrays, big dense matrices) are mapped on their own and returned at
 /// once, as before. The setting is process-wide, so the library never makes it on its
 /// own: the `meshlap` binaries call this at start, and the Python package offers it as
-/// `meshlap.keep_freed_memory()`.
+/// `meshlap.keep_freed_memory()` (its extension's own allocations come from mimalloc,
+/// which reuses freed memory without it).
 pub fn keep_freed_memory() -> bool {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     {
