@@ -10,7 +10,8 @@
 //! count), with no hashing, so a 1M-vertex mesh builds in a
 //! fraction of a second (`meshlap-bench topology builtin:icosphere:9`; BENCHMARKS.md).
 //! The outgoing half-edges and the manifold flags, which the operators never use, are
-//! computed on first use instead, each by one sequential pass.
+//! computed on first use instead: the first by one sequential pass, the second in
+//! parallel over the vertices.
 //!
 //! Non-manifold input is represented, not rejected: an edge with more than two faces
 //! has no twins (each of its half-edges behaves like a boundary half-edge for rotation)
@@ -21,6 +22,7 @@ use super::graph::VertexGraph;
 use super::{EdgeId, FaceId, MeshError, TriMesh, VertexId};
 use crate::mem::Scatter;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Marker for "no half-edge" (boundary or non-manifold edge).
 pub const INVALID: u32 = u32::MAX;
@@ -29,6 +31,17 @@ pub const INVALID: u32 = u32::MAX;
 pub const MAX_FACES: usize = (i32::MAX as usize) / 3;
 const REVERSED: u64 = 1 << 31;
 const HALF_EDGE: u64 = REVERSED - 1;
+
+/// Whether a part of [`Topology`] computed on first use has a computation under way.
+/// A clone starts afresh (its cells are cloned as they are: set, or to be computed).
+#[derive(Debug, Default)]
+struct Busy(AtomicBool);
+
+impl Clone for Busy {
+    fn clone(&self) -> Self {
+        Self::default()
+    }
+}
 
 /// Half-edge connectivity; see the module documentation.
 #[derive(Clone, Debug)]
@@ -46,6 +59,9 @@ pub struct Topology {
     /// Per vertex, whether it is manifold: computed on first use (fan walks), since
     /// the operators, the most common users, never ask.
     vertex_manifold: std::sync::OnceLock<Vec<bool>>,
+    /// Whether a first computation of `vertex_manifold` has started (see
+    /// [`Self::manifold_flags`]).
+    manifold_busy: Busy,
     inconsistent_edges: usize,
     /// How many edges have more than two faces: 0 lets [`Topology::non_manifold_edges`]
     /// skip its scan (the operators ask on every call).
@@ -220,6 +236,7 @@ impl Topology {
             adj_edge,
             vertex_out: std::sync::OnceLock::new(),
             vertex_manifold: std::sync::OnceLock::new(),
+            manifold_busy: Busy::default(),
             inconsistent_edges,
             non_manifold_edges,
         };
@@ -230,11 +247,31 @@ impl Topology {
     /// walk through its fan sweeps all its faces (each face at v holds two of v's
     /// edges, so the face count is half the sum of its edges' face counts). The walk
     /// ignores orientation, so an inconsistently oriented neighbour (reported
-    /// separately) does not make a vertex non-manifold. Computed once, on first use
-    /// (see [`Self::outgoing`] for why sequentially).
+    /// separately) does not make a vertex non-manifold.
+    ///
+    /// Computed once, on first use, outside the cell's initialisation: the first
+    /// caller in parallel over the vertices; anyone asking while it runs (another
+    /// thread, or the same one through a task of its caller's parallel loop that it
+    /// picked up while waiting) sequentially. Nobody waits on a lock that the waiting
+    /// thread itself could hold, and parallel passes never nest; the flags are the
+    /// same either way, and the first stored is kept.
     fn manifold_flags(&self) -> &[bool] {
-        self.vertex_manifold
-            .get_or_init(|| self.compute_manifold_vertices())
+        if let Some(m) = self.vertex_manifold.get() {
+            return m;
+        }
+        let outgoing = self.outgoing();
+        let flags = if self.manifold_busy.0.swap(true, Ordering::AcqRel) {
+            (0..self.graph.n)
+                .map(|v| self.vertex_is_manifold(outgoing, v))
+                .collect()
+        } else {
+            (0..self.graph.n)
+                .into_par_iter()
+                .with_min_len(1 << 10)
+                .map(|v| self.vertex_is_manifold(outgoing, v))
+                .collect()
+        };
+        self.vertex_manifold.get_or_init(|| flags)
     }
 
     /// One outgoing half-edge per vertex, preferring a boundary one so that rotation
@@ -245,7 +282,9 @@ impl Topology {
     /// Computed once, on first use, in one sequential pass over the half-edges: a
     /// parallel pass inside the initialisation could let its thread pick up, while it
     /// waits, a pending task of the caller's own parallel loop that asks for the same
-    /// cell, and block on itself.
+    /// cell, and block on itself. (A parallel pass over the vertices outside the cell,
+    /// through their edges, was slower than this scan on two threads: BENCHMARKS.md,
+    /// "Connectivity".)
     fn outgoing(&self) -> &[u32] {
         self.vertex_out.get_or_init(|| {
             let mut key = vec![u64::MAX; self.graph.n];
@@ -266,25 +305,21 @@ impl Topology {
         })
     }
 
-    /// The flags of [`Self::manifold_flags`], sequentially (see [`Self::outgoing`]).
-    fn compute_manifold_vertices(&self) -> Vec<bool> {
-        (0..self.graph.n)
-            .map(|v| {
-                if self.outgoing()[v] == INVALID {
-                    return true; // isolated vertex: nothing non-manifold about it
-                }
-                let mut incident2 = 0u32;
-                for p in self.graph.offsets[v]..self.graph.offsets[v + 1] {
-                    let c = self.edge_faces[self.adj_edge[p as usize] as usize];
-                    if c > 2 {
-                        return false;
-                    }
-                    incident2 += c;
-                }
-                let (_, _, swept) = self.fan_sweep(v as u32);
-                2 * swept as u32 == incident2
-            })
-            .collect()
+    /// [`Self::manifold_flags`]'s value for `v`, given the outgoing half-edges.
+    fn vertex_is_manifold(&self, outgoing: &[u32], v: usize) -> bool {
+        if outgoing[v] == INVALID {
+            return true; // isolated vertex: nothing non-manifold about it
+        }
+        let mut incident2 = 0u32;
+        for p in self.graph.offsets[v]..self.graph.offsets[v + 1] {
+            let c = self.edge_faces[self.adj_edge[p as usize] as usize];
+            if c > 2 {
+                return false;
+            }
+            incident2 += c;
+        }
+        let (_, _, swept) = self.fan_sweep(v as u32);
+        2 * swept as u32 == incident2
     }
 
     /// The edge at `v` other than `h` in `h`'s face (`h` must be incident to `v`).
