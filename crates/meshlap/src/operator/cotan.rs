@@ -121,7 +121,8 @@ pub fn cotan(
 /// stiffness matrix or the mesh's connectivity: per vertex the sum of its corners'
 /// shares ([`MassKind`]: mixed Voronoi areas, Meyer et al. 2003, or a third of each
 /// incident triangle's area), added face by face — the same bits as the mass
-/// [`cotan`] returns, on any number of threads.
+/// [`cotan`] returns, on any number of threads. The `M` of `L v = λ M v` with `L`
+/// the cotangent stiffness (sign `F = D − W`, positive semi-definite).
 ///
 /// `mesh.faces`: f×3 corner indices below n; positions n×3. An isolated vertex gets
 /// zero mass. Errors: a corner out of range ([`crate::mesh::MeshError::IndexOutOfRange`]);
