@@ -1,6 +1,8 @@
 """eigsh / eigs against scipy and numpy, HKS / WKS against their closed forms,
 projection and compaction against a dense numpy construction."""
 
+import sys
+
 import numpy as np
 import pytest
 import scipy.linalg as sla
@@ -293,3 +295,29 @@ def test_spectrum_bad_options():
         meshlap.spectrum(V, F, "kl", 0)
     with pytest.raises(ValueError):
         meshlap.spectrum(V, F, "tl", path="symmetric")
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc/self/status")
+def test_memory_freed_by_a_large_call_is_returned_while_idle():
+    """The extension allocates with mimalloc, which keeps freed memory for reuse for
+    about a second; its purge thread then has the pool's threads return it, without
+    another meshlap call (without that thread it stayed resident until the next call)."""
+    import time
+
+    def rss_mb():
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmRSS"):
+                    return int(line.split()[1]) / 1024
+
+    V, F = meshlap.read_mesh("builtin:icosphere:6")  # 40,962 vertices
+    time.sleep(2.5)  # what earlier tests freed is returned first
+    before = rss_mb()
+    ev, vec = meshlap.eigs(V, F, 60, "kirchhoff")
+    del ev, vec
+    after = rss_mb()
+    assert after - before > 60, "the call should leave freed memory behind at first"
+    deadline = time.monotonic() + 8
+    while rss_mb() > before + 0.5 * (after - before) and time.monotonic() < deadline:
+        time.sleep(0.25)
+    assert rss_mb() <= before + 0.5 * (after - before), (before, after, rss_mb())

@@ -23,6 +23,39 @@ use std::sync::{Arc, RwLock};
 #[global_allocator]
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
+/// Starts the thread that once a second has every thread of the compute pool ask
+/// mimalloc to return to the kernel the memory it freed more than the purge delay ago
+/// (`mi_collect(false)` on each worker: nothing else is freed or moved). mimalloc
+/// purges a thread's memory only when that thread allocates or frees; the large
+/// buffers belong to the pool's workers, which sleep between calls, so without this a
+/// large call's freed memory (hundreds of megabytes after a partial eigensolve) would
+/// stay resident while the interpreter does other work, until the next meshlap call.
+fn start_purger() {
+    static STARTED: std::sync::Once = std::sync::Once::new();
+    STARTED.call_once(|| {
+        // Without the thread (it could not be spawned), memory is still purged on
+        // the next call, as mimalloc does by itself.
+        let _ = std::thread::Builder::new()
+            .name("meshlap-purge".into())
+            .spawn(|| loop {
+                std::thread::sleep(std::time::Duration::from_secs(1));
+                // Not before the first call: the broadcast would start the global
+                // pool's threads.
+                if !COMPUTED.load(std::sync::atomic::Ordering::Relaxed) {
+                    continue;
+                }
+                // SAFETY: `mi_collect` may be called on any thread at any time; it
+                // collects the calling thread's heap.
+                let collect =
+                    |_: rayon::BroadcastContext<'_>| unsafe { libmimalloc_sys::mi_collect(false) };
+                match POOL.read().map(|p| p.clone()).unwrap_or(None) {
+                    Some(p) => p.broadcast(collect),
+                    None => rayon::broadcast(collect),
+                };
+            });
+    });
+}
+
 /// Adds each `#[pyfunction]` named to the module `m`: `add_functions!(m; f, g)`.
 macro_rules! add_functions {
     ($m:expr; $($f:ident),+ $(,)?) => {{
@@ -39,8 +72,12 @@ mod watermark_fns;
 /// The thread pool of `set_threads` (`None`: rayon's global pool, all cores).
 static POOL: RwLock<Option<Arc<rayon::ThreadPool>>> = RwLock::new(None);
 
+/// Whether a call has run on a compute pool (see [`start_purger`]).
+static COMPUTED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
 /// Runs `f` without the GIL, on the pool chosen by `set_threads`.
 pub(crate) fn compute<T: Send, F: FnOnce() -> T + Send>(py: Python<'_>, f: F) -> T {
+    COMPUTED.store(true, std::sync::atomic::Ordering::Relaxed);
     let pool = POOL.read().map(|p| p.clone()).unwrap_or(None);
     py.detach(move || match pool {
         Some(p) => p.install(f),
@@ -396,6 +433,7 @@ fn keep_freed_memory() -> bool {
 
 #[pymodule]
 fn _meshlap(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    start_purger();
     m.add_function(wrap_pyfunction!(set_threads, m)?)?;
     m.add_function(wrap_pyfunction!(get_threads, m)?)?;
     m.add_function(wrap_pyfunction!(keep_freed_memory, m)?)?;
