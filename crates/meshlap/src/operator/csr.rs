@@ -55,35 +55,71 @@ pub fn csr_of(m: SparseMatrix, symmetric: bool) -> Csr {
     transpose(&m)
 }
 
-/// The counting-sort transpose of `m`'s storage: each block of columns (about equal
-/// entries per block, one or two per thread) counts its entries per row, a prefix
-/// over rows and blocks gives every block its first slot in each row, and the blocks
-/// scatter their entries in column order, so each row comes out ascending.
+/// The counting-sort transpose of `m`'s storage ([`transpose_storage`]).
 fn transpose(m: &SparseMatrix) -> Csr {
-    let parts = (2 * rayon::current_num_threads()).min(m.compute_nnz() / MIN_BLOCK_ENTRIES);
-    transpose_in_blocks(m, parts)
+    transpose_in_blocks(m, None)
 }
 
-/// [`transpose`] with `parts` blocks of columns (at least 1, at most one per column).
-fn transpose_in_blocks(m: &SparseMatrix, parts: usize) -> Csr {
-    let (nrows, ncols) = (m.nrows(), m.ncols());
-    let nnz = m.compute_nnz();
-    let blocks: Vec<Range<usize>> = column_blocks(m, parts.clamp(1, ncols.max(1)));
+/// [`transpose`] with `parts` blocks of columns (`None`: [`transpose_storage`]'s
+/// choice).
+fn transpose_in_blocks(m: &SparseMatrix, parts: Option<usize>) -> Csr {
+    let symbolic = m.symbolic();
+    let (row_ptr, col, val) = transpose_storage(
+        m.nrows(),
+        m.ncols(),
+        |j| symbolic.col_range(j),
+        |p| symbolic.row_idx()[p],
+        m.val(),
+        |j| j,
+        parts,
+    );
+    Csr {
+        nrows: m.nrows(),
+        ncols: m.ncols(),
+        row_ptr,
+        col,
+        val,
+    }
+}
+
+/// The counting-sort transpose of compressed storage: `n_outer` lists (entries
+/// `range(o)`, inner index `inner(p)` and value `val[p]` of entry p) over `n_inner`
+/// inner positions become `n_inner` lists over the outer positions, each ascending
+/// (the outer index as `index` makes it). Returns the pointers (`n_inner + 1`), the
+/// indices and the values. CSC to CSR, or CSR to CSC.
+///
+/// In parallel over `parts` blocks of outer lists (clamped to 1 ..= `n_outer`; `None`:
+/// two per thread, each of at least 2¹⁶ entries) with about equal entries each: every block counts its entries per inner position, a
+/// prefix over positions and blocks gives every block its first slot in each list,
+/// and the blocks scatter their entries in outer order, so each list comes out
+/// ascending. The same result for any `parts` and thread count. Shared by the
+/// operators' CSR ([`Operator::into_csr`](super::Operator::into_csr)) and the solvers'
+/// (`solve::CsrMatrix`).
+pub(crate) fn transpose_storage<T: Copy + Default + Send + Sync>(
+    n_inner: usize,
+    n_outer: usize,
+    range: impl Fn(usize) -> Range<usize> + Sync,
+    inner: impl Fn(usize) -> usize + Sync,
+    val: &[f64],
+    index: impl Fn(usize) -> T + Sync,
+    parts: Option<usize>,
+) -> (Vec<usize>, Vec<T>, Vec<f64>) {
+    let blocks = outer_blocks(n_outer, &range, parts);
     let mut fill: Vec<Vec<usize>> = blocks
         .par_iter()
-        .map(|cols| {
-            let mut count = vec![0usize; nrows];
-            for j in cols.clone() {
-                for &i in m.row_idx_of_col_raw(j) {
-                    count[i] += 1;
+        .map(|outer| {
+            let mut count = vec![0usize; n_inner];
+            for o in outer.clone() {
+                for p in range(o) {
+                    count[inner(p)] += 1;
                 }
             }
             count
         })
         .collect();
-    let mut row_ptr = vec![0usize; nrows + 1];
+    let mut ptr = vec![0usize; n_inner + 1];
     let mut at = 0usize;
-    for (i, start) in row_ptr[..nrows].iter_mut().enumerate() {
+    for (i, start) in ptr[..n_inner].iter_mut().enumerate() {
         *start = at;
         for f in fill.iter_mut() {
             let c = f[i];
@@ -91,56 +127,61 @@ fn transpose_in_blocks(m: &SparseMatrix, parts: usize) -> Csr {
             at += c;
         }
     }
-    row_ptr[nrows] = at;
-    let mut col = crate::mem::zeroed_vec(0usize, nnz);
-    let mut val = crate::mem::zeroed_vec(0.0f64, nnz);
+    ptr[n_inner] = at;
+    let mut idx = crate::mem::zeroed_vec(T::default(), at);
+    let mut out = crate::mem::zeroed_vec(0.0f64, at);
     {
-        let (cs, vs) = (Scatter::new(&mut col), Scatter::new(&mut val));
+        let (is, vs) = (Scatter::new(&mut idx), Scatter::new(&mut out));
         blocks
             .into_par_iter()
             .zip(&mut fill)
-            .for_each(|(cols, fill)| {
-                for j in cols {
-                    for (&i, &v) in m.row_idx_of_col_raw(j).iter().zip(m.val_of_col(j)) {
-                        let p = fill[i];
+            .for_each(|(outer, fill)| {
+                for o in outer {
+                    let x = index(o);
+                    for p in range(o) {
+                        let i = inner(p);
+                        let q = fill[i];
                         fill[i] += 1;
-                        // SAFETY: every entry gets its own slot: the blocks' slots in a row
-                        // are disjoint ranges and each counter only grows within its own.
+                        // SAFETY: every entry gets its own slot: the blocks' slots in a
+                        // list are disjoint ranges and each counter only grows within
+                        // its own.
                         unsafe {
-                            cs.write(p, j);
-                            vs.write(p, v);
+                            is.write(q, x);
+                            vs.write(q, val[p]);
                         }
                     }
                 }
             });
     }
-    Csr {
-        nrows,
-        ncols,
-        row_ptr,
-        col,
-        val,
-    }
+    (ptr, idx, out)
 }
 
-/// `parts` contiguous column ranges covering `0..ncols` with about equal entries each.
-fn column_blocks(m: &SparseMatrix, parts: usize) -> Vec<Range<usize>> {
-    let ncols = m.ncols();
-    let ends: Vec<usize> = (0..ncols)
-        .map(|j| m.row_idx_of_col_raw(j).len())
+/// `parts` contiguous ranges covering `0..n_outer` with about equal entries each
+/// (`range(o).len()` entries in list o), `parts` clamped to 1 ..= `n_outer`; `None`:
+/// two per thread, each of at least [`MIN_BLOCK_ENTRIES`].
+fn outer_blocks(
+    n_outer: usize,
+    range: &impl Fn(usize) -> Range<usize>,
+    parts: Option<usize>,
+) -> Vec<Range<usize>> {
+    let ends: Vec<usize> = (0..n_outer)
+        .map(|o| range(o).len())
         .scan(0usize, |s, c| {
             *s += c;
             Some(*s)
         })
         .collect();
     let total = ends.last().copied().unwrap_or(0);
+    let parts = parts
+        .unwrap_or((2 * rayon::current_num_threads()).min(total / MIN_BLOCK_ENTRIES))
+        .clamp(1, n_outer.max(1));
     let mut blocks = Vec::with_capacity(parts);
     let mut start = 0usize;
     for p in 1..=parts {
         let end = if p == parts {
-            ncols
+            n_outer
         } else {
-            // The first column whose running count reaches p/parts of the entries.
+            // The first list whose running count reaches p/parts of the entries.
             ends.partition_point(|&e| e < p * total / parts).max(start)
         };
         blocks.push(start..end);
@@ -202,7 +243,7 @@ mod tests {
         let want = reference(&op.matrix);
         for parts in 1..=7 {
             assert_eq!(
-                transpose_in_blocks(&op.matrix, parts),
+                transpose_in_blocks(&op.matrix, Some(parts)),
                 want,
                 "{kind}, {parts}"
             );

@@ -69,15 +69,17 @@ pub struct CsrMatrix {
 }
 
 impl CsrMatrix {
-    /// Converts a CSC matrix to CSR (a transpose of the storage, O(nnz)).
+    /// Converts a CSC matrix to CSR (a transpose of the storage, O(nnz), in parallel:
+    /// [`crate::operator::csr::transpose_storage`]).
     pub fn from_csc(m: &SparseMatrix) -> Self {
-        let (ptr, col, val) = transpose_storage(
+        let (ptr, col, val) = crate::operator::csr::transpose_storage(
             m.nrows(),
             m.ncols(),
             |j| m.symbolic().col_range(j),
             |p| m.symbolic().row_idx()[p],
             m.val(),
             |j| j as u32,
+            None,
         );
         Self::from_parts(m.nrows(), m.ncols(), ptr, col, val)
     }
@@ -93,15 +95,16 @@ impl CsrMatrix {
     /// `index` makes them.
     fn by_columns<T: Copy + Default + Send + Sync>(
         &self,
-        index: impl Fn(usize) -> T,
+        index: impl Fn(usize) -> T + Sync,
     ) -> (Vec<usize>, Vec<T>, Vec<f64>) {
-        transpose_storage(
+        crate::operator::csr::transpose_storage(
             self.ncols,
             self.nrows,
             |i| self.row_range(i),
             |p| self.col[p] as usize,
             &self.val,
             index,
+            None,
         )
     }
 
@@ -745,43 +748,6 @@ impl PairedCsr {
     }
 }
 
-/// Counting-sort transposition of compressed storage: `n_outer` lists (entries
-/// `range(o)`, inner index `inner(p)` and value `val[p]` of entry p) over `n_inner`
-/// inner positions become `n_inner` lists over the outer positions, each ascending.
-/// Returns the pointers, the indices (as `index` makes them) and the values.
-fn transpose_storage<T: Copy + Default + Send + Sync>(
-    n_inner: usize,
-    n_outer: usize,
-    range: impl Fn(usize) -> Range<usize>,
-    inner: impl Fn(usize) -> usize,
-    val: &[f64],
-    index: impl Fn(usize) -> T,
-) -> (Vec<usize>, Vec<T>, Vec<f64>) {
-    let mut ptr = vec![0usize; n_inner + 1];
-    for o in 0..n_outer {
-        for p in range(o) {
-            ptr[inner(p) + 1] += 1;
-        }
-    }
-    for i in 0..n_inner {
-        ptr[i + 1] += ptr[i];
-    }
-    let nnz = ptr[n_inner];
-    let mut fill = ptr.clone();
-    let mut idx = crate::mem::zeroed_vec(T::default(), nnz);
-    let mut out = crate::mem::zeroed_vec(0.0, nnz);
-    for o in 0..n_outer {
-        for p in range(o) {
-            let i = inner(p);
-            let q = fill[i];
-            fill[i] += 1;
-            idx[q] = index(o);
-            out[q] = val[p];
-        }
-    }
-    (ptr, idx, out)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -794,6 +760,40 @@ mod tests {
         let f = crate::operator::tutte::tutte(&Topology::new(&m).unwrap()).unwrap();
         let a = CsrMatrix::from_csc(&f);
         (f, a)
+    }
+
+    /// The parallel storage transpose (several blocks from 2¹⁷ entries on): the same
+    /// CSR on 1 to 3 threads, every entry of the CSC in its row, and `(Aᵀ)ᵀ = A`.
+    #[test]
+    fn from_csc_in_parallel_is_the_csc_by_rows() {
+        let m = builtin::icosphere(6).unwrap();
+        let f = crate::operator::tutte::tutte(&Topology::new(&m).unwrap()).unwrap();
+        assert!(f.compute_nnz() > 1 << 18);
+        let pool = |t: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(t)
+                .build()
+                .unwrap()
+        };
+        let a = pool(1).install(|| CsrMatrix::from_csc(&f));
+        for t in [2, 3] {
+            assert_eq!(
+                pool(t).install(|| CsrMatrix::from_csc(&f)),
+                a,
+                "{t} threads"
+            );
+        }
+        let mut entries = 0;
+        for j in 0..f.ncols() {
+            for (&i, &v) in f.row_idx_of_col_raw(j).iter().zip(f.val_of_col(j)) {
+                let r = a.row_range(i);
+                let k = a.col[r.clone()].binary_search(&(j as u32)).unwrap();
+                assert_eq!(a.val[r.start + k].to_bits(), v.to_bits());
+                entries += 1;
+            }
+        }
+        assert_eq!(entries, a.val.len());
+        assert_eq!(pool(3).install(|| a.transpose().transpose()), a);
     }
 
     #[test]
