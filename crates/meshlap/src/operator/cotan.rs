@@ -84,15 +84,7 @@ pub fn cotan(
     // Raised by a column with a non-finite entry: only then is the matrix scanned again.
     let flagged = AtomicBool::new(false);
     let (mass, l) = rayon::join(
-        || {
-            let mut mass = vec![0.0f64; topo.n_vertices()];
-            for (t, s) in faces.iter().zip(shares.chunks_exact(3)) {
-                for k in 0..3 {
-                    mass[t[k] as usize] += s[k];
-                }
-            }
-            mass
-        },
+        || add_corner_shares(topo.n_vertices(), faces, &shares),
         || {
             super::assemble::one_ring_columns(topo, |j, off| {
                 let edges = topo.neighbor_edges(crate::VertexId(j as u32));
@@ -160,13 +152,7 @@ pub fn mass(mesh: &TriMesh, mass_kind: MassKind) -> Result<Vec<f64>, OperatorErr
     if let Some((_, e)) = first_bad {
         return Err(e);
     }
-    // Face by face, as `cotan` adds them.
-    let mut mass = vec![0.0f64; mesh.n_vertices()];
-    for (t, s) in faces.iter().zip(&shares) {
-        for k in 0..3 {
-            mass[t[k] as usize] += s[k];
-        }
-    }
+    let mass = add_corner_shares(mesh.n_vertices(), faces, shares.as_flattened());
     match super::first_non_finite(&mass) {
         Some(v) => Err(OperatorError::NonFinite {
             vertex: v as u32,
@@ -174,6 +160,19 @@ pub fn mass(mesh: &TriMesh, mass_kind: MassKind) -> Result<Vec<f64>, OperatorErr
         }),
         None => Ok(mass),
     }
+}
+
+/// The mass diagonal (n) from the corners' shares (three per face, in face order):
+/// added face by face on one thread, so that [`cotan`] and [`mass`] give the same
+/// bits on any number of threads.
+fn add_corner_shares(n: usize, faces: &[[u32; 3]], shares: &[f64]) -> Vec<f64> {
+    let mut mass = vec![0.0f64; n];
+    for (t, s) in faces.iter().zip(shares.chunks_exact(3)) {
+        for k in 0..3 {
+            mass[t[k] as usize] += s[k];
+        }
+    }
+    mass
 }
 
 /// [`FaceGeometry`] of `faces[range]` pushed onto `out`, or the degenerate face it
