@@ -115,9 +115,10 @@ const PLY_TYPES: [&str; 8] = [
 
 /// Binary PLY. The first byte picks a mode: even, the rest is the whole file; odd, a
 /// well-formed binary header is generated from the mode byte (byte order, coordinate
-/// type) and the next 5 bytes (list count and index types, vertex and face counts),
-/// and the rest is the body, so mutations reach the binary decoding (including the
-/// fixed-size fast paths) instead of dying in the header.
+/// type) and the next 5 bytes (list count and index types, `face` or `tristrips`,
+/// vertex and face counts), and the rest is the body, so mutations reach the binary
+/// decoding (including the fixed-size and strip fast paths) instead of dying in the
+/// header.
 pub fn ply_binary(data: &[u8]) {
     if let Some((_, file)) = ply_binary_file(data) {
         read(&file, Format::Ply);
@@ -169,8 +170,14 @@ fn ply_binary_file(data: &[u8]) -> Option<(u8, Vec<u8>)> {
     if extra {
         file.push_str("property uchar red\n");
     }
+    // Bit 7: the faces as triangle strips (one list per record, `-1` restarts).
+    let element = if rest[0] & 0x80 != 0 {
+        "tristrips"
+    } else {
+        "face"
+    };
     file.push_str(&format!(
-        "element face {nf}\nproperty list {count_ty} {index_ty} vertex_indices\n"
+        "element {element} {nf}\nproperty list {count_ty} {index_ty} vertex_indices\n"
     ));
     if extra {
         file.push_str("property float quality\n");

@@ -8,7 +8,9 @@
 //! - `tristrips` element: a list `vertex_indices` of triangle strips, `-1` restarting a
 //!   strip; strip triangle `t` is `(s_t, s_{t+1}, s_{t+2})` for even `t` and
 //!   `(s_{t+1}, s_t, s_{t+2})` for odd `t` (alternating winding), and triangles with a
-//!   repeated vertex (used to join strips) are skipped and counted.
+//!   repeated vertex (used to join strips) are skipped and counted. A binary list of
+//!   integer indices is decoded in parallel blocks, its triangles in one pass without
+//!   branches on the data (BENCHMARKS.md, "Python API").
 //! - Any other element or property, lists included, is skipped in every encoding.
 //!
 //! Counts from the header are checked against the bytes that remain before anything
@@ -791,13 +793,33 @@ pub(super) fn read_with(
                         let line = r.line_of_next();
                         let n = r.list_len(count, item, &what)?;
                         poly.clear();
+                        if let (true, Some(per_task), false) =
+                            (strips, fixed, h.encoding == Encoding::Ascii)
+                        {
+                            let little = h.encoding == Encoding::Little;
+                            let data = &bytes[r.pos..r.pos + n * item.size()];
+                            if let Some(found) =
+                                strip_items(data, item, little, nv, per_task, &mut poly)
+                            {
+                                found.map_err(|index| IoError::IndexOutOfRange {
+                                    file: file.to_string(),
+                                    line: 0,
+                                    index,
+                                    vertices: nv,
+                                })?;
+                                r.pos += data.len();
+                                strip_triangles(&poly, &mut faces, info);
+                                continue;
+                            }
+                        }
                         for _ in 0..n {
                             let x = r.value(item, &what)?;
                             if strips && x == -1.0 {
                                 poly.push(u32::MAX);
                                 continue;
                             }
-                            if x < 0.0 || x >= nv as f64 {
+                            // NaN (a float index) is out of range too.
+                            if !(x >= 0.0 && x < nv as f64) {
                                 return Err(IoError::IndexOutOfRange {
                                     file: file.to_string(),
                                     line: if h.encoding == Encoding::Ascii {
@@ -842,19 +864,96 @@ pub(super) fn read_with(
     Ok(TriMesh::new(positions, faces))
 }
 
-/// Triangles of one `tristrips` list (`u32::MAX` marks a restart).
-fn strip_triangles(list: &[u32], faces: &mut Vec<[u32; 3]>, info: &mut ReadInfo) {
-    for strip in list.split(|&v| v == u32::MAX) {
-        for t in 0..strip.len().saturating_sub(2) {
-            let (a, b, c) = (strip[t], strip[t + 1], strip[t + 2]);
-            if a == b || b == c || a == c {
-                info.degenerate_strip_triangles_skipped += 1;
-                continue;
+/// The items of one binary `tristrips` list (`data`: its items, `item` each) as
+/// vertex indices in `out`, `u32::MAX` for each restart (`-1`), decoded in parallel
+/// blocks of `per_task` items (at least 1). `Some(Err(index))` names the first index
+/// outside `0..nv`, as the item-by-item read would; `None` for a floating-point item
+/// type, which the item-by-item read handles.
+fn strip_items(
+    data: &[u8],
+    item: Scalar,
+    little_endian: bool,
+    nv: usize,
+    per_task: usize,
+    out: &mut Vec<u32>,
+) -> Option<Result<(), i64>> {
+    fn typed<T: Bin, const LE: bool>(
+        data: &[u8],
+        nv: usize,
+        per_task: usize,
+        out: &mut Vec<u32>,
+    ) -> Result<(), i64> {
+        let per_task = per_task.max(1);
+        let nv = nv as f64;
+        let block = |out: &mut [u32], data: &[u8]| -> Option<i64> {
+            for (o, b) in out.iter_mut().zip(data.chunks_exact(T::SIZE)) {
+                let x = T::get::<LE>(b);
+                *o = if x == -1.0 {
+                    u32::MAX
+                } else if x >= 0.0 && x < nv {
+                    x as u32
+                } else {
+                    return Some(x as i64);
+                };
             }
-            faces.push(if t % 2 == 0 { [a, b, c] } else { [b, a, c] });
-            info.triangles_from_strips += 1;
-        }
+            None
+        };
+        out.resize(data.len() / T::SIZE, 0);
+        let bad = if out.len() <= per_task {
+            block(out, data)
+        } else {
+            // The first bad block's first bad item: blocks are in order.
+            out.par_chunks_mut(per_task)
+                .zip(data.par_chunks(per_task * T::SIZE))
+                .map(|(o, d)| block(o, d))
+                .collect::<Vec<_>>()
+                .into_iter()
+                .flatten()
+                .next()
+        };
+        bad.map_or(Ok(()), Err)
     }
+    Some(match (item, little_endian) {
+        (Scalar::I8, _) => typed::<i8, true>(data, nv, per_task, out),
+        (Scalar::U8, _) => typed::<u8, true>(data, nv, per_task, out),
+        (Scalar::I16, true) => typed::<i16, true>(data, nv, per_task, out),
+        (Scalar::I16, false) => typed::<i16, false>(data, nv, per_task, out),
+        (Scalar::U16, true) => typed::<u16, true>(data, nv, per_task, out),
+        (Scalar::U16, false) => typed::<u16, false>(data, nv, per_task, out),
+        (Scalar::I32, true) => typed::<i32, true>(data, nv, per_task, out),
+        (Scalar::I32, false) => typed::<i32, false>(data, nv, per_task, out),
+        (Scalar::U32, true) => typed::<u32, true>(data, nv, per_task, out),
+        (Scalar::U32, false) => typed::<u32, false>(data, nv, per_task, out),
+        (Scalar::F32 | Scalar::F64, _) => return None,
+    })
+}
+
+/// Triangles of one `tristrips` list (`u32::MAX` marks a restart): strip triangle `t`
+/// starts at item `i` and is `t = i − (the strip's first item)`. One pass without
+/// branches on the data: every candidate is written to the next free slot, which
+/// advances only when the candidate is a triangle (strips are a few items long, so
+/// branching per item mispredicts often).
+fn strip_triangles(list: &[u32], faces: &mut Vec<[u32; 3]>, info: &mut ReadInfo) {
+    const END: u32 = u32::MAX;
+    let base = faces.len();
+    faces.reserve(list.len().saturating_sub(2));
+    let spare = &mut faces.spare_capacity_mut()[..list.len().saturating_sub(2)];
+    let (mut start, mut made, mut skipped) = (0usize, 0usize, 0usize);
+    for (i, w) in list.windows(3).enumerate() {
+        let (a, b, c) = (w[0], w[1], w[2]);
+        let odd = (i.wrapping_sub(start)) & 1 == 1;
+        spare[made].write(if odd { [b, a, c] } else { [a, b, c] });
+        let whole = a != END && b != END && c != END;
+        let distinct = a != b && b != c && a != c;
+        made += usize::from(whole & distinct);
+        skipped += usize::from(whole & !distinct);
+        start = if a == END { i + 1 } else { start };
+    }
+    // SAFETY: slots `0..made` of the spare capacity were written above: iteration `i`
+    // writes slot `made ≤ i < spare.len()` before possibly advancing `made`.
+    unsafe { faces.set_len(base + made) };
+    info.triangles_from_strips += made;
+    info.degenerate_strip_triangles_skipped += skipped;
 }
 
 pub(crate) fn write(w: &mut dyn Write, mesh: &TriMesh, opts: &WriteOptions) -> std::io::Result<()> {
@@ -1291,6 +1390,138 @@ mod tests {
             assert_eq!(m.faces, vec![[0, 1, 2], [2, 1, 3], [1, 0, 2]]);
             assert_eq!(info.triangles_from_strips, 3);
             assert_eq!(info.degenerate_strip_triangles_skipped, 1);
+        }
+    }
+
+    /// A binary file of `nv` vertices (float x, y, z) and one `tristrips` record whose
+    /// list has `item` entries (`int`, `uint`, `short`, `uchar`, `float`) and an
+    /// `int` count, with a `uchar` property before the list.
+    fn strips_file(big: bool, item: &str, nv: usize, list: &[i64]) -> Vec<u8> {
+        let mut b = format!(
+            "ply\nformat {} 1.0\nelement vertex {nv}\nproperty float x\nproperty float y\nproperty float z\nelement tristrips 1\nproperty uchar flag\nproperty list int {item} vertex_indices\nend_header\n",
+            if big { "binary_big_endian" } else { "binary_little_endian" }
+        )
+        .into_bytes();
+        macro_rules! put {
+            ($v:expr) => {
+                if big {
+                    b.extend($v.to_be_bytes())
+                } else {
+                    b.extend($v.to_le_bytes())
+                }
+            };
+        }
+        for v in 0..nv {
+            for c in 0..3 {
+                put!((v * 3 + c) as f32);
+            }
+        }
+        b.push(7);
+        put!(list.len() as i32);
+        for &x in list {
+            match item {
+                "int" => put!(x as i32),
+                "uint" => put!(x as u32),
+                "short" => put!(x as i16),
+                "uchar" => put!(x as u8),
+                _ => put!(x as f32),
+            }
+        }
+        b
+    }
+
+    #[test]
+    fn strip_items_in_blocks_equal_the_item_by_item_read() {
+        let nv = 200;
+        let mut rng = crate::rng::SplitMix64::new(5);
+        // Strips of 0 to 40 items with restarts, repeated vertices (joins) and a
+        // restart at either end.
+        let mut list = vec![-1i64];
+        while list.len() < 3000 {
+            for _ in 0..rng.below(41) {
+                let x = if rng.below(10) == 0 {
+                    *list.last().unwrap()
+                } else {
+                    rng.below(nv as u64) as i64
+                };
+                list.push(if x < 0 { 0 } else { x });
+            }
+            list.push(-1);
+        }
+        for big in [false, true] {
+            for item in ["int", "uint", "short", "uchar", "float"] {
+                // Unsigned items cannot hold -1: their strips are joined by repeats only.
+                let list: Vec<i64> = if item == "uint" || item == "uchar" {
+                    list.iter().map(|&x| x.max(0)).collect()
+                } else {
+                    list.clone()
+                };
+                let b = strips_file(big, item, nv, &list);
+                let slow = read_fixed(&b, None);
+                let (m, info) = slow.clone().unwrap();
+                assert!(m.n_faces() > 1000 && info.degenerate_strip_triangles_skipped > 10);
+                for per_task in [1, 7, 64, 1000, RECORDS_PER_TASK] {
+                    assert_eq!(
+                        read_fixed(&b, Some(per_task)),
+                        slow,
+                        "{big} {item} {per_task}"
+                    );
+                }
+                // Two indices out of range: the first is named.
+                let mut bad = list.clone();
+                bad[2500] = nv as i64 + 3;
+                bad[1200] = nv as i64;
+                let b = strips_file(big, item, nv, &bad);
+                let slow = read_fixed(&b, None);
+                assert!(slow
+                    .as_ref()
+                    .unwrap_err()
+                    .contains(&format!("face index {nv} is out of range")));
+                for per_task in [1, 7, 64, 1000] {
+                    assert_eq!(
+                        read_fixed(&b, Some(per_task)),
+                        slow,
+                        "{big} {item} {per_task}"
+                    );
+                }
+            }
+        }
+        // A NaN index is out of range, not vertex 0.
+        let mut b = strips_file(false, "float", nv, &[0, 1, 2, 3]);
+        let at = b.len() - 8;
+        b[at..at + 4].copy_from_slice(&f32::NAN.to_le_bytes());
+        assert!(read_fixed(&b, None).unwrap_err().contains("out of range"));
+    }
+
+    #[test]
+    fn strip_triangles_equal_a_strip_by_strip_decoding() {
+        let mut rng = crate::rng::SplitMix64::new(9);
+        for _ in 0..200 {
+            let list: Vec<u32> = (0..rng.below(60))
+                .map(|_| match rng.below(8) {
+                    0 => u32::MAX,
+                    _ => rng.below(6) as u32,
+                })
+                .collect();
+            let mut expected = Vec::new();
+            let (mut made, mut skipped) = (0, 0);
+            for strip in list.split(|&v| v == u32::MAX) {
+                for t in 0..strip.len().saturating_sub(2) {
+                    let (a, b, c) = (strip[t], strip[t + 1], strip[t + 2]);
+                    if a == b || b == c || a == c {
+                        skipped += 1;
+                    } else {
+                        expected.push(if t % 2 == 0 { [a, b, c] } else { [b, a, c] });
+                        made += 1;
+                    }
+                }
+            }
+            let mut faces = Vec::new();
+            let mut info = ReadInfo::new(crate::io::Format::Ply);
+            strip_triangles(&list, &mut faces, &mut info);
+            assert_eq!(faces, expected, "{list:?}");
+            assert_eq!(info.triangles_from_strips, made);
+            assert_eq!(info.degenerate_strip_triangles_skipped, skipped);
         }
     }
 
