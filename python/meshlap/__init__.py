@@ -732,7 +732,9 @@ def wks(
 
 
 def set_threads(n: int) -> None:
-    """Run every later call on ``n`` threads (``0``: all cores, the default)."""
+    """Run every later call on ``n`` threads (``0``: all cores, the default). A
+    process forked after meshlap calls runs its calls on a pool of its own, of the
+    parent's size."""
     if not isinstance(n, (int, np.integer)) or n < 0:
         raise Error(f"n must be a non-negative integer, got {n!r}")
     _meshlap.set_threads(int(n))

@@ -321,3 +321,56 @@ def test_memory_freed_by_a_large_call_is_returned_while_idle():
     while rss_mb() > before + 0.5 * (after - before) and time.monotonic() < deadline:
         time.sleep(0.25)
     assert rss_mb() <= before + 0.5 * (after - before), (before, after, rss_mb())
+
+
+def _in_forked_child():
+    """Run in a child forked after the parent's calls: the same operator as the parent,
+    the pool's size, and (Linux) whether the child's own purge thread returns what a
+    large call freed."""
+    import time
+
+    V, F = meshlap.read_mesh("builtin:icosphere:3")
+    A = meshlap.operator(V, F, "cotan")
+    returned = None
+    if sys.platform.startswith("linux"):
+
+        def rss_mb():
+            with open("/proc/self/status") as f:
+                for line in f:
+                    if line.startswith("VmRSS"):
+                        return int(line.split()[1]) / 1024
+
+        V6, F6 = meshlap.read_mesh("builtin:icosphere:6")
+        before = rss_mb()
+        ev, vec = meshlap.eigs(V6, F6, 60, "kirchhoff")
+        del ev, vec
+        after = rss_mb()
+        deadline = time.monotonic() + 8
+        while rss_mb() > before + 0.5 * (after - before) and time.monotonic() < deadline:
+            time.sleep(0.25)
+        returned = after - before > 60 and rss_mb() <= before + 0.5 * (after - before)
+    return A.indptr.tolist(), A.indices.tolist(), A.data.tolist(), meshlap.get_threads(), returned
+
+
+@pytest.mark.skipif(not hasattr(__import__("os"), "fork"), reason="no fork on this platform")
+@pytest.mark.parametrize("threads", [0, 1])
+def test_a_forked_child_computes_on_threads_of_its_own(threads):
+    """A process forked after meshlap calls (multiprocessing's `fork` start method)
+    inherits the pools without their threads; its calls must run on pools of its own,
+    of the parent's size, instead of waiting forever."""
+    import multiprocessing
+
+    meshlap.set_threads(threads)
+    try:
+        V, F = meshlap.read_mesh("builtin:icosphere:3")
+        A = meshlap.operator(V, F, "cotan")  # the parent's pool has run
+        expected_threads = meshlap.get_threads()
+        with multiprocessing.get_context("fork").Pool(1) as pool:
+            indptr, indices, data, child_threads, returned = pool.apply_async(_in_forked_child).get(timeout=120)
+        assert (indptr, indices, data) == (A.indptr.tolist(), A.indices.tolist(), A.data.tolist())
+        assert child_threads == expected_threads
+        assert returned in (None, True), "the child's purge thread should return freed memory"
+        # The parent's own pool still works.
+        assert meshlap.operator(V, F, "cotan").nnz == A.nnz
+    finally:
+        meshlap.set_threads(0)

@@ -12,7 +12,8 @@
 
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
-use std::sync::{Arc, RwLock};
+use std::sync::atomic::AtomicU32;
+use std::sync::{Arc, PoisonError, RwLock};
 
 /// Every allocation of the extension (its buffers and the arrays it hands to numpy)
 /// comes from mimalloc, which keeps freed memory for reuse for about a second
@@ -23,37 +24,37 @@ use std::sync::{Arc, RwLock};
 #[global_allocator]
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
-/// Starts the thread that once a second has every thread of the compute pool ask
-/// mimalloc to return to the kernel the memory it freed more than the purge delay ago
-/// (`mi_collect(false)` on each worker: nothing else is freed or moved). mimalloc
-/// purges a thread's memory only when that thread allocates or frees; the large
-/// buffers belong to the pool's workers, which sleep between calls, so without this a
-/// large call's freed memory (hundreds of megabytes after a partial eigensolve) would
-/// stay resident while the interpreter does other work, until the next meshlap call.
+/// Starts, once per process, the thread that once a second has every thread of the
+/// compute pool ask mimalloc to return to the kernel the memory it freed more than the
+/// purge delay ago (`mi_collect(false)` on each worker: nothing else is freed or
+/// moved). mimalloc purges a thread's memory only when that thread allocates or frees;
+/// the large buffers belong to the pool's workers, which sleep between calls, so
+/// without this a large call's freed memory (hundreds of megabytes after a partial
+/// eigensolve) would stay resident while the interpreter does other work, until the
+/// next meshlap call. Called by [`compute`], so the thread starts with the first call
+/// (a forked child, which inherits no thread, starts its own).
 fn start_purger() {
-    static STARTED: std::sync::Once = std::sync::Once::new();
-    STARTED.call_once(|| {
-        // Without the thread (it could not be spawned), memory is still purged on
-        // the next call, as mimalloc does by itself.
-        let _ = std::thread::Builder::new()
-            .name("meshlap-purge".into())
-            .spawn(|| loop {
-                std::thread::sleep(std::time::Duration::from_secs(1));
-                // Not before the first call: the broadcast would start the global
-                // pool's threads.
-                if !COMPUTED.load(std::sync::atomic::Ordering::Relaxed) {
-                    continue;
-                }
-                // SAFETY: `mi_collect` may be called on any thread at any time; it
-                // collects the calling thread's heap.
-                let collect =
-                    |_: rayon::BroadcastContext<'_>| unsafe { libmimalloc_sys::mi_collect(false) };
-                match POOL.read().map(|p| p.clone()).unwrap_or(None) {
-                    Some(p) => p.broadcast(collect),
-                    None => rayon::broadcast(collect),
-                };
-            });
-    });
+    use std::sync::atomic::Ordering::Relaxed;
+    static STARTED_IN: AtomicU32 = AtomicU32::new(0);
+    let pid = std::process::id();
+    if STARTED_IN.load(Relaxed) == pid || STARTED_IN.swap(pid, Relaxed) == pid {
+        return;
+    }
+    // Without the thread (it could not be spawned), memory is still purged on the
+    // next call, as mimalloc does by itself.
+    let _ = std::thread::Builder::new()
+        .name("meshlap-purge".into())
+        .spawn(|| loop {
+            std::thread::sleep(std::time::Duration::from_secs(1));
+            // SAFETY: `mi_collect` may be called on any thread at any time; it
+            // collects the calling thread's heap.
+            let collect =
+                |_: rayon::BroadcastContext<'_>| unsafe { libmimalloc_sys::mi_collect(false) };
+            match current_pool() {
+                Some(p) => p.broadcast(collect),
+                None => rayon::broadcast(collect),
+            };
+        });
 }
 
 /// Adds each `#[pyfunction]` named to the module `m`: `add_functions!(m; f, g)`.
@@ -69,16 +70,55 @@ mod mesh_fns;
 mod spectral_fns;
 mod watermark_fns;
 
-/// The thread pool of `set_threads` (`None`: rayon's global pool, all cores).
-static POOL: RwLock<Option<Arc<rayon::ThreadPool>>> = RwLock::new(None);
+/// The thread pool calls run on (`None`: rayon's global pool, all cores; `set_threads`
+/// chooses) and the process it belongs to.
+///
+/// A process forked from one that has run a call (Python's `multiprocessing` with the
+/// `fork` start method, the default on Linux before Python 3.14) inherits the pools
+/// without their threads: a call there would wait forever for workers that do not
+/// exist. So a call in a forked child first replaces the pool with one of its own, of
+/// the same size ([`current_pool`]); the parent's is leaked, not dropped, as its
+/// threads are not there to be told to stop. (A fork while another thread holds this
+/// lock, which is only ever held to clone or replace the pool, would still leave the
+/// child's copy locked; every `fork` of a multithreaded process carries that risk.)
+struct Pool {
+    pid: u32,
+    pool: Option<Arc<rayon::ThreadPool>>,
+}
 
-/// Whether a call has run on a compute pool (see [`start_purger`]).
-static COMPUTED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+static POOL: RwLock<Pool> = RwLock::new(Pool { pid: 0, pool: None });
+
+/// The pool of this process (see [`Pool`]); in a forked child, a new one of the
+/// parent's size, made on first use. A child that cannot start its threads panics
+/// (PyO3 raises it as `PanicException`) rather than waiting forever.
+fn current_pool() -> Option<Arc<rayon::ThreadPool>> {
+    let pid = std::process::id();
+    {
+        let p = POOL.read().unwrap_or_else(PoisonError::into_inner);
+        if p.pid == pid {
+            return p.pool.clone();
+        }
+    }
+    let mut p = POOL.write().unwrap_or_else(PoisonError::into_inner);
+    if p.pid != pid {
+        let threads = match &p.pool {
+            Some(pool) => pool.current_num_threads(),
+            None => rayon::current_num_threads(),
+        };
+        let own = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap_or_else(|e| panic!("cannot start {threads} threads in a forked process: {e}"));
+        std::mem::forget(p.pool.replace(Arc::new(own)));
+        p.pid = pid;
+    }
+    p.pool.clone()
+}
 
 /// Runs `f` without the GIL, on the pool chosen by `set_threads`.
 pub(crate) fn compute<T: Send, F: FnOnce() -> T + Send>(py: Python<'_>, f: F) -> T {
-    COMPUTED.store(true, std::sync::atomic::Ordering::Relaxed);
-    let pool = POOL.read().map(|p| p.clone()).unwrap_or(None);
+    let pool = current_pool();
+    start_purger();
     py.detach(move || match pool {
         Some(p) => p.install(f),
         None => f(),
@@ -408,16 +448,21 @@ fn set_threads(py: Python<'_>, n: usize) -> PyResult<()> {
                 .map_err(|e| raise_as(py, "Error", format!("cannot start {n} threads: {e}")))?,
         ))
     };
-    *POOL
-        .write()
-        .map_err(|_| raise_as(py, "Error", "thread pool lock poisoned".into()))? = pool;
+    let pid = std::process::id();
+    let mut p = POOL.write().unwrap_or_else(PoisonError::into_inner);
+    let old = std::mem::replace(&mut p.pool, pool);
+    if p.pid != pid {
+        // A forked child: the parent's pool has no threads here (see `Pool`).
+        std::mem::forget(old);
+        p.pid = pid;
+    }
     Ok(())
 }
 
 /// The number of threads calls run on.
 #[pyfunction]
 fn get_threads() -> usize {
-    match POOL.read().ok().and_then(|p| p.clone()) {
+    match current_pool() {
         Some(p) => p.current_num_threads(),
         None => rayon::current_num_threads(),
     }
@@ -433,7 +478,7 @@ fn keep_freed_memory() -> bool {
 
 #[pymodule]
 fn _meshlap(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    start_purger();
+    POOL.write().unwrap_or_else(PoisonError::into_inner).pid = std::process::id();
     m.add_function(wrap_pyfunction!(set_threads, m)?)?;
     m.add_function(wrap_pyfunction!(get_threads, m)?)?;
     m.add_function(wrap_pyfunction!(keep_freed_memory, m)?)?;
