@@ -227,15 +227,57 @@ pub(crate) fn mesh_of(
     mesh_named(py, v, f, VF)
 }
 
-/// [`mesh_of`] with the arguments' names for the messages.
+/// [`mesh_of`] with the arguments' names for the messages: [`raw_named`], then
+/// [`meshlap::input::from_mesh_as_given`], which builds the connectivity and refuses
+/// what [`meshlap::mesh::clean::check_clean`] refuses (finding duplicates from the
+/// connectivity instead of sorting the faces again).
 pub(crate) fn mesh_named(
     py: Python<'_>,
     v: &PyReadonlyArray2<'_, f64>,
     f: &FaceArray<'_>,
     names: Names,
 ) -> PyResult<meshlap::input::Input> {
-    let mesh = checked_named(py, v, f, names)?;
-    compute(py, || meshlap::input::from_mesh_as_given("array", mesh)).or_raise(py)
+    let raw = raw_named(py, v, f, names)?;
+    match compute(py, || meshlap::input::from_mesh_as_given("array", raw)) {
+        Ok(input) => Ok(input),
+        Err(meshlap::Error::Mesh(e)) => Err(unclean(py, e, names.1, |i| face_row(f, i))),
+        Err(e) => Err(raise(py, e)),
+    }
+}
+
+/// Row `i` of the face array (in range: the library named it).
+fn face_row(f: &FaceArray<'_>, i: usize) -> [i64; 3] {
+    let row = |a: &[i64]| [a[3 * i], a[3 * i + 1], a[3 * i + 2]];
+    match f {
+        FaceArray::I64(a) => a.as_slice().map_or([0; 3], row),
+        FaceArray::U32(a) => a
+            .as_slice()
+            .map_or([0; 3], |a| [0, 1, 2].map(|c| i64::from(a[3 * i + c]))),
+    }
+}
+
+/// The error for a mesh that needs cleaning (a repeated corner, a duplicate face),
+/// naming the face argument `fname` and its rows (`row(i)`); other mesh errors as
+/// the library words them.
+fn unclean(
+    py: Python<'_>,
+    e: meshlap::mesh::MeshError,
+    fname: &str,
+    row: impl Fn(usize) -> [i64; 3],
+) -> PyErr {
+    use meshlap::mesh::MeshError;
+    let message = match e {
+        MeshError::RepeatedCorner { face, .. } => format!(
+            "{fname}[{face}] = {:?} repeats a vertex; clean the mesh first (meshlap.clean)",
+            row(face)
+        ),
+        MeshError::DuplicateFace { face, first } => format!(
+            "{fname}[{face}] = {:?} repeats face {fname}[{first}]; clean the mesh first (meshlap.clean)",
+            row(face)
+        ),
+        e => return raise(py, e),
+    };
+    raise_as(py, "MeshError", message)
 }
 
 /// The mesh of `(V, F)` as given and refused if it needs cleaning: [`raw_named`], then
@@ -248,25 +290,14 @@ pub(crate) fn checked_named(
     f: &FaceArray<'_>,
     names: Names,
 ) -> PyResult<meshlap::TriMesh> {
-    use meshlap::mesh::MeshError;
     let raw = raw_named(py, v, f, names)?;
-    let fname = names.1;
     let checked = compute(py, || {
         meshlap::mesh::clean::check_clean(raw.n_vertices(), &raw.faces)
     });
-    let message = match checked {
-        Ok(()) => return Ok(raw),
-        Err(MeshError::RepeatedCorner { face, .. }) => format!(
-            "{fname}[{face}] = {:?} repeats a vertex; clean the mesh first (meshlap.clean)",
-            raw.faces[face]
-        ),
-        Err(MeshError::DuplicateFace { face, first }) => format!(
-            "{fname}[{face}] = {:?} repeats face {fname}[{first}]; clean the mesh first (meshlap.clean)",
-            raw.faces[face]
-        ),
-        Err(e) => return Err(raise(py, e)),
-    };
-    Err(raise_as(py, "MeshError", message))
+    match checked {
+        Ok(()) => Ok(raw),
+        Err(e) => Err(unclean(py, e, names.1, |i| raw.faces[i].map(i64::from))),
+    }
 }
 
 /// The mesh of `(V, F)` exactly as given, checked by [`meshlap::TriMesh::validate`]

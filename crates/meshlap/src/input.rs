@@ -141,13 +141,15 @@ pub fn open(spec: &str, opts: &OpenOptions) -> Result<Input> {
 }
 
 /// An in-memory mesh used as given, not cleaned: its connectivity, and a clean report
-/// that removes nothing (identity vertex map). For a mesh that needs no cleaning
-/// ([`crate::mesh::clean::check_clean`] passed: the Python package checks its `(V, F)`
-/// arguments so and names them in its messages); [`Topology::new`]'s own checks
-/// (indices, repeated corners, size) still apply.
+/// that removes nothing (identity vertex map). A mesh that would need cleaning is
+/// refused with [`crate::mesh::clean::check_clean`]'s errors (an index out of range,
+/// a repeated corner, a duplicate face: the Python package names its `(V, F)`
+/// arguments in their messages); the duplicates are found from the connectivity
+/// ([`crate::mesh::clean::check_clean_given`]).
 pub fn from_mesh_as_given(source: &str, mesh: TriMesh) -> Result<Input> {
     use rayon::prelude::*;
     let topology = Topology::new(&mesh)?;
+    crate::mesh::clean::check_clean_given(&topology)?;
     let clean = CleanReport {
         vertex_map: (0..mesh.n_vertices() as u32)
             .into_par_iter()

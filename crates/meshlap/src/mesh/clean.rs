@@ -174,6 +174,48 @@ fn clean_parts(
 pub fn check_clean(n: usize, faces: &[[u32; 3]]) -> Result<(), MeshError> {
     super::check_face_indices(faces, n)?;
     super::graph::check_distinct_corners(faces)?;
+    check_no_duplicates(n, faces)
+}
+
+/// [`check_clean`] for faces whose connectivity is built: [`Topology::from_faces`]
+/// has refused indices out of range and repeated corners with the same errors, so
+/// only duplicates remain, and the twins find them without sorting the faces again.
+/// Without an edge of more than two faces, a face with a copy shares each of its
+/// three edges with that copy alone, so the twins of its three half-edges all lie in
+/// the copy; conversely, three twins in one face mean the same three edges, the same
+/// vertex set. One parallel scan of the twins then finds every duplicate. An edge of
+/// more than two faces (a face with two copies, or any non-manifold edge) has no
+/// twins, and [`check_clean`]'s counting sort runs instead. The same error as
+/// [`check_clean`]: [`MeshError::DuplicateFace`] naming the lowest later copy and
+/// the first.
+pub fn check_clean_given(topology: &Topology) -> Result<(), MeshError> {
+    use super::topology::INVALID;
+    let faces = topology.faces();
+    if topology.non_manifold_edges().next().is_some() {
+        return check_no_duplicates(topology.n_vertices(), faces);
+    }
+    const CHUNK: usize = 1 << 12;
+    let twins = topology.twins().as_chunks::<3>().0;
+    // The copy of face f comes first when all three twins lie in one earlier face.
+    let earlier_copy = |f: usize, t: &[u32; 3]| -> Option<(usize, usize)> {
+        let g = t[0] / 3;
+        let copy = t[0] != INVALID && t[1] != INVALID && t[2] != INVALID;
+        (copy && t[1] / 3 == g && t[2] / 3 == g && (g as usize) < f).then_some((f, g as usize))
+    };
+    let lowest = twins
+        .par_chunks(CHUNK)
+        .enumerate()
+        .find_map_first(|(c, chunk)| {
+            (chunk.iter().enumerate()).find_map(|(k, t)| earlier_copy(c * CHUNK + k, t))
+        });
+    match lowest {
+        Some((face, first)) => Err(MeshError::DuplicateFace { face, first }),
+        None => Ok(()),
+    }
+}
+
+/// The duplicate part of [`check_clean`] (indices below `n`, corners distinct).
+fn check_no_duplicates(n: usize, faces: &[[u32; 3]]) -> Result<(), MeshError> {
     let (offsets, entries) = faces_by_smallest_vertex(n, faces);
     let bucket = |v: usize| &entries[offsets[v] as usize..offsets[v + 1] as usize];
     // The lowest later copy over all buckets (each face is in one bucket, so the
@@ -563,6 +605,61 @@ mod tests {
         }
     }
 
+    /// `check_clean_given` on closed meshes: none on the icosphere; a face copied once
+    /// (its three edges then have three faces: the counting sort), twice, and a
+    /// lone pair of faces glued back to back (the twins), each naming the lowest
+    /// later copy and the first as `check_clean` does.
+    #[test]
+    fn check_clean_given_agrees_with_check_clean_on_closed_meshes() {
+        let ico = crate::mesh::builtin::icosphere(3).unwrap();
+        let n = ico.n_vertices();
+        let given = |faces: &[[u32; 3]]| {
+            let topology = Topology::from_faces(n, faces).unwrap();
+            (check_clean_given(&topology), check_clean(n, faces))
+        };
+        let (a, b) = given(&ico.faces);
+        assert_eq!((a, b), (Ok(()), Ok(())));
+        let mut once = ico.faces.clone();
+        let f = once[100];
+        once.insert(400, [f[2], f[1], f[0]]);
+        let (a, b) = given(&once);
+        assert_eq!(
+            a,
+            Err(MeshError::DuplicateFace {
+                face: 400,
+                first: 100
+            })
+        );
+        assert_eq!(a, b);
+        let mut twice = once.clone();
+        twice.insert(300, [f[1], f[2], f[0]]);
+        let (a, b) = given(&twice);
+        assert_eq!(
+            a,
+            Err(MeshError::DuplicateFace {
+                face: 300,
+                first: 100
+            })
+        );
+        assert_eq!(a, b);
+        // A pillow beside the sphere: two faces on three new vertices.
+        let mut pillow = ico.faces.clone();
+        let m = n as u32;
+        pillow.push([m, m + 1, m + 2]);
+        pillow.push([m + 1, m, m + 2]);
+        let topology = Topology::from_faces(n + 3, &pillow).unwrap();
+        assert!(topology.non_manifold_edges().next().is_none());
+        let later = ico.faces.len() + 1;
+        assert_eq!(
+            check_clean_given(&topology),
+            Err(MeshError::DuplicateFace {
+                face: later,
+                first: later - 1
+            })
+        );
+        assert_eq!(check_clean_given(&topology), check_clean(n + 3, &pillow));
+    }
+
     /// `check_clean` names what a sequential scan finds first: the lowest face with a
     /// repeated corner, else the lowest later copy of a face and its first copy; a
     /// cleaned mesh passes. Random soups, planted duplicates in every order and
@@ -570,6 +667,8 @@ mod tests {
     #[test]
     fn check_clean_names_what_a_sequential_scan_finds_first() {
         let mut rng = crate::rng::SplitMix64::new(29);
+        // Duplicates found by `check_clean_given`'s counting sort and by its twins.
+        let mut paths = [0usize; 2];
         for case in 0..12 {
             let n = 20 + 300 * (case % 4);
             let mut faces: Vec<[u32; 3]> = Vec::new();
@@ -619,12 +718,20 @@ mod tests {
                     .unwrap();
                 let got = pool.install(|| check_clean(n, &faces));
                 assert_eq!(got, expected, "case {case}, {threads} threads");
+                // From the connectivity, where it can be built (no repeated corner).
+                if let Ok(topology) = Topology::from_faces(n, &faces) {
+                    let got = pool.install(|| check_clean_given(&topology));
+                    assert_eq!(got, expected, "case {case}, {threads} threads, given");
+                    let by_twins = topology.non_manifold_edges().next().is_none();
+                    paths[usize::from(by_twins)] += usize::from(expected.is_err());
+                }
             }
             let positions = (0..n).map(|i| [i as f64, 0.0, 1.0]).collect();
             let (c, _) =
                 clean_owned(TriMesh::new(positions, faces), &CleanOptions::default()).unwrap();
             assert_eq!(check_clean(c.n_vertices(), &c.faces), Ok(()), "case {case}");
         }
+        assert!(paths[0] > 0 && paths[1] > 0, "{paths:?}");
         assert!(matches!(
             check_clean(3, &[[0, 1, 3]]),
             Err(MeshError::IndexOutOfRange {
