@@ -147,14 +147,10 @@ pub fn open(spec: &str, opts: &OpenOptions) -> Result<Input> {
 /// arguments in their messages); the duplicates are found from the connectivity
 /// ([`crate::mesh::clean::check_clean_given`]).
 pub fn from_mesh_as_given(source: &str, mesh: TriMesh) -> Result<Input> {
-    use rayon::prelude::*;
     let topology = Topology::new(&mesh)?;
     crate::mesh::clean::check_clean_given(&topology)?;
     let clean = CleanReport {
-        vertex_map: (0..mesh.n_vertices() as u32)
-            .into_par_iter()
-            .map(Some)
-            .collect(),
+        vertex_map: identity_map(mesh.n_vertices()),
         ..Default::default()
     };
     Ok(Input {
@@ -175,13 +171,46 @@ pub fn open_mesh(spec: &str, opts: &OpenOptions) -> Result<(TriMesh, CleanReport
 }
 
 /// Cleans an in-memory mesh and builds its connectivity.
+///
+/// In two steps, which give what one cleaning gives (tested): everything but the
+/// duplicate faces first, then the connectivity, from which
+/// [`crate::mesh::clean::check_clean_given`] finds duplicates without cleaning's
+/// counting sort of the faces (a face's copy holds its three twins). Only a mesh that
+/// has duplicates (rare) is then cleaned of them and its connectivity built again.
+/// (Dropping duplicates last is the same as dropping them second: no vertex is used
+/// by a copy alone, and renumbering the vertices keeps which faces repeat.)
 pub fn from_mesh(
     source: &str,
     raw: TriMesh,
     read_info: Option<ReadInfo>,
     clean_opts: &CleanOptions,
 ) -> Result<Input> {
-    let (mesh, clean_report) = clean_owned(raw, clean_opts)?;
+    let first = CleanOptions {
+        drop_duplicate_faces: false,
+        ..*clean_opts
+    };
+    let (mut mesh, mut clean_report) = clean_owned(raw, &first)?;
+    if clean_opts.drop_duplicate_faces {
+        if let Ok(topology) = Topology::new(&mesh) {
+            if crate::mesh::clean::check_clean_given(&topology).is_ok() {
+                return Ok(Input {
+                    source: source.to_string(),
+                    mesh,
+                    topology,
+                    read_info,
+                    clean: clean_report,
+                });
+            }
+        }
+        let duplicates = CleanOptions {
+            drop_degenerate_faces: false,
+            drop_duplicate_faces: true,
+            drop_unreferenced_vertices: false,
+        };
+        let (m, r) = clean_owned(mesh, &duplicates)?;
+        clean_report.dropped_duplicate_faces = r.dropped_duplicate_faces;
+        mesh = m;
+    }
     let topology = Topology::new(&mesh)?;
     Ok(Input {
         source: source.to_string(),
@@ -190,4 +219,96 @@ pub fn from_mesh(
         read_info,
         clean: clean_report,
     })
+}
+
+/// The vertex map of a cleaning that kept every vertex.
+fn identity_map(n: usize) -> Vec<Option<u32>> {
+    use rayon::prelude::*;
+    (0..n as u32).into_par_iter().map(Some).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `from_mesh` gives what cleaning and then building the connectivity gives: the
+    /// same mesh, report and connectivity (or the same error), on meshes with nothing
+    /// to clean and with a repeated corner, a duplicate face, a face with two copies,
+    /// an unused vertex, and with each cleaning option on and off.
+    #[test]
+    fn from_mesh_equals_cleaning_then_the_connectivity() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data");
+        let mut meshes: Vec<TriMesh> = ["cow.obj", "teapot.obj", "woody.obj", "fandisk.obj"]
+            .iter()
+            .map(|f| io::read_mesh(&dir.join(f), None).unwrap().mesh)
+            .collect();
+        meshes.push(builtin::icosphere(2).unwrap());
+        meshes.push(builtin::grid(6).unwrap());
+        let base = meshes.clone();
+        for m in &base {
+            let mut degenerate = m.clone();
+            degenerate.faces.insert(3, [1, 1, 2]);
+            let mut duplicate = m.clone();
+            let f = duplicate.faces[5];
+            duplicate.faces.push([f[1], f[0], f[2]]);
+            let mut twice = duplicate.clone();
+            twice.faces.insert(2, [f[2], f[0], f[1]]);
+            let mut unused = m.clone();
+            unused.positions.push([9.0, 9.0, 9.0]);
+            let mut all = twice.clone();
+            all.faces.insert(7, [4, 3, 4]);
+            all.positions.insert(0, [7.0, 7.0, 7.0]);
+            all.faces.iter_mut().flatten().for_each(|v| *v += 1);
+            meshes.extend([degenerate, duplicate, twice, unused, all]);
+        }
+        for (i, m) in meshes.iter().enumerate() {
+            for bits in 0..8u8 {
+                let opts = CleanOptions {
+                    drop_degenerate_faces: bits & 1 != 0,
+                    drop_duplicate_faces: bits & 2 != 0,
+                    drop_unreferenced_vertices: bits & 4 != 0,
+                };
+                let got = from_mesh("t", m.clone(), None, &opts);
+                let want = clean_owned(m.clone(), &opts)
+                    .map_err(crate::Error::from)
+                    .and_then(|(c, r)| Ok((Topology::new(&c)?, c, r)));
+                let (got, (topology, mesh, report)) = match (got, want) {
+                    (Ok(g), Ok(w)) => (g, w),
+                    (Err(g), Err(w)) => {
+                        assert_eq!(g.to_string(), w.to_string(), "mesh {i}, options {bits}");
+                        continue;
+                    }
+                    (g, w) => panic!(
+                        "mesh {i}, options {bits}: {:?} against {:?}",
+                        g.err(),
+                        w.err()
+                    ),
+                };
+                assert_eq!(got.mesh, mesh, "mesh {i}, options {bits}");
+                assert_eq!(got.clean.vertex_map, report.vertex_map);
+                assert_eq!(
+                    [
+                        got.clean.dropped_degenerate_faces,
+                        got.clean.dropped_duplicate_faces,
+                        got.clean.dropped_unreferenced_vertices
+                    ],
+                    [
+                        report.dropped_degenerate_faces,
+                        report.dropped_duplicate_faces,
+                        report.dropped_unreferenced_vertices
+                    ]
+                );
+                let t = &got.topology;
+                assert_eq!(t.twins(), topology.twins());
+                assert_eq!(t.edges(), topology.edges());
+                assert_eq!(t.adjacency_offsets(), topology.adjacency_offsets());
+                assert_eq!(t.adjacency(), topology.adjacency());
+                assert_eq!(t.half_edge_edges(), topology.half_edge_edges());
+                assert_eq!(
+                    t.inconsistently_oriented_edges(),
+                    topology.inconsistently_oriented_edges()
+                );
+            }
+        }
+    }
 }
