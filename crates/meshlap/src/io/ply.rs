@@ -928,11 +928,11 @@ fn strip_items(
     })
 }
 
-/// Triangles of one `tristrips` list (`u32::MAX` marks a restart): strip triangle `t`
-/// starts at item `i` and is `t = i − (the strip's first item)`. One pass without
-/// branches on the data: every candidate is written to the next free slot, which
-/// advances only when the candidate is a triangle (strips are a few items long, so
-/// branching per item mispredicts often).
+/// Triangles of one `tristrips` list (`u32::MAX` marks a restart): the candidate at
+/// item `i` is strip triangle `t = i − s`, `s` the first item of its strip. One pass
+/// without branches on the data: every candidate is written to the next free slot,
+/// which advances only when the candidate is a triangle (strips are a few items long,
+/// so a branch per item would often be mispredicted).
 fn strip_triangles(list: &[u32], faces: &mut Vec<[u32; 3]>, info: &mut ReadInfo) {
     const END: u32 = u32::MAX;
     let base = faces.len();
@@ -941,7 +941,7 @@ fn strip_triangles(list: &[u32], faces: &mut Vec<[u32; 3]>, info: &mut ReadInfo)
     let (mut start, mut made, mut skipped) = (0usize, 0usize, 0usize);
     for (i, w) in list.windows(3).enumerate() {
         let (a, b, c) = (w[0], w[1], w[2]);
-        let odd = (i.wrapping_sub(start)) & 1 == 1;
+        let odd = (i - start) & 1 == 1; // start ≤ i: it moves to i + 1 after item i
         spare[made].write(if odd { [b, a, c] } else { [a, b, c] });
         let whole = a != END && b != END && c != END;
         let distinct = a != b && b != c && a != c;

@@ -622,26 +622,13 @@ mod tests {
         let mut once = ico.faces.clone();
         let f = once[100];
         once.insert(400, [f[2], f[1], f[0]]);
-        let (a, b) = given(&once);
-        assert_eq!(
-            a,
-            Err(MeshError::DuplicateFace {
-                face: 400,
-                first: 100
-            })
-        );
-        assert_eq!(a, b);
         let mut twice = once.clone();
         twice.insert(300, [f[1], f[2], f[0]]);
-        let (a, b) = given(&twice);
-        assert_eq!(
-            a,
-            Err(MeshError::DuplicateFace {
-                face: 300,
-                first: 100
-            })
-        );
-        assert_eq!(a, b);
+        for (faces, face) in [(&once, 400), (&twice, 300)] {
+            let (a, b) = given(faces);
+            assert_eq!(a, Err(MeshError::DuplicateFace { face, first: 100 }));
+            assert_eq!(a, b);
+        }
         // A pillow beside the sphere: two faces on three new vertices.
         let mut pillow = ico.faces.clone();
         let m = n as u32;
