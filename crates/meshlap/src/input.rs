@@ -150,7 +150,7 @@ pub fn from_mesh_as_given(source: &str, mesh: TriMesh) -> Result<Input> {
     let topology = Topology::new(&mesh)?;
     crate::mesh::clean::check_clean_given(&topology)?;
     let clean = CleanReport {
-        vertex_map: identity_map(mesh.n_vertices()),
+        vertex_map: crate::mesh::clean::identity_vertex_map(mesh.n_vertices()),
         ..Default::default()
     };
     Ok(Input {
@@ -219,12 +219,6 @@ pub fn from_mesh(
         read_info,
         clean: clean_report,
     })
-}
-
-/// The vertex map of a cleaning that kept every vertex.
-fn identity_map(n: usize) -> Vec<Option<u32>> {
-    use rayon::prelude::*;
-    (0..n as u32).into_par_iter().map(Some).collect()
 }
 
 #[cfg(test)]

@@ -127,7 +127,7 @@ fn clean_parts(
     };
     let unreferenced = used.par_iter().filter(|u| !**u).count();
     let positions = if unreferenced == 0 {
-        report.vertex_map = (0..n as u32).into_par_iter().map(Some).collect();
+        report.vertex_map = identity_vertex_map(n);
         positions.into_owned()
     } else {
         // Rare: number the kept vertices in order (a sequential scan) and renumber
@@ -160,6 +160,11 @@ fn clean_parts(
         return Err(MeshError::Empty);
     }
     Ok((TriMesh::new(positions, faces), report))
+}
+
+/// The vertex map of a cleaning that kept all `n` vertices.
+pub(crate) fn identity_vertex_map(n: usize) -> Vec<Option<u32>> {
+    (0..n as u32).into_par_iter().map(Some).collect()
 }
 
 /// Checks that a mesh taken as given needs none of [`clean`]'s face removals: every
