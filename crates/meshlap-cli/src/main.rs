@@ -77,13 +77,18 @@ fn main() {
     // Freed work matrices are reused instead of page-faulted in again (see the doc).
     meshlap::keep_freed_memory();
     let cli = Cli::parse();
-    if let Some(t) = cli.threads {
-        // A pool can only be built once; ignore a second attempt.
-        let _ = rayon::ThreadPoolBuilder::new()
-            .num_threads(t.max(1))
-            .build_global();
-    }
-    let result = match &cli.command {
+    // The pool's threads get the main thread's usual stack (8 MiB, reserved, not
+    // committed), since the command runs on one of them. A pool can only be built
+    // once; ignore a second attempt.
+    let _ = rayon::ThreadPoolBuilder::new()
+        .num_threads(cli.threads.map_or(0, |t| t.max(1)))
+        .stack_size(8 << 20)
+        .build_global();
+    // The command runs on a worker of the pool, as the Python package's calls do:
+    // every parallel pass it makes is then shared out by work stealing, instead of
+    // being handed to the pool while the main thread sleeps until it ends (the
+    // library's `par::on_worker`; BENCHMARKS.md, "Connectivity").
+    let run = || match &cli.command {
         Command::Info(a) => cmd::info::run(a),
         Command::Convert(a) => cmd::convert::run(a),
         Command::Clean(a) => cmd::clean::run(a),
@@ -103,6 +108,7 @@ fn main() {
         Command::Experiment(a) => cmd::experiment::run(a),
         Command::Watermark(a) => cmd::watermark::run(a),
     };
+    let result = rayon::scope(|_| run());
     if let Err(e) = result {
         if broken_pipe(&e) {
             std::process::exit(0);

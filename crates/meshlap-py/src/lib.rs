@@ -115,13 +115,15 @@ fn current_pool() -> Option<Arc<rayon::ThreadPool>> {
     p.pool.clone()
 }
 
-/// Runs `f` without the GIL, on the pool chosen by `set_threads`.
+/// Runs `f` without the GIL, on a worker of the pool chosen by `set_threads` (rayon's
+/// global pool by default): its parallel passes are then shared out by work stealing
+/// instead of being handed to the pool one by one from the calling thread.
 pub(crate) fn compute<T: Send, F: FnOnce() -> T + Send>(py: Python<'_>, f: F) -> T {
     let pool = current_pool();
     start_purger();
     py.detach(move || match pool {
         Some(p) => p.install(f),
-        None => f(),
+        None => rayon::scope(|_| f()),
     })
 }
 

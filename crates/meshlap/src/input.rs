@@ -3,6 +3,11 @@
 //! Every command of the CLI goes through [`open`]: the mesh is read (format from the
 //! extension unless overridden), validated, cleaned ([`crate::mesh::clean`]) and its
 //! [`Topology`] built once.
+//!
+//! [`open`], [`open_mesh`], [`from_mesh`] and [`from_mesh_as_given`] run on a worker
+//! of rayon's current pool (on the caller's thread when it is one): their parallel
+//! passes are then shared out by work stealing instead of being handed to the pool
+//! one by one from outside (see BENCHMARKS.md, "Connectivity").
 
 use crate::io::{self, Format, ReadInfo};
 use crate::mesh::clean::{
@@ -136,8 +141,10 @@ pub fn read_raw(spec: &str, format: Option<Format>) -> Result<(TriMesh, Option<R
 /// Opens `spec` (a file path or `builtin:NAME[:ARGS]`), cleans it and builds its
 /// connectivity.
 pub fn open(spec: &str, opts: &OpenOptions) -> Result<Input> {
-    let (raw, read_info) = read_raw(spec, opts.format)?;
-    from_mesh(spec, raw, read_info, &opts.clean)
+    crate::par::on_worker(|| {
+        let (raw, read_info) = read_raw(spec, opts.format)?;
+        from_mesh(spec, raw, read_info, &opts.clean)
+    })
 }
 
 /// An in-memory mesh used as given, not cleaned: its connectivity, and a clean report
@@ -147,6 +154,10 @@ pub fn open(spec: &str, opts: &OpenOptions) -> Result<Input> {
 /// arguments in their messages); the duplicates are found from the connectivity
 /// ([`crate::mesh::clean::check_clean_given`]).
 pub fn from_mesh_as_given(source: &str, mesh: TriMesh) -> Result<Input> {
+    crate::par::on_worker(|| as_given(source, mesh))
+}
+
+fn as_given(source: &str, mesh: TriMesh) -> Result<Input> {
     let topology = Topology::new(&mesh)?;
     crate::mesh::clean::check_clean_given(&topology)?;
     let clean = CleanReport {
@@ -166,8 +177,10 @@ pub fn from_mesh_as_given(source: &str, mesh: TriMesh) -> Result<Input> {
 /// connectivity: for callers that want the arrays only (the Python package's
 /// `read_mesh`). The same mesh as `open(spec, opts)?.mesh`.
 pub fn open_mesh(spec: &str, opts: &OpenOptions) -> Result<(TriMesh, CleanReport)> {
-    let (raw, _) = read_raw(spec, opts.format)?;
-    Ok(clean_owned(raw, &opts.clean)?)
+    crate::par::on_worker(|| {
+        let (raw, _) = read_raw(spec, opts.format)?;
+        Ok(clean_owned(raw, &opts.clean)?)
+    })
 }
 
 /// Cleans an in-memory mesh and builds its connectivity.
@@ -180,6 +193,15 @@ pub fn open_mesh(spec: &str, opts: &OpenOptions) -> Result<(TriMesh, CleanReport
 /// (Dropping duplicates last is the same as dropping them second: no vertex is used
 /// by a copy alone, and renumbering the vertices keeps which faces repeat.)
 pub fn from_mesh(
+    source: &str,
+    raw: TriMesh,
+    read_info: Option<ReadInfo>,
+    clean_opts: &CleanOptions,
+) -> Result<Input> {
+    crate::par::on_worker(|| clean_and_connect(source, raw, read_info, clean_opts))
+}
+
+fn clean_and_connect(
     source: &str,
     raw: TriMesh,
     read_info: Option<ReadInfo>,
@@ -224,6 +246,40 @@ pub fn from_mesh(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Opening runs on a pool worker ([`crate::par::on_worker`]) whichever thread
+    /// calls: from a thread outside any pool (this test's), from a worker of a
+    /// 1-thread pool and from one of a 3-thread pool, the same mesh, report and
+    /// connectivity, and no deadlock when the caller is already a worker.
+    #[test]
+    fn opening_gives_the_same_input_from_any_thread() {
+        let spec = "builtin:icosphere:4";
+        let open_all = || {
+            let i = open(spec, &OpenOptions::default()).unwrap();
+            let (m, _) = open_mesh(spec, &OpenOptions::default()).unwrap();
+            let g = from_mesh_as_given("t", m.clone()).unwrap();
+            assert_eq!(g.mesh, i.mesh);
+            (i, m)
+        };
+        assert!(rayon::current_thread_index().is_none());
+        let (want, want_mesh) = open_all();
+        for threads in [1, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let (got, got_mesh) = pool.install(open_all);
+            assert_eq!(got.mesh, want.mesh, "{threads} threads");
+            assert_eq!(got_mesh, want_mesh);
+            assert_eq!(got.clean.vertex_map, want.clean.vertex_map);
+            assert_eq!(got.topology.twins(), want.topology.twins());
+            assert_eq!(got.topology.adjacency(), want.topology.adjacency());
+            assert_eq!(
+                got.topology.half_edge_edges(),
+                want.topology.half_edge_edges()
+            );
+        }
+    }
 
     /// `from_mesh` gives what cleaning and then building the connectivity gives: the
     /// same mesh, report and connectivity (or the same error), on meshes with nothing

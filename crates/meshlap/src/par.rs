@@ -10,6 +10,14 @@
 /// parallel routines behave the same way: its sparse LDLᵀ ran 40 % slower from the
 /// main thread than on a worker (figures in BENCHMARKS.md, "Implicit fairing
 /// solvers").
+///
+/// The public entry points that make several parallel passes run on a worker for the
+/// same reason: opening a mesh ([`crate::input`]), its connectivity
+/// ([`crate::mesh::topology::Topology::from_faces`]), cleaning, reading a file and
+/// assembling an operator. Called from a program's main thread, opening icosphere 9
+/// (2.6M vertices) took a quarter less time on a worker, with half the context
+/// switches (BENCHMARKS.md, "Connectivity"); from a worker (the Python package's
+/// calls, a caller's own pool) nothing changes.
 pub(crate) fn on_worker<R: Send>(f: impl FnOnce() -> R + Send) -> R {
     if rayon::current_thread_index().is_some() {
         f()

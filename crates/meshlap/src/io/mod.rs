@@ -304,6 +304,11 @@ pub fn read_mesh_from_bytes(bytes: &[u8], format: Format) -> Result<LoadedMesh, 
 }
 
 fn read_named(bytes: &[u8], format: Format, name: &str) -> Result<LoadedMesh, IoError> {
+    crate::par::on_worker(|| read_named_here(bytes, format, name))
+}
+
+/// [`read_named`] on the calling thread.
+fn read_named_here(bytes: &[u8], format: Format, name: &str) -> Result<LoadedMesh, IoError> {
     let (mesh, info) = read_any(bytes, format, name)?;
     if mesh.faces.is_empty() {
         return Err(IoError::Empty {

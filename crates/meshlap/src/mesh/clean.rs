@@ -53,8 +53,8 @@ pub struct CleanReport {
 
 /// Cleans `mesh` (see the module documentation). The input must satisfy
 /// [`TriMesh::validate`] except for emptiness; an empty result is
-/// [`MeshError::Empty`]. Every pass runs in parallel (rayon) and the result does not
-/// depend on the thread count.
+/// [`MeshError::Empty`]. Every pass runs in parallel (rayon, on a worker of the pool)
+/// and the result does not depend on the thread count.
 pub fn clean(mesh: &TriMesh, opts: &CleanOptions) -> Result<(TriMesh, CleanReport), MeshError> {
     clean_parts(
         Cow::Borrowed(&mesh.positions),
@@ -74,6 +74,15 @@ pub fn clean_owned(
 }
 
 fn clean_parts(
+    positions: Cow<'_, [[f64; 3]]>,
+    faces: Cow<'_, [[u32; 3]]>,
+    opts: &CleanOptions,
+) -> Result<(TriMesh, CleanReport), MeshError> {
+    crate::par::on_worker(|| clean_parts_here(positions, faces, opts))
+}
+
+/// [`clean_parts`] on the calling thread.
+fn clean_parts_here(
     positions: Cow<'_, [[f64; 3]]>,
     faces: Cow<'_, [[u32; 3]]>,
     opts: &CleanOptions,

@@ -81,8 +81,14 @@ impl Topology {
     /// Half-edges are bucketed by their smaller endpoint (counting sort), each bucket is
     /// sorted by the larger endpoint in parallel (rayon) to form the undirected edges in
     /// lexicographic order, and twins, edge ids and the vertex adjacency are scattered
-    /// from there. At most `(2³¹ − 1) / 3` faces ([`MeshError::TooManyFaces`]).
+    /// from there. At most `(2³¹ − 1) / 3` faces ([`MeshError::TooManyFaces`]). Runs
+    /// on a worker of rayon's pool ([`crate::par::on_worker`]).
     pub fn from_faces(n: usize, faces: &[[u32; 3]]) -> Result<Self, MeshError> {
+        crate::par::on_worker(|| Self::build(n, faces))
+    }
+
+    /// [`Self::from_faces`] on the calling thread.
+    fn build(n: usize, faces: &[[u32; 3]]) -> Result<Self, MeshError> {
         super::graph::check_faces(n, faces)?;
         let nh = faces.len() * 3;
         // Counting sort of half-edges by their smaller endpoint. Each entry packs

@@ -241,8 +241,18 @@ impl Operator {
         )
     }
 
-    /// Assembles `kind` on `mesh` with connectivity `topo`.
+    /// Assembles `kind` on `mesh` with connectivity `topo`, on a worker of rayon's pool
+    /// ([`crate::par::on_worker`]).
     pub fn assemble(
+        kind: OperatorKind,
+        mesh: &TriMesh,
+        topo: &Topology,
+        opts: &OperatorOptions,
+    ) -> Result<Self, OperatorError> {
+        crate::par::on_worker(|| Self::assemble_here(kind, mesh, topo, opts))
+    }
+
+    fn assemble_here(
         kind: OperatorKind,
         mesh: &TriMesh,
         topo: &Topology,
