@@ -124,6 +124,58 @@ pub(crate) fn zeroed_mat(nrows: usize, ncols: usize) -> faer::Mat<f64> {
     m
 }
 
+/// Totals, in bytes, from which [`concat`] copies in parallel: below, one thread's
+/// `memcpy` beats waking the pool (the connectivity of meshes up to a few hundred
+/// thousand vertices; BENCHMARKS.md, "Connectivity").
+pub(crate) const PARALLEL_COPY_FROM: usize = 4 << 20;
+
+/// The slices `get(p)` of `parts`, in order, in one vector with room for `spare`
+/// more elements: copied by the rayon pool, one task per part, into a buffer advised
+/// to use huge pages ([`uninit_vec`]) when the total reaches `parallel_from` bytes
+/// (the callers pass [`PARALLEL_COPY_FROM`]), else by one `extend_from_slice` per
+/// part. The same vector either way.
+pub(crate) fn concat<P: Sync, T: Copy + Send + Sync>(
+    parts: &[P],
+    get: impl Fn(&P) -> &[T] + Sync,
+    spare: usize,
+    parallel_from: usize,
+) -> Vec<T> {
+    use rayon::prelude::*;
+    let total: usize = parts.iter().map(|p| get(p).len()).sum();
+    if total * std::mem::size_of::<T>() < parallel_from {
+        let mut v = Vec::with_capacity(total + spare);
+        for p in parts {
+            v.extend_from_slice(get(p));
+        }
+        return v;
+    }
+    let mut v = uninit_vec::<T>(total + spare);
+    let mut slots: Vec<&mut [std::mem::MaybeUninit<T>]> = Vec::with_capacity(parts.len());
+    let mut rest = &mut v[..total];
+    for p in parts {
+        let (head, tail) = std::mem::take(&mut rest).split_at_mut(get(p).len());
+        slots.push(head);
+        rest = tail;
+    }
+    slots.into_par_iter().zip(parts).for_each(|(slot, p)| {
+        for (s, &x) in slot.iter_mut().zip(get(p)) {
+            s.write(x);
+        }
+    });
+    v.truncate(total);
+    // SAFETY: elements 0..total were written above, one slot per element of a part.
+    unsafe { assume_init_vec(v) }
+}
+
+/// `items.to_vec()`, copied by the rayon pool in blocks of 1 MiB into a buffer
+/// advised to use huge pages when it reaches `parallel_from` bytes ([`concat`]).
+pub(crate) fn to_vec<T: Copy + Send + Sync>(items: &[T], parallel_from: usize) -> Vec<T> {
+    const BLOCK: usize = 1 << 20;
+    let step = (BLOCK / std::mem::size_of::<T>().max(1)).max(1);
+    let blocks: Vec<&[T]> = items.chunks(step).collect();
+    concat(&blocks, |b| b, 0, parallel_from)
+}
+
 /// The `Vec<T>` of an [`uninit_vec`] whose every element has been written.
 ///
 /// # Safety
@@ -402,6 +454,30 @@ mod tests {
                 assert_eq!(m.sum(), 1.0);
             }
         }
+    }
+
+    #[test]
+    fn concat_and_to_vec_copy_in_order_on_both_paths() {
+        let parts: Vec<Vec<u64>> = [0usize, 5, 0, 1, 70_000, 3, 0, 200_001]
+            .iter()
+            .enumerate()
+            .map(|(p, &len)| (0..len as u64).map(|i| (p as u64) << 40 | i).collect())
+            .collect();
+        let want: Vec<u64> = parts.concat();
+        for threads in [1, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            for from in [0, usize::MAX] {
+                let got = pool.install(|| super::concat(&parts, |p| &p[..], 2, from));
+                assert_eq!(got, want, "{threads} threads, from {from}");
+                assert!(got.capacity() >= want.len() + 2);
+                let copy = pool.install(|| super::to_vec(&want, from));
+                assert_eq!(copy, want);
+            }
+        }
+        assert!(super::concat(&[] as &[Vec<u8>], |p| &p[..], 1, 0).is_empty());
     }
 
     #[test]

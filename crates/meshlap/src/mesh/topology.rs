@@ -84,11 +84,14 @@ impl Topology {
     /// from there. At most `(2³¹ − 1) / 3` faces ([`MeshError::TooManyFaces`]). Runs
     /// on a worker of rayon's pool ([`crate::par::on_worker`]).
     pub fn from_faces(n: usize, faces: &[[u32; 3]]) -> Result<Self, MeshError> {
-        crate::par::on_worker(|| Self::build(n, faces))
+        crate::par::on_worker(|| Self::build(n, faces, crate::mem::PARALLEL_COPY_FROM))
     }
 
-    /// [`Self::from_faces`] on the calling thread.
-    fn build(n: usize, faces: &[[u32; 3]]) -> Result<Self, MeshError> {
+    /// [`Self::from_faces`] on the calling thread; its sequential steps (the edge
+    /// lists' join, each edge's first half-edge and face count, the faces' copy) run
+    /// in parallel for arrays from `parallel_from` bytes on. The same connectivity
+    /// either way (tested).
+    fn build(n: usize, faces: &[[u32; 3]], parallel_from: usize) -> Result<Self, MeshError> {
         super::graph::check_faces(n, faces)?;
         let nh = faces.len() * 3;
         // Counting sort of half-edges by their smaller endpoint. Each entry packs
@@ -164,16 +167,13 @@ impl Topology {
                 part
             })
             .collect();
-        let n_edges: usize = parts.iter().map(|p| p.edges.len()).sum();
-        let mut edges = Vec::with_capacity(n_edges);
-        let mut edge_pos = Vec::with_capacity(n_edges + 1);
-        let (mut inconsistent_edges, mut non_manifold_edges) = (0usize, 0usize);
-        for p in parts {
-            edges.extend_from_slice(&p.edges);
-            edge_pos.extend_from_slice(&p.edge_pos);
-            inconsistent_edges += p.inconsistent;
-            non_manifold_edges += p.non_manifold;
-        }
+        // The parts joined (in parallel for large meshes, `mem::concat`).
+        let edges = crate::mem::concat(&parts, |p| &p.edges[..], 0, parallel_from);
+        let mut edge_pos = crate::mem::concat(&parts, |p| &p.edge_pos[..], 1, parallel_from);
+        let n_edges = edges.len();
+        let inconsistent_edges: usize = parts.iter().map(|p| p.inconsistent).sum();
+        let non_manifold_edges: usize = parts.iter().map(|p| p.non_manifold).sum();
+        drop(parts);
         edge_pos.push(nh as u32);
         // Scatter twins and edge ids to the half-edges, in parallel over edges: every
         // half-edge belongs to exactly one edge, so every slot is written once.
@@ -202,11 +202,25 @@ impl Topology {
                     }
                 });
         }
-        let edge_he: Vec<u32> = edge_pos[..n_edges]
-            .iter()
-            .map(|&p| he_of(bucket[p as usize]))
-            .collect();
-        let edge_faces: Vec<u32> = edge_pos.windows(2).map(|w| w[1] - w[0]).collect();
+        // Each edge's first half-edge and face count: in parallel for large meshes
+        // only, where one thread's pass costs more than waking the pool.
+        let (edge_he, edge_faces): (Vec<u32>, Vec<u32>) = if n_edges * 4 >= parallel_from {
+            (
+                edge_pos[..n_edges]
+                    .par_iter()
+                    .map(|&p| he_of(bucket[p as usize]))
+                    .collect(),
+                edge_pos.par_windows(2).map(|w| w[1] - w[0]).collect(),
+            )
+        } else {
+            (
+                edge_pos[..n_edges]
+                    .iter()
+                    .map(|&p| he_of(bucket[p as usize]))
+                    .collect(),
+                edge_pos.windows(2).map(|w| w[1] - w[0]).collect(),
+            )
+        };
         drop(bucket);
         drop(edge_pos);
         // Vertex adjacency (CSR) from the edge list. Edges are sorted by (lo, hi), so
@@ -221,8 +235,11 @@ impl Topology {
                 (b, (u64::from(a) << 32) | e as u64),
             ]
         });
-        let adj: Vec<u32> = packed.par_iter().map(|&x| (x >> 32) as u32).collect();
-        let adj_edge: Vec<u32> = packed.par_iter().map(|&x| x as u32).collect();
+        let (mut adj, mut adj_edge) = (Vec::new(), Vec::new());
+        packed
+            .par_iter()
+            .map(|&x| ((x >> 32) as u32, x as u32))
+            .unzip_into_vecs(&mut adj, &mut adj_edge);
         drop(packed);
         debug_assert!(
             (0..n).all(|v| adj[adj_offsets[v] as usize..adj_offsets[v + 1] as usize].is_sorted())
@@ -230,7 +247,7 @@ impl Topology {
         let topo = Topology {
             graph: VertexGraph {
                 n,
-                faces: faces.to_vec(),
+                faces: crate::mem::to_vec(faces, parallel_from),
                 offsets: adj_offsets,
                 adj,
             },

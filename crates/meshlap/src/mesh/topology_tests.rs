@@ -135,6 +135,13 @@ fn matches_naive_construction_on_random_soups() {
                 .unwrap();
             let other = pool.install(|| Topology::from_faces(n, &faces).unwrap());
             assert_eq!(format!("{other:?}"), format!("{t:?}"), "{threads} threads");
+            // The sequential steps in parallel, as for large meshes: the same.
+            let forced = pool.install(|| Topology::build(n, &faces, 0).unwrap());
+            assert_eq!(
+                format!("{forced:?}"),
+                format!("{t:?}"),
+                "{threads}, parallel"
+            );
         }
         // The outgoing half-edge: the smallest boundary one, else the smallest one.
         let mut want_out = vec![INVALID; n];
