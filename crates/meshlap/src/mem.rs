@@ -124,15 +124,18 @@ pub(crate) fn zeroed_mat(nrows: usize, ncols: usize) -> faer::Mat<f64> {
     m
 }
 
-/// Totals, in bytes, from which [`concat`] copies in parallel: below, one thread's
-/// `memcpy` beats waking the pool (the connectivity of meshes up to a few hundred
-/// thousand vertices; BENCHMARKS.md, "Connectivity").
-pub(crate) const PARALLEL_COPY_FROM: usize = 4 << 20;
+/// Array size, in bytes, from which an array is taken to exceed the cache: twice
+/// this core's 2 MiB L2 on the hosts measured. From this size on, copies are made in
+/// parallel ([`concat`]: below it one thread's `memcpy` beats waking the pool, for
+/// the connectivity of meshes up to a few hundred thousand vertices), and scatters
+/// prefetch their slots ([`bucket_sort`]: a slot written at random is rarely in
+/// cache). BENCHMARKS.md, "Connectivity".
+pub(crate) const LARGE_FROM: usize = 4 << 20;
 
 /// The slices `get(p)` of `parts`, in order, in one vector with room for `spare`
 /// more elements: copied by the rayon pool, one task per part, into a buffer advised
 /// to use huge pages ([`uninit_vec`]) when the total reaches `parallel_from` bytes
-/// (the callers pass [`PARALLEL_COPY_FROM`]), else by one `extend_from_slice` per
+/// (the callers pass [`LARGE_FROM`]), else by one `extend_from_slice` per
 /// part. The same vector either way.
 pub(crate) fn concat<P: Sync, T: Copy + Send + Sync>(
     parts: &[P],
@@ -341,6 +344,18 @@ impl<'a, T: Copy> Scatter<'a, T> {
         unsafe { std::ptr::write_bytes(self.ptr.add(start), 0, count) }
     }
 
+    /// Asks the CPU to bring element `i`'s cache line closer for a write
+    /// ([`prefetch_write`]); nothing when `i` is out of bounds. A hint: no effect on
+    /// any value, and safe, since nothing is read or written.
+    #[inline(always)]
+    pub(crate) fn prefetch(&self, i: usize) {
+        if i < self.len {
+            // SAFETY: in bounds, so `add` stays inside the allocation; the reference
+            // only names the address for the hint and is never read through.
+            prefetch_write(unsafe { &*self.ptr.add(i) });
+        }
+    }
+
     /// Writes `value` at `i` (panics if out of bounds).
     ///
     /// # Safety
@@ -357,12 +372,21 @@ impl<'a, T: Copy> Scatter<'a, T> {
     }
 }
 
+/// How many items ahead a scatter prefetches its slots (32 and 64 measured alike on
+/// icosphere 9's connectivity, 8 and 12 slower).
+pub(crate) const SCATTER_PREFETCH_AHEAD: usize = 32;
+
 /// Counting sort of `items` items, item `i` giving the `K` entries `entry(i)` as
 /// (bucket, value), into `n` buckets: the bucket starts (`n + 1`, the last the total
 /// `K·items`) and the values, bucket by bucket, each bucket in item order. Each
 /// thread counts and scatters its own contiguous range of items with its own
 /// histogram (no atomic counters, which cost more than the rest on a few cores);
-/// the result does not depend on the thread count. `entry` runs twice per item.
+/// the result does not depend on the thread count. `entry` runs twice per item, and a
+/// third time when the output reaches [`LARGE_FROM`] bytes: the scatter
+/// then asks for the slots of the item [`SCATTER_PREFETCH_AHEAD`] items ahead
+/// ([`Scatter::prefetch`]) before writing the current one, so that its writes to
+/// slots scattered over the output do not wait on memory one after another
+/// (BENCHMARKS.md, "Connectivity").
 /// Panics if a bucket is `n` or more, or if `K·items` exceeds `u32::MAX`.
 pub(crate) fn bucket_sort<const K: usize, T: Copy + Send + Sync>(
     n: usize,
@@ -405,8 +429,21 @@ pub(crate) fn bucket_sort<const K: usize, T: Copy + Send + Sync>(
     let mut out = zeroed_vec(zero, total);
     {
         let scatter = Scatter::new(&mut out);
+        let ahead = if total * std::mem::size_of::<T>() >= LARGE_FROM {
+            SCATTER_PREFETCH_AHEAD
+        } else {
+            0
+        };
         ranges.into_par_iter().zip(&mut hist).for_each(|(r, fill)| {
+            let end = r.end;
             for i in r {
+                if ahead > 0 && i + ahead < end {
+                    for (b, _) in entry(i + ahead) {
+                        // The slot as it stands: an entry of the same bucket written
+                        // in between moves it by one, which only makes the hint late.
+                        scatter.prefetch(fill[b as usize] as usize);
+                    }
+                }
                 for (b, v) in entry(i) {
                     let p = fill[b as usize];
                     fill[b as usize] += 1;
@@ -418,6 +455,21 @@ pub(crate) fn bucket_sort<const K: usize, T: Copy + Send + Sync>(
         });
     }
     (start, out)
+}
+
+/// Asks the CPU to bring `x`'s cache line closer, in a state ready to be written
+/// (x86-64's `prefetchw`; elsewhere nothing). A hint: no effect on any value.
+#[inline(always)]
+pub(crate) fn prefetch_write<T>(x: &T) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_ET0};
+        // SAFETY: SSE is part of x86-64, and a prefetch reads nothing the program
+        // sees, of an address that is a valid reference here.
+        unsafe { _mm_prefetch::<_MM_HINT_ET0>((x as *const T).cast::<i8>()) };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = x;
 }
 
 /// Asks the CPU to bring `x`'s cache line closer (x86-64; elsewhere nothing). A hint:
@@ -516,33 +568,37 @@ mod tests {
     }
 
     /// Buckets hold their entries in item order, on pools of 1 and 3 threads alike,
-    /// with enough items for several ranges.
+    /// with enough items for several ranges; the second size's output (4.8 MB) is
+    /// past [`super::LARGE_FROM`], so its scatter prefetches.
     #[test]
     fn bucket_sort_is_stable_and_thread_independent() {
-        let (n, items) = (1000usize, 100_000usize);
-        let key = |i: usize| ((i * 7919) % n) as u32;
-        let run = |threads| {
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap()
-                .install(|| {
-                    super::bucket_sort(n, items, 0u64, |i| {
-                        [(key(i), i as u64), (key(i + 1), (i as u64) << 32)]
+        for (n, items) in [(1000usize, 100_000usize), (300_000, 300_000)] {
+            assert_eq!(items < 200_000, 16 * items < super::LARGE_FROM);
+            let key = |i: usize| ((i * 7919) % n) as u32;
+            let run = |threads| {
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap()
+                    .install(|| {
+                        super::bucket_sort(n, items, 0u64, |i| {
+                            [(key(i), i as u64), (key(i + 1), (i as u64) << 32)]
+                        })
                     })
-                })
-        };
-        let (start, out) = run(3);
-        assert_eq!(run(1), (start.clone(), out.clone()));
-        // The same as a sequential stable sort by bucket.
-        let mut want: Vec<(u32, u64)> = (0..items)
-            .flat_map(|i| [(key(i), i as u64), (key(i + 1), (i as u64) << 32)])
-            .collect();
-        want.sort_by_key(|e| e.0);
-        assert_eq!(out, want.iter().map(|e| e.1).collect::<Vec<_>>());
-        for b in 0..n {
-            let len = want.iter().filter(|e| e.0 == b as u32).count();
-            assert_eq!((start[b + 1] - start[b]) as usize, len);
+            };
+            let (start, out) = run(3);
+            assert_eq!(run(1), (start.clone(), out.clone()));
+            // The same as a sequential stable sort by bucket.
+            let mut want: Vec<(u32, u64)> = (0..items)
+                .flat_map(|i| [(key(i), i as u64), (key(i + 1), (i as u64) << 32)])
+                .collect();
+            want.sort_by_key(|e| e.0);
+            assert_eq!(out, want.iter().map(|e| e.1).collect::<Vec<_>>());
+            let mut len = vec![0usize; n];
+            want.iter().for_each(|e| len[e.0 as usize] += 1);
+            for b in 0..n {
+                assert_eq!((start[b + 1] - start[b]) as usize, len[b]);
+            }
         }
     }
 }

@@ -84,14 +84,15 @@ impl Topology {
     /// from there. At most `(2³¹ − 1) / 3` faces ([`MeshError::TooManyFaces`]). Runs
     /// on a worker of rayon's pool ([`crate::par::on_worker`]).
     pub fn from_faces(n: usize, faces: &[[u32; 3]]) -> Result<Self, MeshError> {
-        crate::par::on_worker(|| Self::build(n, faces, crate::mem::PARALLEL_COPY_FROM))
+        crate::par::on_worker(|| Self::build(n, faces, crate::mem::LARGE_FROM))
     }
 
-    /// [`Self::from_faces`] on the calling thread; its sequential steps (the edge
-    /// lists' join, each edge's first half-edge and face count, the faces' copy) run
-    /// in parallel for arrays from `parallel_from` bytes on. The same connectivity
-    /// either way (tested).
-    fn build(n: usize, faces: &[[u32; 3]], parallel_from: usize) -> Result<Self, MeshError> {
+    /// [`Self::from_faces`] on the calling thread. Arrays from `large_from` bytes on
+    /// are taken to exceed the cache: the steps that are otherwise sequential (the
+    /// edge lists' join, each edge's first half-edge and face count, the faces' copy)
+    /// run in parallel, and the twins' scatter prefetches its slots. The same
+    /// connectivity either way (tested).
+    fn build(n: usize, faces: &[[u32; 3]], large_from: usize) -> Result<Self, MeshError> {
         super::graph::check_faces(n, faces)?;
         let nh = faces.len() * 3;
         // Counting sort of half-edges by their smaller endpoint. Each entry packs
@@ -168,25 +169,41 @@ impl Topology {
             })
             .collect();
         // The parts joined (in parallel for large meshes, `mem::concat`).
-        let edges = crate::mem::concat(&parts, |p| &p.edges[..], 0, parallel_from);
-        let mut edge_pos = crate::mem::concat(&parts, |p| &p.edge_pos[..], 1, parallel_from);
+        let edges = crate::mem::concat(&parts, |p| &p.edges[..], 0, large_from);
+        let mut edge_pos = crate::mem::concat(&parts, |p| &p.edge_pos[..], 1, large_from);
         let n_edges = edges.len();
         let inconsistent_edges: usize = parts.iter().map(|p| p.inconsistent).sum();
         let non_manifold_edges: usize = parts.iter().map(|p| p.non_manifold).sum();
         drop(parts);
         edge_pos.push(nh as u32);
         // Scatter twins and edge ids to the half-edges, in parallel over edges: every
-        // half-edge belongs to exactly one edge, so every slot is written once.
+        // half-edge belongs to exactly one edge, so every slot is written once. Beyond
+        // the cache, the slots of the half-edges a few edges ahead are prefetched
+        // (`bucket` holds them in order), as in `mem::bucket_sort`.
         let he_of = |x: u64| (x & HALF_EDGE) as u32;
         let mut twin = crate::mem::zeroed_vec(0u32, nh); // every slot written below
         let mut he_edge = crate::mem::zeroed_vec(0u32, nh);
         {
             let (tw, he) = (Scatter::new(&mut twin), Scatter::new(&mut he_edge));
+            let ahead = if nh * 4 >= large_from {
+                crate::mem::SCATTER_PREFETCH_AHEAD
+            } else {
+                0
+            };
             (0..n_edges)
                 .into_par_iter()
                 .with_min_len(1 << 12)
                 .for_each(|e| {
                     let (s, t) = (edge_pos[e] as usize, edge_pos[e + 1] as usize);
+                    if ahead > 0 {
+                        // About two half-edges per edge: this edge's share of the
+                        // entries `ahead` places on.
+                        for &x in bucket.iter().skip(s + ahead).take(t - s) {
+                            let h = he_of(x) as usize;
+                            tw.prefetch(h);
+                            he.prefetch(h);
+                        }
+                    }
                     for k in s..t {
                         let h = he_of(bucket[k]) as usize;
                         let other = if t - s == 2 {
@@ -204,7 +221,7 @@ impl Topology {
         }
         // Each edge's first half-edge and face count: in parallel for large meshes
         // only, where one thread's pass costs more than waking the pool.
-        let (edge_he, edge_faces): (Vec<u32>, Vec<u32>) = if n_edges * 4 >= parallel_from {
+        let (edge_he, edge_faces): (Vec<u32>, Vec<u32>) = if n_edges * 4 >= large_from {
             (
                 edge_pos[..n_edges]
                     .par_iter()
@@ -247,7 +264,7 @@ impl Topology {
         let topo = Topology {
             graph: VertexGraph {
                 n,
-                faces: crate::mem::to_vec(faces, parallel_from),
+                faces: crate::mem::to_vec(faces, large_from),
                 offsets: adj_offsets,
                 adj,
             },
