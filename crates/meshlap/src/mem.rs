@@ -344,15 +344,15 @@ impl<'a, T: Copy> Scatter<'a, T> {
         unsafe { std::ptr::write_bytes(self.ptr.add(start), 0, count) }
     }
 
-    /// Asks the CPU to bring element `i`'s cache line closer for a write
-    /// ([`prefetch_write`]); nothing when `i` is out of bounds. A hint: no effect on
+    /// Asks the CPU to bring element `i`'s cache line closer before it is written
+    /// ([`prefetch`]); nothing when `i` is out of bounds. A hint: no effect on
     /// any value, and safe, since nothing is read or written.
     #[inline(always)]
     pub(crate) fn prefetch(&self, i: usize) {
         if i < self.len {
             // SAFETY: in bounds, so `add` stays inside the allocation; the reference
             // only names the address for the hint and is never read through.
-            prefetch_write(unsafe { &*self.ptr.add(i) });
+            prefetch(unsafe { &*self.ptr.add(i) });
         }
     }
 
@@ -455,21 +455,6 @@ pub(crate) fn bucket_sort<const K: usize, T: Copy + Send + Sync>(
         });
     }
     (start, out)
-}
-
-/// Asks the CPU to bring `x`'s cache line closer, in a state ready to be written
-/// (x86-64's `prefetchw`; elsewhere nothing). A hint: no effect on any value.
-#[inline(always)]
-pub(crate) fn prefetch_write<T>(x: &T) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_ET0};
-        // SAFETY: SSE is part of x86-64, and a prefetch reads nothing the program
-        // sees, of an address that is a valid reference here.
-        unsafe { _mm_prefetch::<_MM_HINT_ET0>((x as *const T).cast::<i8>()) };
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = x;
 }
 
 /// Asks the CPU to bring `x`'s cache line closer (x86-64; elsewhere nothing). A hint:
