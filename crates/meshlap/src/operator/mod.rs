@@ -252,6 +252,7 @@ impl Operator {
         crate::par::on_worker(|| Self::assemble_here(kind, mesh, topo, opts))
     }
 
+    /// [`Self::assemble`] on the calling thread.
     fn assemble_here(
         kind: OperatorKind,
         mesh: &TriMesh,
