@@ -86,8 +86,8 @@ fn main() {
         .build_global();
     // The command runs on a worker of the pool, as the Python package's calls do:
     // every parallel pass it makes is then shared out by work stealing, instead of
-    // being handed to the pool while the main thread sleeps until it ends (the
-    // library's `par::on_worker`; BENCHMARKS.md, "Connectivity").
+    // being handed to the pool while the main thread sleeps until it ends
+    // (BENCHMARKS.md, "Connectivity").
     let run = || match &cli.command {
         Command::Info(a) => cmd::info::run(a),
         Command::Convert(a) => cmd::convert::run(a),
@@ -108,7 +108,7 @@ fn main() {
         Command::Experiment(a) => cmd::experiment::run(a),
         Command::Watermark(a) => cmd::watermark::run(a),
     };
-    let result = rayon::scope(|_| run());
+    let result = meshlap::par::on_worker(run);
     if let Err(e) = result {
         if broken_pipe(&e) {
             std::process::exit(0);

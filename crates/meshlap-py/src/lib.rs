@@ -123,7 +123,7 @@ pub(crate) fn compute<T: Send, F: FnOnce() -> T + Send>(py: Python<'_>, f: F) ->
     start_purger();
     py.detach(move || match pool {
         Some(p) => p.install(f),
-        None => rayon::scope(|_| f()),
+        None => meshlap::par::on_worker(f),
     })
 }
 
@@ -247,14 +247,11 @@ pub(crate) fn mesh_named(
     }
 }
 
-/// Row `i` of the face array (in range: the library named it).
+/// Row `i` of the face array, in any memory layout (in range: the library named it).
 fn face_row(f: &FaceArray<'_>, i: usize) -> [i64; 3] {
-    let row = |a: &[i64]| [a[3 * i], a[3 * i + 1], a[3 * i + 2]];
     match f {
-        FaceArray::I64(a) => a.as_slice().map_or([0; 3], row),
-        FaceArray::U32(a) => a
-            .as_slice()
-            .map_or([0; 3], |a| [0, 1, 2].map(|c| i64::from(a[3 * i + c]))),
+        FaceArray::I64(a) => [0, 1, 2].map(|c| a.as_array()[[i, c]]),
+        FaceArray::U32(a) => [0, 1, 2].map(|c| i64::from(a.as_array()[[i, c]])),
     }
 }
 

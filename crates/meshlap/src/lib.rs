@@ -62,7 +62,7 @@ pub mod mesh;
 pub mod metric;
 mod names;
 pub mod operator;
-mod par;
+pub mod par;
 pub mod partition;
 #[cfg(feature = "pictures")]
 pub mod plot;

@@ -1,5 +1,7 @@
 //! Running parallel work from inside rayon's pool, and combining its per-chunk
-//! results in a fixed order.
+//! results in a fixed order. Public: [`on_worker`], with which the front ends (the
+//! CLI's command, the Python package's calls on the default pool) run a whole call
+//! on a worker.
 
 /// Runs `f` on a worker thread of rayon's current pool (directly when already on
 /// one). An algorithm that makes many short parallel passes — a Krylov solve's two to
@@ -18,7 +20,7 @@
 /// (2.6M vertices) took about 15 % less time on a worker, its cleaning 27 % less
 /// (BENCHMARKS.md, "Connectivity"); from a worker (a caller's own pool, the Python
 /// package's calls) nothing changes.
-pub(crate) fn on_worker<R: Send>(f: impl FnOnce() -> R + Send) -> R {
+pub fn on_worker<R: Send>(f: impl FnOnce() -> R + Send) -> R {
     if rayon::current_thread_index().is_some() {
         f()
     } else {
