@@ -92,11 +92,112 @@ impl<'a> EdgeSideSlots<'a> {
     }
 }
 
+/// Where a geometric operator's per-face kernel puts each face's values: three values
+/// `T`, one per half-edge `3f + m` (from corner m to corner m + 1), and three values
+/// `U`, one per corner m. Faces are put in order, each once.
+pub(crate) trait FaceSink<T, U> {
+    /// The values of the next face.
+    fn put(&mut self, edge_values: [T; 3], corner_values: [U; 3]);
+}
+
+/// Collects the faces' values in order (the non-manifold edges' recomputation, the
+/// cotan's mass alone, tests).
+impl<T, U> FaceSink<T, U> for Vec<([T; 3], [U; 3])> {
+    #[inline(always)]
+    fn put(&mut self, edge_values: [T; 3], corner_values: [U; 3]) {
+        self.push((edge_values, corner_values));
+    }
+}
+
+/// A geometric operator's per-face values (cotan, mean-value), for
+/// [`per_face_edge_sides`]: generic over the sink, so that the kernel writes each
+/// face's values straight to their slots (the sink's `put` inlined into the kernel,
+/// in the same build) instead of through a buffer of every face's values.
+pub(crate) trait FaceValues<T, U>: Sync {
+    /// The error of a face that has no values (a degenerate triangle, say).
+    type Error: Send;
+    /// Puts the values of the faces `range` into `sink`, in order; or returns the
+    /// error of the range's first failing face, the faces before it put.
+    fn put_faces<S: FaceSink<T, U>>(
+        &self,
+        range: std::ops::Range<usize>,
+        sink: &mut S,
+    ) -> Result<(), Self::Error>;
+}
+
+/// [`FaceValues`] from a closure that pushes the values of a range of faces onto a
+/// vector, then handed to the sink: the tests' values.
+#[cfg(test)]
+pub(crate) struct Collected<F>(pub(crate) F);
+
+#[cfg(test)]
+impl<T, U, E, F> FaceValues<T, U> for Collected<F>
+where
+    T: Copy,
+    U: Copy,
+    E: Send,
+    F: Fn(std::ops::Range<usize>, &mut Vec<([T; 3], [U; 3])>) -> Result<(), E> + Sync,
+{
+    type Error = E;
+    fn put_faces<S: FaceSink<T, U>>(
+        &self,
+        range: std::ops::Range<usize>,
+        sink: &mut S,
+    ) -> Result<(), E> {
+        let mut buf = Vec::with_capacity(range.len());
+        let result = (self.0)(range, &mut buf);
+        for (e, c) in buf {
+            sink.put(e, c);
+        }
+        result
+    }
+}
+
+/// [`per_face_edge_sides`]' sink for one chunk of faces: each face's corner values to
+/// its three slots of the chunk's part of the corner array, its half-edge values to
+/// their sides ([`EdgeSideSlots::write`]).
+struct SlotSink<'s, 'a, T, U> {
+    slots: EdgeSideSlots<'a>,
+    sides: &'s Scatter<'a, T>,
+    /// The chunk's corner slots, three per face from `first`.
+    corners: &'s mut [MaybeUninit<U>],
+    first: usize,
+    /// The next face to be put.
+    next: usize,
+    zero: T,
+}
+
+impl<T: Copy, U> FaceSink<T, U> for SlotSink<'_, '_, T, U> {
+    #[inline(always)]
+    fn put(&mut self, edge_values: [T; 3], corner_values: [U; 3]) {
+        let f = self.next;
+        let q = 3 * (f - self.first);
+        // Bounds-checked: a kernel that put more faces than its range panics here,
+        // before any half-edge outside the chunk is written.
+        for (s, v) in self.corners[q..q + 3].iter_mut().zip(corner_values) {
+            s.write(v);
+        }
+        for (m, v) in edge_values.into_iter().enumerate() {
+            // SAFETY: `sides` has two slots per edge, and each half-edge of the
+            // chunk's faces is written once: face f is put once (`next` only grows,
+            // and the slice above bounds it by the chunk's end).
+            unsafe { self.slots.write(self.sides, 3 * f + m, v, self.zero) };
+        }
+        self.next = f + 1;
+    }
+}
+
+/// [`per_face_edge_sides`]' result: two sides per edge and the corners' values.
+pub(crate) type SidesAndCorners<T, U> = (Vec<[T; 2]>, Vec<U>);
+
 /// The geometric operators' per-face pass (cotan, mean-value): per face f three values
 /// `T` per half-edge `3f + m` (to be summed per undirected edge) and three values `U`
 /// per corner (kept per slot `3f + m`), computed in parallel over chunks of faces:
-/// `values(faces, out)` pushes the pairs of a range of faces onto `out` (empty), in
-/// order, or returns the error of the range's first failing face.
+/// `values.put_faces(faces, sink)` puts the values of a range of faces, in order, or
+/// returns the error of the range's first failing face. The sink writes each face's
+/// values straight to their slots (no per-chunk buffer of every face's values: the
+/// SQL's pass measured that round trip at 4–7 %, BENCHMARKS.md, "Operator
+/// assembly").
 ///
 /// Returns the per-corner values and, per undirected edge e ([`Topology::edges`]
 /// order), two sides `[a, b]` with `add(add(zero, a), b)` = `zero` folded with `add`
@@ -120,16 +221,16 @@ impl<'a> EdgeSideSlots<'a> {
 /// sums that start at `+0.0` (they are never `−0.0`).
 ///
 /// Or the error of the first failing face (the lowest index), whichever thread met it.
-pub(crate) fn per_face_edge_sides<T, U, E>(
+pub(crate) fn per_face_edge_sides<T, U, V>(
     topo: &Topology,
     zero: T,
     add: impl Fn(T, T) -> T,
-    values: impl Fn(std::ops::Range<usize>, &mut Vec<([T; 3], [U; 3])>) -> Result<(), E> + Sync,
-) -> Result<(Vec<[T; 2]>, Vec<U>), E>
+    values: &V,
+) -> Result<SidesAndCorners<T, U>, V::Error>
 where
     T: Copy + Send + Sync,
     U: Copy + Send + Sync,
-    E: Send,
+    V: FaceValues<T, U>,
 {
     const CHUNK: usize = 1024;
     let n_faces = topo.n_faces();
@@ -146,30 +247,22 @@ where
         corners
             .par_chunks_mut(3 * CHUNK)
             .enumerate()
-            .map_init(
-                || Vec::with_capacity(CHUNK),
-                |buf, (c, slots)| {
-                    let faces = c * CHUNK..c * CHUNK + slots.len() / 3;
-                    buf.clear();
-                    if let Err(err) = values(faces.clone(), buf) {
-                        return Some((c, err));
-                    }
-                    assert_eq!(buf.len(), faces.len(), "per-face values missing");
-                    for ((s, &(edge_values, corner_values)), f) in
-                        slots.chunks_exact_mut(3).zip(buf.iter()).zip(faces)
-                    {
-                        for (s, v) in s.iter_mut().zip(corner_values) {
-                            s.write(v);
-                        }
-                        for (m, v) in edge_values.into_iter().enumerate() {
-                            // SAFETY: `sides` has two slots per edge and each
-                            // half-edge is written once (by its own face).
-                            unsafe { side_slots.write(&scatter, 3 * f + m, v, zero) };
-                        }
-                    }
-                    None
-                },
-            )
+            .map(|(c, slots)| {
+                let faces = c * CHUNK..c * CHUNK + slots.len() / 3;
+                let mut sink = SlotSink {
+                    slots: side_slots,
+                    sides: &scatter,
+                    corners: slots,
+                    first: faces.start,
+                    next: faces.start,
+                    zero,
+                };
+                if let Err(err) = values.put_faces(faces.clone(), &mut sink) {
+                    return Some((c, err));
+                }
+                assert_eq!(sink.next, faces.end, "per-face values missing");
+                None
+            })
             .flatten()
             .min_by_key(|&(c, _)| c)
     };
@@ -185,7 +278,7 @@ where
             let e = he_edge[h] as usize;
             if counts[e] > 2 {
                 one.clear();
-                values(h / 3..h / 3 + 1, &mut one)?;
+                values.put_faces(h / 3..h / 3 + 1, &mut one)?;
                 let v = one[0].0[h % 3];
                 // SAFETY: written just above.
                 let [acc, _] = unsafe { sides[e].assume_init() };
@@ -193,10 +286,10 @@ where
             }
         }
     }
-    // SAFETY: no face failed, so every chunk wrote the three corner slots of each of
-    // its faces, and the chunks cover all 3 · n_faces; every edge's two sides were
-    // written (above: by its two twins, by its boundary half-edge, or as a
-    // non-manifold edge).
+    // SAFETY: no face failed, so every chunk put each of its faces once (the
+    // assertion above), writing its three corner slots, and the chunks cover all
+    // 3 · n_faces; every edge's two sides were written (above: by its two twins, by
+    // its boundary half-edge, or as a non-manifold edge).
     unsafe {
         Ok((
             crate::mem::assume_init_vec(sides),
@@ -1595,7 +1688,7 @@ mod tests {
                             &t,
                             0.0f64,
                             |a, b| a + b,
-                            |faces, out| {
+                            &Collected(|faces: std::ops::Range<usize>, out: &mut Vec<_>| {
                                 out.extend(faces.map(|f| {
                                     (
                                         std::array::from_fn(|m| v(3 * f + m)),
@@ -1603,7 +1696,7 @@ mod tests {
                                     )
                                 }));
                                 Ok::<_, ()>(())
-                            },
+                            }),
                         )
                     })
                     .unwrap();
@@ -1634,7 +1727,7 @@ mod tests {
                     &t,
                     0.0f64,
                     |a, b| a + b,
-                    |faces, out| {
+                    &Collected(|faces: std::ops::Range<usize>, out: &mut Vec<_>| {
                         for f in faces {
                             if f == 4000 || f == 1500 || f == 1501 {
                                 return Err(f);
@@ -1642,7 +1735,7 @@ mod tests {
                             out.push(([1.0; 3], [(); 3]));
                         }
                         Ok(())
-                    },
+                    }),
                 )
             });
             assert_eq!(got.err(), Some(1500), "{threads} threads");

@@ -23,6 +23,7 @@
 //! [`OperatorError::NonFinite`]. An isolated vertex (no faces) gets an empty row and
 //! zero mass. The result is never NaN or infinite.
 
+use super::assemble::FaceSink;
 #[cfg(test)]
 use super::geometry::norm;
 use super::geometry::{cross, dot, sub};
@@ -74,7 +75,11 @@ pub fn cotan(
         topo,
         0.0f64,
         |a, b| a + b,
-        |range, out| face_geometry(&mesh.positions, faces, range, mass_kind, out),
+        &CotanFaces {
+            pos: &mesh.positions,
+            faces,
+            mass_kind,
+        },
     )?;
     // Edge e's weight ½(cot α + cot β), its half-edges in face order.
     let w = |e: u32| {
@@ -175,14 +180,33 @@ fn add_corner_shares(n: usize, faces: &[[u32; 3]], shares: &[f64]) -> Vec<f64> {
     mass
 }
 
-/// [`FaceGeometry`] of `faces[range]` pushed onto `out`, or the degenerate face it
-/// met first, named.
-fn face_geometry(
+/// The cotan's per-face values for `assemble::per_face_edge_sides`: [`FaceGeometry`].
+struct CotanFaces<'a> {
+    pos: &'a [[f64; 3]],
+    faces: &'a [[u32; 3]],
+    mass_kind: MassKind,
+}
+
+impl super::assemble::FaceValues<f64, f64> for CotanFaces<'_> {
+    type Error = OperatorError;
+    #[inline]
+    fn put_faces<S: FaceSink<f64, f64>>(
+        &self,
+        range: std::ops::Range<usize>,
+        sink: &mut S,
+    ) -> Result<(), OperatorError> {
+        face_geometry(self.pos, self.faces, range, self.mass_kind, sink)
+    }
+}
+
+/// [`FaceGeometry`] of `faces[range]` put into `out`, or the degenerate face it met
+/// first, named.
+fn face_geometry<S: FaceSink<f64, f64>>(
     pos: &[[f64; 3]],
     faces: &[[u32; 3]],
     range: std::ops::Range<usize>,
     mass_kind: MassKind,
-    out: &mut Vec<([f64; 3], [f64; 3])>,
+    out: &mut S,
 ) -> Result<(), OperatorError> {
     let first = range.start;
     let bad = crate::cpu::dispatch(FaceGeometry {
@@ -211,7 +235,7 @@ const LANES: usize = 64;
 
 /// The per-face geometry of consecutive faces: per face, ½·cot of the corner opposite
 /// each half-edge m (from corner m to corner m + 1: the corner m + 2) and each
-/// corner's mass share, pushed onto `out` in face order; stops at the first face that
+/// corner's mass share, put into `out` in face order; stops at the first face that
 /// is degenerate ([`is_proper_triangle`]) and returns its index in `faces`.
 ///
 /// Per group of [`LANES`] faces, one loop gathers the corners and forms the edge
@@ -221,14 +245,14 @@ const LANES: usize = 64;
 /// face at a time (the cot at corner k: the dot product of the two edges leaving it
 /// over the doubled area `‖e₀ × (c − a)‖`), so the bits do not depend on the build.
 /// The kernel runs in the AVX2 build where the CPU has it ([`crate::cpu::dispatch`]).
-struct FaceGeometry<'a> {
+struct FaceGeometry<'a, S> {
     pos: &'a [[f64; 3]],
     faces: &'a [[u32; 3]],
     mass_kind: MassKind,
-    out: &'a mut Vec<([f64; 3], [f64; 3])>,
+    out: &'a mut S,
 }
 
-impl crate::cpu::Kernel for FaceGeometry<'_> {
+impl<S: FaceSink<f64, f64>> crate::cpu::Kernel for FaceGeometry<'_, S> {
     type Output = Option<usize>;
     #[inline(always)]
     fn portable(self) -> Option<usize> {
@@ -292,10 +316,10 @@ impl crate::cpu::Kernel for FaceGeometry<'_> {
                 if !proper[q] {
                     return Some(g * LANES + q);
                 }
-                out.push((
+                out.put(
                     [half[2][q], half[0][q], half[1][q]],
                     [mass[0][q], mass[1][q], mass[2][q]],
-                ));
+                );
             }
         }
         None

@@ -14,6 +14,7 @@
 //! extremely scaled coordinates is [`OperatorError::NonFinite`]. An isolated vertex
 //! gets the identity row. The result is never NaN or infinite.
 
+use super::assemble::{FaceSink, FaceValues};
 use super::geometry::{add, cross, dot, norm, scale, sub};
 use super::OperatorError;
 use crate::mesh::{topology::Topology, TriMesh};
@@ -112,31 +113,49 @@ fn directed_weights(mesh: &TriMesh, topo: &Topology) -> Result<Vec<[[f64; 2]; 2]
         topo,
         [0.0f64; 2],
         |acc, v| [acc[0] + v[0], acc[1] + v[1]],
-        |range, out| {
-            // The lanes stop at a face they cannot take (a zero-length edge or a
-            // degenerate triangle); the one-face function names its error.
-            let mut start = range.start;
-            while start < range.end {
-                let stop = crate::cpu::dispatch(FaceLanes {
-                    pos: &mesh.positions,
-                    faces: &faces[start..range.end],
-                    out,
-                });
-                let Some(q) = stop else { break };
-                let f = start + q;
-                out.push((face_contributions(mesh, f, faces[f])?, [(); 3]));
-                start = f + 1;
-            }
-            Ok::<_, OperatorError>(())
-        },
+        &MeanValueFaces { mesh, faces },
     )?;
     Ok(sides)
+}
+
+/// The mean-value operator's per-face values for `assemble::per_face_edge_sides`:
+/// [`FaceLanes`], and [`face_contributions`] for the face where the lanes stop.
+#[derive(Clone, Copy)]
+struct MeanValueFaces<'a> {
+    mesh: &'a TriMesh,
+    faces: &'a [[u32; 3]],
+}
+
+impl FaceValues<[f64; 2], ()> for MeanValueFaces<'_> {
+    type Error = OperatorError;
+    fn put_faces<S: FaceSink<[f64; 2], ()>>(
+        &self,
+        range: std::ops::Range<usize>,
+        out: &mut S,
+    ) -> Result<(), OperatorError> {
+        let MeanValueFaces { mesh, faces } = *self;
+        // The lanes stop at a face they cannot take (a zero-length edge or a
+        // degenerate triangle); the one-face function names its error.
+        let mut start = range.start;
+        while start < range.end {
+            let stop = crate::cpu::dispatch(FaceLanes {
+                pos: &mesh.positions,
+                faces: &faces[start..range.end],
+                out: &mut *out,
+            });
+            let Some(q) = stop else { break };
+            let f = start + q;
+            out.put(face_contributions(mesh, f, faces[f])?, [(); 3]);
+            start = f + 1;
+        }
+        Ok(())
+    }
 }
 
 /// Faces per group of lanes in [`FaceLanes`].
 const LANES: usize = 64;
 
-/// [`face_contributions`] of consecutive faces, pushed onto `out` in face order (with
+/// [`face_contributions`] of consecutive faces, put into `out` in face order (with
 /// `()` per corner); stops before the first face with a zero-length edge or a
 /// triangle that is zero-area to rounding and returns its index in `faces`, for
 /// [`face_contributions`] to name the error.
@@ -149,13 +168,13 @@ const LANES: usize = 64;
 /// [`face_contributions`] in the same order (the vector from corner k to corner k + 2
 /// is the exact negation of edge k + 2), so the bits are the same; the kernel runs
 /// in the AVX2 build where the CPU has it ([`crate::cpu::dispatch`]).
-struct FaceLanes<'a> {
+struct FaceLanes<'a, S> {
     pos: &'a [[f64; 3]],
     faces: &'a [[u32; 3]],
-    out: &'a mut Vec<([[f64; 2]; 3], [(); 3])>,
+    out: &'a mut S,
 }
 
-impl crate::cpu::Kernel for FaceLanes<'_> {
+impl<S: FaceSink<[f64; 2], ()>> crate::cpu::Kernel for FaceLanes<'_, S> {
     type Output = Option<usize>;
     #[inline(always)]
     fn portable(self) -> Option<usize> {
@@ -217,7 +236,7 @@ impl crate::cpu::Kernel for FaceLanes<'_> {
                     w[k][usize::from(i > j)] = start[k][q];
                     w[(k + 2) % 3][usize::from(i > l)] = end[k][q];
                 }
-                out.push((w, [(); 3]));
+                out.put(w, [(); 3]);
             }
         }
         None

@@ -165,10 +165,11 @@ const FACE_CHUNK: usize = 2048;
 /// parallel over blocks of faces.
 ///
 /// `assemble::per_face_edge_sides` with the values inlined: it fills the same slots
-/// with the same values (each slot has one writer, so the order does not matter),
-/// but through a per-block buffer of every face's values, which the SQL's values —
-/// three lookups of `inv` — do not need (BENCHMARKS.md, "Operator assembly": the
-/// round trip cost 4–7 % of the SQL). The topology must have no non-manifold edge
+/// with the same values (each slot has one writer, so the order does not matter)
+/// without that pass' error path, corner values or non-manifold edges (tested
+/// against it). (This pass is where the geometric operators' per-block buffer of
+/// every face's values was first dropped: the round trip cost 4–7 % of the SQL,
+/// BENCHMARKS.md, "Operator assembly".) The topology must have no non-manifold edge
 /// ([`sql`] rejects those first): such an edge's sides are written by no face.
 fn edge_sides(topo: &Topology, inv: &[f64]) -> Vec<[f64; 2]> {
     use rayon::prelude::*;
@@ -287,13 +288,15 @@ mod tests {
                 &t,
                 0.0f64,
                 |a, b| a + b,
-                |range, out| {
-                    out.extend(faces[range].iter().map(|f| {
-                        let [a, b, c] = f.map(|v| inv[v as usize]);
-                        ([c, a, b], [(); 3])
-                    }));
-                    Ok::<_, std::convert::Infallible>(())
-                },
+                &crate::operator::assemble::Collected(
+                    |range: std::ops::Range<usize>, out: &mut Vec<_>| {
+                        out.extend(faces[range].iter().map(|f| {
+                            let [a, b, c] = f.map(|v| inv[v as usize]);
+                            ([c, a, b], [(); 3])
+                        }));
+                        Ok::<_, std::convert::Infallible>(())
+                    },
+                ),
             )
             .unwrap();
             let got = edge_sides(&t, &inv);
