@@ -179,12 +179,18 @@ impl<S: FaceSink<[f64; 2], ()>> crate::cpu::Kernel for FaceLanes<'_, S> {
     #[inline(always)]
     fn portable(self) -> Option<usize> {
         let FaceLanes { pos, faces, out } = self;
+        // Per lane: edge m (from corner m to corner m + 1) per coordinate, its squared
+        // length, and the squared doubled area; per corner k the weights along edges
+        // k and k + 2. Zeroed once per call, not per group: a group writes every lane
+        // it reads, except that the lanes past a short last group compute on an
+        // earlier group's values (or zeros) and are not read.
+        let mut edge = [[[0.0f64; LANES]; 3]; 3];
+        let mut len2 = [[0.0f64; LANES]; 3];
+        let mut cross2 = [0.0f64; LANES];
+        let mut start = [[0.0f64; LANES]; 3];
+        let mut end = [[0.0f64; LANES]; 3];
+        let mut fine = [false; LANES];
         for (g, group) in faces.chunks(LANES).enumerate() {
-            // Edge m (from corner m to corner m + 1) per coordinate, its squared
-            // length, and the squared doubled area, per lane.
-            let mut edge = [[[0.0f64; LANES]; 3]; 3];
-            let mut len2 = [[0.0f64; LANES]; 3];
-            let mut cross2 = [0.0f64; LANES];
             for (q, t) in group.iter().enumerate() {
                 let c = t.map(|v| pos[v as usize]);
                 let e: [[f64; 3]; 3] = [sub(c[1], c[0]), sub(c[2], c[1]), sub(c[0], c[2])];
@@ -198,11 +204,7 @@ impl<S: FaceSink<[f64; 2], ()>> crate::cpu::Kernel for FaceLanes<'_, S> {
                 cross2[q] = dot(n, n);
             }
             // Per corner k: the weight along edge k (`start`) and along edge k + 2
-            // (`end`), both tan(θ_k/2) over the edge's length. Lanes past the group's
-            // end compute on zeros and are not read.
-            let mut start = [[0.0f64; LANES]; 3];
-            let mut end = [[0.0f64; LANES]; 3];
-            let mut fine = [false; LANES];
+            // (`end`), both tan(θ_k/2) over the edge's length.
             for q in 0..LANES {
                 let l2 = [len2[0][q], len2[1][q], len2[2][q]];
                 let len = [l2[0].sqrt(), l2[1].sqrt(), l2[2].sqrt()];
