@@ -195,9 +195,8 @@ pub(crate) type SidesAndCorners<T, U> = (Vec<[T; 2]>, Vec<U>);
 /// per corner (kept per slot `3f + m`), computed in parallel over chunks of faces:
 /// `values.put_faces(faces, sink)` puts the values of a range of faces, in order, or
 /// returns the error of the range's first failing face. The sink writes each face's
-/// values straight to their slots (no per-chunk buffer of every face's values: the
-/// SQL's pass measured that round trip at 4–7 %, BENCHMARKS.md, "Operator
-/// assembly").
+/// values straight to their slots, with no per-chunk buffer of every face's values
+/// (BENCHMARKS.md, "Operator assembly").
 ///
 /// Returns the per-corner values and, per undirected edge e ([`Topology::edges`]
 /// order), two sides `[a, b]` with `add(add(zero, a), b)` = `zero` folded with `add`

@@ -265,8 +265,8 @@ impl<S: FaceSink<f64, f64>> crate::cpu::Kernel for FaceGeometry<'_, S> {
         let voronoi = mass_kind == MassKind::Voronoi;
         // Per lane: the squared edge lengths (edge k from corner k to corner k + 1),
         // the cots' numerators (corner k) and the squared doubled area; the halved cots
-        // and the mass shares. Zeroed once per call, not per group (their memset was
-        // about 3 % of the cotan): a group writes every lane it reads, except that the
+        // and the mass shares. Zeroed once per call, not per group (BENCHMARKS.md,
+        // "Operator assembly"): a group writes every lane it reads, except that the
         // lanes past a short last group compute on an earlier group's values (or
         // zeros) and are not read.
         let mut len2 = [[0.0f64; LANES]; 3];

@@ -168,9 +168,9 @@ const FACE_CHUNK: usize = 2048;
 /// with the same values (each slot has one writer, so the order does not matter)
 /// without that pass' error path, corner values or non-manifold edges (tested
 /// against it). (This pass is where the geometric operators' per-block buffer of
-/// every face's values was first dropped: the round trip cost 4–7 % of the SQL,
-/// BENCHMARKS.md, "Operator assembly".) The topology must have no non-manifold edge
-/// ([`sql`] rejects those first): such an edge's sides are written by no face.
+/// every face's values was first dropped; BENCHMARKS.md, "Operator assembly".) The
+/// topology must have no non-manifold edge ([`sql`] rejects those first): such an
+/// edge's sides are written by no face.
 fn edge_sides(topo: &Topology, inv: &[f64]) -> Vec<[f64; 2]> {
     use rayon::prelude::*;
     assert!(
