@@ -16,10 +16,9 @@
 /// The public entry points that make several parallel passes run on a worker for the
 /// same reason: opening a mesh ([`crate::input`]), its connectivity
 /// ([`crate::mesh::topology::Topology::from_faces`]), cleaning, reading a file and
-/// assembling an operator. Called from a program's main thread, opening icosphere 9
-/// (2.6M vertices) took about 15 % less time on a worker, its cleaning 27 % less
-/// (BENCHMARKS.md, "Connectivity"); from a worker (a caller's own pool, the Python
-/// package's calls) nothing changes.
+/// assembling an operator. Called from a program's main thread, opening a large mesh
+/// is faster on a worker (BENCHMARKS.md, "Connectivity"); from a worker (a caller's
+/// own pool, the Python package's calls) nothing changes.
 pub fn on_worker<R: Send>(f: impl FnOnce() -> R + Send) -> R {
     if rayon::current_thread_index().is_some() {
         f()

@@ -221,21 +221,17 @@ impl Topology {
         }
         // Each edge's first half-edge and face count: in parallel for large meshes
         // only, where one thread's pass costs more than waking the pool.
+        let first_he = |&p: &u32| he_of(bucket[p as usize]);
+        let face_count = |w: &[u32]| w[1] - w[0];
         let (edge_he, edge_faces): (Vec<u32>, Vec<u32>) = if n_edges * 4 >= large_from {
             (
-                edge_pos[..n_edges]
-                    .par_iter()
-                    .map(|&p| he_of(bucket[p as usize]))
-                    .collect(),
-                edge_pos.par_windows(2).map(|w| w[1] - w[0]).collect(),
+                edge_pos[..n_edges].par_iter().map(first_he).collect(),
+                edge_pos.par_windows(2).map(face_count).collect(),
             )
         } else {
             (
-                edge_pos[..n_edges]
-                    .iter()
-                    .map(|&p| he_of(bucket[p as usize]))
-                    .collect(),
-                edge_pos.windows(2).map(|w| w[1] - w[0]).collect(),
+                edge_pos[..n_edges].iter().map(first_he).collect(),
+                edge_pos.windows(2).map(face_count).collect(),
             )
         };
         drop(bucket);
