@@ -18,10 +18,9 @@
 //! `W`, at most 16×2048×8 B = 256 KiB, stays in L2) and, within a chunk, go down the
 //! contiguous columns of `V`: every byte of `V` is read once, in runs of 16 KiB that
 //! the hardware prefetchers follow. faer's general GEMM packs `V` into panels for
-//! these shapes and reaches about a third of the streaming bandwidth on the 2-core
-//! development machine (5.6 GB/s per core at s = 400 against 17–22 GB/s for a
-//! streaming sum; `examples`-style measurement in BENCHMARKS.md); these loops reach
-//! the streaming rate. They are written with fixed-width accumulator arrays that
+//! these shapes and reaches a fraction of the streaming bandwidth; these loops reach
+//! the streaming rate (figures in BENCHMARKS.md, "Partial spectra and partitioning":
+//! "Streaming thin-block kernels"). They are written with fixed-width accumulator arrays that
 //! LLVM vectorises, compiled for AVX2 + FMA when the CPU has them (dispatched at run
 //! time by `crate::cpu::dispatch`; `MESHLAP_PORTABLE=1` forces the portable
 //! build), and fall back to faer's `matmul` for strided views.

@@ -34,8 +34,8 @@
 //!    eigenvalues with all their copies (up to the block size) from one start, and
 //!    breakdowns (invariant subspaces on symmetric meshes) continue with random
 //!    directions. (Until 2026-11 this was a single-vector port of faer's
-//!    `partial_self_adjoint_eigen`, which hangs on such meshes; the block solver is
-//!    about 8x faster on the bunny.)
+//!    `partial_self_adjoint_eigen`, which hangs on such meshes and was slower: see
+//!    BENCHMARKS.md, "Partial spectra and partitioning".)
 //! 3. **Bands.** The first shift lies just below zero (`σ₀ = −10⁻³·mean(diag M⁻¹K)`),
 //!    where `K − σ₀M` is positive definite. A band at σ whose farthest eigenvalue is at
 //!    distance `r` has found *every* eigenvalue in the window `(σ − r + δ, σ + r − δ)`
