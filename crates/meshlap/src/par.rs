@@ -7,11 +7,10 @@
 /// one). An algorithm that makes many short parallel passes — a Krylov solve's two to
 /// four per iteration, the blocked tridiagonalisation's one per column — called from
 /// a thread outside the pool would hand each pass to the pool, put the caller to
-/// sleep and wake it when done: measured on 2 threads, 4.5 context switches per pass
-/// against 0.4 on a worker, where the passes are shared out by work stealing. faer's
-/// parallel routines behave the same way: its sparse LDLᵀ ran 40 % slower from the
-/// main thread than on a worker (figures in BENCHMARKS.md, "Implicit fairing
-/// solvers").
+/// sleep and wake it when done, several context switches per pass where a worker
+/// shares the passes out by work stealing. faer's parallel routines behave the same
+/// way: its sparse LDLᵀ is slower from the main thread than on a worker (figures in
+/// BENCHMARKS.md, "Implicit fairing solvers").
 ///
 /// The public entry points that make several parallel passes run on a worker for the
 /// same reason: opening a mesh ([`crate::input`]), its connectivity
