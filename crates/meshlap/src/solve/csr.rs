@@ -69,8 +69,8 @@ pub struct CsrMatrix {
 }
 
 impl CsrMatrix {
-    /// Converts a CSC matrix to CSR (a transpose of the storage, O(nnz), in parallel:
-    /// [`crate::operator::csr::transpose_storage`]).
+    /// Converts a CSC matrix to CSR: a counting-sort transpose of the storage,
+    /// O(nnz), in parallel over blocks of columns.
     pub fn from_csc(m: &SparseMatrix) -> Self {
         let (ptr, col, val) = crate::operator::csr::transpose_storage(
             m.nrows(),

@@ -40,8 +40,8 @@
 //! eigenvalues, Wilkinson's W21+, all-ones and low-rank matrices, tiny couplings,
 //! identity, zero, entries of 1e±200): residuals `‖A e − λ e‖∞ ≤
 //! 10⁻¹³‖A‖`, orthogonality `|EᵀE − I| ≤ 10⁻¹³` and eigenvalues within 10⁻¹² of
-//! faer's. Speed: see `cargo bench -p meshlap --bench core patch_bases` and
-//! BENCHMARKS.md (0.53 ms per basis of ≈ 100 vertices against faer's 1.30 ms).
+//! faer's. Speed: `cargo bench -p meshlap --bench core patch_bases`; the measured
+//! figures against faer's solver are in BENCHMARKS.md.
 
 /// Eigenvalues (ascending) and eigenvectors of the symmetric matrix whose **lower
 /// triangle** is `a` (n×n, column-major; the upper triangle is not read). Returns
@@ -544,7 +544,8 @@ pub(super) fn tridiagonalize(
 /// ascending, by the Pal–Walker–Kahan root-free QL iteration with Wilkinson shifts
 /// (LAPACK `dsterf`, QL direction only) on the squared off-diagonal. The two
 /// reciprocals of a step, `1/r` and `1/p` (`γ²/c = γ²·r/p`), are independent, so
-/// they overlap: 37 % faster than the square-root QL (`tqli`) at n ≈ 100–150.
+/// they overlap, which makes it faster than the square-root QL (`tqli`) at the
+/// patch sizes (n ≈ 100–150; figures in BENCHMARKS.md).
 /// Deflation: `e_m² ≤ ε² max(|d_m| + |d_{m+1}|, ‖T‖∞)²`. `None` after 30 iterations
 /// on one eigenvalue.
 #[inline(always)]

@@ -65,8 +65,8 @@ impl ShiftedPattern {
 /// [`SpectralError::Factorization`] when faer fails or a pivot is not finite.
 ///
 /// Runs on a pool worker ([`crate::par::on_worker`]): faer's parallel factorization
-/// called from outside the pool hands every task to it and sleeps, about 40 % slower
-/// (figures in BENCHMARKS.md).
+/// called from outside the pool hands every task to it and sleeps, which is
+/// measurably slower (figures in BENCHMARKS.md).
 pub(super) fn factor_at(
     pattern: &ShiftedPattern,
     symbolic: &SymbolicCholesky<usize>,
