@@ -160,6 +160,34 @@ def npy_seeds():
     }
 
 
+def open_seeds():
+    """Face lists for the `open` target: [options byte, vertex count − 1, faces …]."""
+    tet = [(0, 2, 1), (0, 1, 3), (1, 2, 3), (0, 3, 2)]
+    octa = [(0, 2, 4), (2, 1, 4), (1, 3, 4), (3, 0, 4), (2, 0, 5), (1, 2, 5), (3, 1, 5), (0, 3, 5)]
+
+    def unit(bits, n, faces):
+        return bytes([bits, n - 1] + [v for f in faces for v in f])
+
+    return {
+        "tet.bin": unit(7, 4, tet),
+        "tet_dup_same.bin": unit(7, 4, tet + [tet[1]]),
+        "tet_dup_reversed.bin": unit(2, 4, tet + [(1, 0, 3)]),
+        "tet_two_copies.bin": unit(6, 4, [(3, 1, 0)] + tet + [(0, 3, 1)]),
+        "fin.bin": unit(7, 5, tet + [(0, 1, 4)]),  # an edge of three faces
+        "degenerate.bin": unit(5, 5, tet + [(4, 4, 1)]),
+        "unused.bin": unit(4, 8, octa[:4]),
+        "bowtie.bin": unit(7, 5, [(0, 1, 2), (0, 3, 4)]),  # a non-manifold vertex
+        "octahedron.bin": unit(3, 6, octa),
+        "out_of_range.bin": unit(15, 4, tet + [(0, 1, 4)]),
+        "no_faces.bin": unit(7, 3, []),
+        # A face and its copy sharing no edge with any other face: the duplicate is
+        # found from the twins (`check_clean_given`), not by the counting sort.
+        "pair_reversed.bin": unit(0, 3, [(0, 1, 2), (0, 2, 1)]),
+        "pair_same.bin": unit(0, 3, [(0, 1, 2), (1, 2, 0)]),
+        "octahedron_and_pair.bin": unit(2, 9, octa + [(6, 7, 8), (8, 7, 6)]),
+    }
+
+
 def write(target, files):
     d = OUT / target
     d.mkdir(parents=True, exist_ok=True)
@@ -193,6 +221,7 @@ def main():
     copy_matching("mlz_threads", "*.mlz", DATA / "mlz")
     write("mtx", mtx_seeds())
     write("npy", npy_seeds())
+    write("open", open_seeds())
     # The committed minimised corpora (from earlier runs).
     for committed in sorted((DATA / "fuzz").glob("*")):
         if committed.is_dir():

@@ -21,7 +21,7 @@ use meshlap::TriMesh;
 pub type Target = fn(&[u8]);
 
 /// Every target, by name (the names of the `[[bin]]`s and of the corpus folders).
-pub const TARGETS: [(&str, Target); 13] = [
+pub const TARGETS: [(&str, Target); 14] = [
     ("obj", obj),
     ("obj_variants", obj_variants),
     ("off", off),
@@ -34,6 +34,7 @@ pub const TARGETS: [(&str, Target); 13] = [
     ("mlz_threads", mlz_threads),
     ("mtx", mtx),
     ("npy", npy),
+    ("open", open),
     ("watermark_detect", watermark_detect),
 ];
 
@@ -186,6 +187,94 @@ fn ply_binary_file(data: &[u8]) -> Option<(u8, Vec<u8>)> {
     let mut bytes = file.into_bytes();
     bytes.extend_from_slice(&rest[5..]);
     Some((mode, bytes))
+}
+
+/// Opening an in-memory mesh, differential: a face list decoded from the bytes goes
+/// through the two ways of each step that issue 17's faster opening introduced, which
+/// must agree exactly:
+/// - `input::from_mesh` (cleaning all but the duplicate faces, the connectivity, the
+///   duplicates found from its twins) against cleaning with every option and then
+///   the connectivity: the same mesh, report and connectivity, or the same error;
+/// - `clean::check_clean` (a counting sort of the faces, the Python package's check
+///   of its `(V, F)` arguments) against the connectivity and
+///   `clean::check_clean_given`: the same verdict and error;
+/// - the connectivity with its steps for large meshes on
+///   (`mesh::topology::variants::topology(…, 0)`) against the plain one.
+///
+/// Byte 0: its low three bits are the cleaning options, bit 3 lets an index reach one
+/// past the last vertex (out of range). Byte 1: the vertex count, 1 to 64. Then each
+/// three bytes a face, each index its byte modulo the count (or the count + 1).
+pub fn open(data: &[u8]) {
+    use meshlap::mesh::clean::{check_clean, check_clean_given, clean_owned, CleanOptions};
+    use meshlap::mesh::topology::{variants as topology_variants, Topology};
+    let [bits, count, body @ ..] = data else {
+        return;
+    };
+    let n = 1 + usize::from(count % 64);
+    let modulus = n as u32 + u32::from(bits & 8 != 0);
+    let faces: Vec<[u32; 3]> = body
+        .chunks_exact(3)
+        .map(|c| [0, 1, 2].map(|k| u32::from(c[k]) % modulus))
+        .collect();
+    let positions = (0..n)
+        .map(|i| [i as f64, (i * i % 7) as f64, (i % 3) as f64])
+        .collect();
+    let raw = TriMesh { positions, faces };
+    // The lazily computed parts (outgoing half-edges, manifold flags) asked for, so
+    // that the Debug forms compare everything.
+    let settled = |t: &Topology| {
+        let _ = t.non_manifold_vertices().count();
+        format!("{t:?}")
+    };
+    let opts = CleanOptions {
+        drop_degenerate_faces: bits & 1 != 0,
+        drop_duplicate_faces: bits & 2 != 0,
+        drop_unreferenced_vertices: bits & 4 != 0,
+    };
+    let report = |r: &meshlap::mesh::clean::CleanReport| {
+        (
+            r.dropped_degenerate_faces,
+            r.dropped_duplicate_faces,
+            r.dropped_unreferenced_vertices,
+            r.vertex_map.clone(),
+        )
+    };
+    let got = meshlap::input::from_mesh("fuzz", raw.clone(), None, &opts)
+        .map(|i| (i.mesh.clone(), report(&i.clean), settled(&i.topology)))
+        .map_err(|e| e.to_string());
+    let want = clean_owned(raw.clone(), &opts)
+        .map_err(meshlap::Error::from)
+        .and_then(|(m, r)| {
+            let t = Topology::new(&m)?;
+            Ok((m, report(&r), settled(&t)))
+        })
+        .map_err(|e| e.to_string());
+    assert!(
+        got == want,
+        "from_mesh: {got:?}\ncleaning, then the connectivity: {want:?}"
+    );
+    if let Ok((mesh, ..)) = &got {
+        check_mesh(mesh);
+    }
+    let faces = &raw.faces;
+    let sorted = check_clean(n, faces).map_err(|e| e.to_string());
+    let given = Topology::from_faces(n, faces)
+        .and_then(|t| check_clean_given(&t))
+        .map_err(|e| e.to_string());
+    assert!(
+        sorted == given,
+        "check_clean: {sorted:?}\ncheck_clean_given: {given:?}"
+    );
+    let plain = Topology::from_faces(n, faces)
+        .map(|t| settled(&t))
+        .map_err(|e| e.to_string());
+    let large = topology_variants::topology(n, faces, 0)
+        .map(|t| settled(&t))
+        .map_err(|e| e.to_string());
+    assert!(
+        plain == large,
+        "the steps for large meshes: {large:?}\nplain: {plain:?}"
+    );
 }
 
 /// ASCII STL, raw bytes (binary detection included: a file whose size matches its

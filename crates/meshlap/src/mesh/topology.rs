@@ -827,6 +827,26 @@ impl UnionFind {
     }
 }
 
+/// The connectivity's internal variants, for differential fuzzing (`fuzz/src/entry.rs`,
+/// whose `open` target checks that the steps for large meshes give what the steps for
+/// small ones give) and for the stable replay of its corpus. Not part of the API:
+/// these may change or go at any time. Use [`Topology::from_faces`].
+#[doc(hidden)]
+pub mod variants {
+    use super::{MeshError, Topology};
+
+    /// [`Topology::from_faces`] taking arrays from `large_from` bytes on to exceed the
+    /// cache: 0 runs the steps for large meshes (the parallel joins and copies, the
+    /// prefetching scatter) on any mesh, `usize::MAX` never.
+    pub fn topology(
+        n: usize,
+        faces: &[[u32; 3]],
+        large_from: usize,
+    ) -> Result<Topology, MeshError> {
+        crate::par::on_worker(|| Topology::build(n, faces, large_from))
+    }
+}
+
 #[cfg(test)]
 #[path = "topology_tests.rs"]
 mod tests;
