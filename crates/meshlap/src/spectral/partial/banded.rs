@@ -111,8 +111,8 @@ const MAX_STEP: f64 = 0.55;
 /// that step when the spacing is unusable). The cap binds on Igea's k = 1000 (bands
 /// of 200) for every band after the second: each window reaches 45 % of its radius
 /// below `U` and keeps 156 of 200 pairs; a margin of 0.2 and a cap of 0.85 r keep
-/// about 180 (6 bands instead of 7, less CPU time: BENCHMARKS.md) but lowered the refinement's
-/// gain on the icosphere's clustered spectrum below the 5x that
+/// about 180 (6 bands instead of 7, less CPU time: BENCHMARKS.md) but lowered the
+/// refinement's gain on the icosphere's clustered spectrum below the 5x that
 /// `refinement_lowers_the_residuals_and_keeps_the_spectrum` requires, so they are
 /// not the default yet. The pairs of the window below `U` were kept by the band
 /// before; deflating them from the new band's search, or starting its iteration
