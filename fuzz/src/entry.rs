@@ -258,16 +258,17 @@ pub fn open(data: &[u8]) {
     }
     let faces = &raw.faces;
     let sorted = check_clean(n, faces).map_err(|e| e.to_string());
-    let given = Topology::from_faces(n, faces)
-        .and_then(|t| check_clean_given(&t))
-        .map_err(|e| e.to_string());
+    // One plain connectivity for both checks below.
+    let built = Topology::from_faces(n, faces).map_err(|e| e.to_string());
+    let given = built
+        .as_ref()
+        .map_err(String::clone)
+        .and_then(|t| check_clean_given(t).map_err(|e| e.to_string()));
     assert!(
         sorted == given,
         "check_clean: {sorted:?}\ncheck_clean_given: {given:?}"
     );
-    let plain = Topology::from_faces(n, faces)
-        .map(|t| settled(&t))
-        .map_err(|e| e.to_string());
+    let plain = built.map(|t| settled(&t));
     let large = topology_variants::topology(n, faces, 0)
         .map(|t| settled(&t))
         .map_err(|e| e.to_string());

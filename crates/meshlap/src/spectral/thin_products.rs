@@ -20,10 +20,10 @@
 //! the hardware prefetchers follow. faer's general GEMM packs `V` into panels for
 //! these shapes and reaches a fraction of the streaming bandwidth; these loops reach
 //! the streaming rate (figures in BENCHMARKS.md, "Partial spectra and partitioning":
-//! "Streaming thin-block kernels"). They are written with fixed-width accumulator arrays that
-//! LLVM vectorises, compiled for AVX2 + FMA when the CPU has them (dispatched at run
-//! time by `crate::cpu::dispatch`; `MESHLAP_PORTABLE=1` forces the portable
-//! build), and fall back to faer's `matmul` for strided views.
+//! "Streaming thin-block kernels"). They are written with fixed-width accumulator
+//! arrays that LLVM vectorises, compiled for AVX2 + FMA when the CPU has them
+//! (dispatched at run time by `crate::cpu::dispatch`; `MESHLAP_PORTABLE=1` forces the
+//! portable build), and fall back to faer's `matmul` for strided views.
 //!
 //! Rounding: each thread sums its rows in its own order and the halves are added, so
 //! results depend on the thread count at the level of rounding (as any parallel
