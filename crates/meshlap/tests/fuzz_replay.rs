@@ -12,10 +12,13 @@ mod entry;
 
 use std::path::{Path, PathBuf};
 
+/// `tests/data/fuzz`: one folder per target's corpus, and `miri.txt`.
+fn fuzz_data() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/fuzz")
+}
+
 fn corpus_dir(target: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../tests/data/fuzz")
-        .join(target)
+    fuzz_data().join(target)
 }
 
 /// The files of one corpus, sorted (so a failure names the same file every run).
@@ -66,7 +69,7 @@ fn replayed(target: &str) -> Vec<PathBuf> {
 /// The units of `target` that `tests/data/fuzz/miri.txt` lists (one `target/file` a
 /// line, `#` comments).
 fn miri_units(target: &str) -> Vec<PathBuf> {
-    let list = corpus_dir("miri.txt");
+    let list = fuzz_data().join("miri.txt");
     let list = std::fs::read_to_string(&list).unwrap_or_else(|e| panic!("{}: {e}", list.display()));
     list.lines()
         .map(str::trim)
