@@ -512,6 +512,62 @@ mod tests {
         x
     }
 
+    /// The kernel the dispatch picks (AVX2 + FMA, or AVX-512, where the CPU has them)
+    /// gives the bits of the portable loops with the same rounding (each multiply-add
+    /// fused on those builds, see the module documentation), without faer's
+    /// products: lengths around the quads and a chunk, every group width, both
+    /// products. Small enough for Miri with AVX2 compiled in (RELIABILITY.md), where
+    /// faer's products cannot run.
+    #[test]
+    fn dispatched_kernels_give_the_portable_bits() {
+        use crate::cpu::dispatch;
+        fn bits(m: &Mat<f64>) -> Vec<u64> {
+            (0..m.ncols())
+                .flat_map(|j| (0..m.nrows()).map(move |i| m[(i, j)].to_bits()))
+                .collect()
+        }
+        fn check<const G: usize>(n: usize, s: usize) {
+            let fused = crate::cpu::avx2_fma();
+            let v = filled(n, s, 21 + n as u64);
+            let thin = filled(n, G, 22 + G as u64);
+            let small = filled(s, G, 23 + G as u64);
+            // C += Vᵀ W from a non-zero C.
+            let (mut cp, mut cd) = (small.clone(), small.clone());
+            if fused {
+                tn_kernel::<G, true>(v.as_ref(), thin.as_ref(), cp.as_mut());
+            } else {
+                tn_kernel::<G, false>(v.as_ref(), thin.as_ref(), cp.as_mut());
+            }
+            dispatch(Group::<G, true> {
+                v: v.as_ref(),
+                thin: thin.as_ref(),
+                out: cd.as_mut(),
+            });
+            assert!(bits(&cp) == bits(&cd), "tn, G = {G}, n = {n}, s = {s}");
+            // W −= V C.
+            let (mut wp, mut wd) = (thin.clone(), thin.clone());
+            if fused {
+                nn_kernel::<G, true>(wp.as_mut(), v.as_ref(), small.as_ref());
+            } else {
+                nn_kernel::<G, false>(wp.as_mut(), v.as_ref(), small.as_ref());
+            }
+            dispatch(Group::<G, false> {
+                v: v.as_ref(),
+                thin: small.as_ref(),
+                out: wd.as_mut(),
+            });
+            assert!(bits(&wp) == bits(&wd), "nn, G = {G}, n = {n}, s = {s}");
+        }
+        for n in [1usize, 3, 4, 5, 37, CHUNK + 7] {
+            for s in [1usize, 3] {
+                check::<1>(n, s);
+                check::<2>(n, s);
+                check::<4>(n, s);
+                check::<8>(n, s);
+            }
+        }
+    }
+
     /// The wide path (faer's GEMM per row part) matches the product, on and around
     /// the width where it takes over, and is the same bits on every call.
     #[test]
