@@ -70,16 +70,18 @@ use faer::{Accum, Mat, MatMut, MatRef, Par};
 /// LAPACK's default `SMLSIZ` for `dstedc` is 25; leaves of 64 made the divide and
 /// conquer faster at n = 500–2903 (BENCHMARKS.md, "Spectra", forty-ninth session, on
 /// an Intel Xeon): two levels fewer of merges, each with its secular equations,
-/// Löwner products and matrix products, for QL sweeps on larger leaves.
-pub const LEAF: usize = 64;
+/// Löwner products and matrix products, for QL sweeps on larger leaves. Under Miri
+/// (RELIABILITY.md) 8, as are the two thresholds below 24 and 16, so that matrices
+/// small enough to interpret reach the merges and the parallel paths.
+pub const LEAF: usize = if cfg!(miri) { 8 } else { 64 };
 
 /// Below this block size the two halves are solved one after the other even when
 /// `par` has several threads.
-const PAR_SPLIT: usize = 192;
+const PAR_SPLIT: usize = if cfg!(miri) { 24 } else { 192 };
 
 /// Below this number of undeflated roots the secular equations are solved on one
 /// thread.
-const PAR_ROOTS: usize = 128;
+const PAR_ROOTS: usize = if cfg!(miri) { 16 } else { 128 };
 
 /// Iterations allowed per root of the secular equation (LAPACK's `MAXIT`).
 const SECULAR_MAXIT: usize = 30;
@@ -1651,7 +1653,7 @@ mod tests {
 
     #[test]
     fn parallel_matches_sequential() {
-        let (d, e) = random(700, 7);
+        let (d, e) = random(if cfg!(miri) { 40 } else { 700 }, 7);
         let (l1, z1) = check(&d, &e, Par::Seq);
         let (l2, z2) = check(&d, &e, Par::rayon(2));
         for j in 0..d.len() {
@@ -1851,7 +1853,13 @@ mod tests {
     fn dispatched_kernels_match_their_portable_build() {
         use crate::cpu::{dispatch, Kernel};
         let mut r = SplitMix64::new(41);
-        for k in [1usize, 2, 3, 4, 5, 7, 8, 9, 31, 64, 130] {
+        // Under Miri (RELIABILITY.md) without the two largest: the leaves' QL is cubic.
+        let sizes: &[usize] = if cfg!(miri) {
+            &[1, 2, 3, 4, 5, 7, 8, 9, 31]
+        } else {
+            &[1, 2, 3, 4, 5, 7, 8, 9, 31, 64, 130]
+        };
+        for &k in sizes {
             let mut d: Vec<f64> = (0..k).map(|_| r.next_signed() * 4.0).collect();
             d.sort_by(f64::total_cmp);
             let z: Vec<f64> = (0..k).map(|_| r.next_signed()).collect();
