@@ -842,8 +842,8 @@ mod tests {
     #[test]
     fn the_three_column_kernel_equals_three_single_column_products() {
         // A larger mesh operator (several parallel chunks; under Miri a small one,
-        // with its smaller chunks), k = 3 against k = 1 per
-        // column: the same products in the same order, so the same bits.
+        // with its smaller chunks), k = 3 against k = 1 per column: the same
+        // products in the same order, so the same bits.
         let a = icosphere_system(if cfg!(miri) { 2 } else { 5 }, Kind::Tutte);
         let n = a.nrows();
         let x: Vec<f64> = (0..3 * n).map(|i| (i as f64 * 0.37).sin()).collect();
