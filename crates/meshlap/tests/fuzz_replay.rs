@@ -101,6 +101,51 @@ fn the_miri_list_names_units_of_every_corpus() {
     }
 }
 
+/// Every library test `.ci/miri` names (its `portable` and `avx2` lists, by module
+/// path) is a `#[test]` function in the source file of its module, so that a renamed
+/// test cannot drop out of the Miri sets unnoticed (`cargo test --exact` runs no test
+/// for an unknown name and still succeeds).
+#[test]
+fn the_miri_script_names_library_tests() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let script = std::fs::read_to_string(root.join("../../.ci/miri")).unwrap();
+    let names: Vec<&str> = script
+        .lines()
+        .map(str::trim)
+        .filter(|l| l.contains("::tests::") && !l.contains(' '))
+        .collect();
+    assert!(names.len() >= 15, "{} tests in .ci/miri", names.len());
+    for name in names {
+        let parts: Vec<&str> = name.split("::").collect();
+        let (module, test) = (&parts[..parts.len() - 2], parts[parts.len() - 1]);
+        assert_eq!(parts[parts.len() - 2], "tests", "{name}");
+        let dir = module.iter().fold(root.join("src"), |d, m| d.join(m));
+        // The tests module inline in `m.rs` or `m/mod.rs`, or in `m/tests.rs`.
+        let files = [
+            dir.with_extension("rs"),
+            dir.join("mod.rs"),
+            dir.join("tests.rs"),
+        ];
+        let found = files.iter().any(|f| {
+            let Ok(src) = std::fs::read_to_string(f) else {
+                return false;
+            };
+            let lines: Vec<&str> = src.lines().map(str::trim).collect();
+            let head = format!("fn {test}(");
+            // `#[test]` among the attributes right above the function.
+            (0..lines.len()).any(|i| {
+                lines[i].starts_with(&head)
+                    && lines[..i]
+                        .iter()
+                        .rev()
+                        .take_while(|l| l.starts_with("#["))
+                        .any(|l| *l == "#[test]")
+            })
+        });
+        assert!(found, ".ci/miri names {name}, which is not a test there");
+    }
+}
+
 #[test]
 fn corpora_replay_without_panics() {
     for (name, target) in entry::TARGETS {
