@@ -71,8 +71,8 @@ use faer::{Accum, Mat, MatMut, MatRef, Par};
 /// conquer faster at n = 500–2903 (BENCHMARKS.md, "Spectra", forty-ninth session, on
 /// an Intel Xeon): two levels fewer of merges, each with its secular equations,
 /// Löwner products and matrix products, for QL sweeps on larger leaves. Under Miri
-/// (RELIABILITY.md) 8, as are the two thresholds below 24 and 16, so that matrices
-/// small enough to interpret reach the merges and the parallel paths.
+/// 8, and the two thresholds below 24 and 16 (RELIABILITY.md), so that matrices small
+/// enough to interpret reach the merges and the parallel paths.
 pub const LEAF: usize = if cfg!(miri) { 8 } else { 64 };
 
 /// Below this block size the two halves are solved one after the other even when
