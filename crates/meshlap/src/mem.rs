@@ -97,8 +97,9 @@ pub(crate) fn uninit_vec<T>(n: usize) -> Vec<std::mem::MaybeUninit<T>> {
 /// own columns. Small matrices are left to faer. The same matrix either way.
 pub(crate) fn zeroed_mat(nrows: usize, ncols: usize) -> faer::Mat<f64> {
     use rayon::prelude::*;
-    /// Elements below which faer's serial fill is used.
-    const PARALLEL_FROM: usize = 1 << 20;
+    /// Elements below which faer's serial fill is used (under Miri 1,024, so that the
+    /// matrices it can interpret still take the parallel path; RELIABILITY.md).
+    const PARALLEL_FROM: usize = if cfg!(miri) { 1 << 10 } else { 1 << 20 };
     if nrows.saturating_mul(ncols) < PARALLEL_FROM {
         return faer::Mat::zeros(nrows, ncols);
     }
@@ -476,12 +477,16 @@ pub(crate) fn prefetch<T>(x: &T) {
 mod tests {
     #[test]
     fn zeroed_mat_is_zero_and_usable_at_any_size() {
+        // Both sides of `PARALLEL_FROM` (2^10 elements under Miri, 2^20 otherwise),
+        // tall and wide.
+        let p = if cfg!(miri) { 10 } else { 20 };
+        let many_columns = if cfg!(miri) { (30, 40) } else { (1000, 2000) };
         for (n, k) in [
             (0, 0),
             (3, 2),
-            (1000, 2000),
-            ((1 << 20) + 3, 3),
-            (1 << 21, 1),
+            many_columns,
+            ((1 << p) + 3, 3),
+            (1 << (p + 1), 1),
         ] {
             let mut m = super::zeroed_mat(n, k);
             assert_eq!((m.nrows(), m.ncols()), (n, k));
@@ -541,16 +546,24 @@ mod tests {
         assert!(v.iter().all(|&x| x == 0.0));
         #[cfg(all(target_os = "linux", target_env = "gnu", target_pointer_width = "64"))]
         {
-            // glibc marks a block mapped on its own by bit 1 (IS_MMAPPED) of the size
-            // word just before it. Three 24 MiB blocks held at once outgrow any heap's
-            // padded top; with M_TOP_PAD alone (which freezes the mmap threshold at
-            // 128 KiB) the one that does not fit is mapped, and unmapped on free.
-            let blocks: Vec<Vec<u8>> = (0..3).map(|_| Vec::with_capacity(24 << 20)).collect();
+            // A block glibc maps on its own spans whole pages: `malloc_usable_size`
+            // then gives the request rounded up to a page less the chunk's header
+            // (24 MiB + 4,080 bytes here), where a block from a heap gives the
+            // request rounded up to 16 bytes plus 8 (24 MiB + 8). Three 24 MiB blocks
+            // held at once outgrow any heap's padded top; with M_TOP_PAD alone (which
+            // freezes the mmap threshold at 128 KiB) the one that does not fit is
+            // mapped, and unmapped on free.
+            const REQUEST: usize = 24 << 20;
+            let blocks: Vec<Vec<u8>> = (0..3).map(|_| Vec::with_capacity(REQUEST)).collect();
             for b in &blocks {
-                // SAFETY: glibc's malloc puts the chunk's size word right before the
-                // block it returns; this reads initialised allocator memory.
-                let size_word = unsafe { *(b.as_ptr() as *const usize).sub(1) };
-                assert_eq!(size_word & 2, 0, "a 24 MiB block was mapped on its own");
+                // SAFETY: the pointer is a live block from malloc (Rust's global
+                // allocator on this target, for an alignment of 1).
+                let usable = unsafe { libc::malloc_usable_size(b.as_ptr() as *mut libc::c_void) };
+                assert!(usable >= REQUEST, "{usable} usable bytes");
+                assert!(
+                    usable - REQUEST < 16,
+                    "a 24 MiB block was mapped on its own ({usable} usable bytes)"
+                );
             }
         }
     }
