@@ -189,6 +189,113 @@ fn interleaved_supernodal_solve_matches_faer_for_both_orderings() {
     }
 }
 
+/// The split solve (the two forests on their threads, then the top) without METIS:
+/// a hand-made dissection of an icosphere (its upper half, its lower half less the
+/// separator, then the lower vertices next to the upper half) and a forced
+/// supernodal factor. faer's own solve of the same system, to rounding, and the same
+/// bits on pools of 1 to 3 threads. Sized for Miri too (icosphere 2 there), which
+/// cannot run the METIS ordering the large meshes take (C); but Miri stops inside
+/// faer's sparse symbolic Cholesky before the solve (undefined behaviour of faer's
+/// and dyn-stack's own, `upstream/faer-amd-miri/`), so `.ci/miri` does not list it.
+#[test]
+fn split_solve_on_a_hand_made_dissection_matches_faer() {
+    use faer::sparse::linalg::cholesky::CholeskySymbolicParams;
+    use faer::sparse::linalg::SupernodalThreshold;
+    let mesh = builtin::icosphere(if cfg!(miri) { 2 } else { 4 }).unwrap();
+    let op = assemble(OperatorKind::Sql, &mesh);
+    let topo = Topology::new(&mesh).unwrap();
+    let n = mesh.n_vertices();
+    let up = |v: usize| mesh.positions[v][2] > 0.0;
+    let separator = |v: usize| {
+        !up(v)
+            && topo
+                .neighbors(crate::VertexId(v as u32))
+                .iter()
+                .any(|&u| up(u as usize))
+    };
+    let identity = Metric::new(Mass::Identity, n).unwrap();
+    let pattern = ShiftedPattern::new(&op.matrix, &identity).unwrap();
+    // By part (the upper half, the lower half, the separator), and within each part
+    // from the poles towards the equator (|z| descending): a band-like order that
+    // needs no fill-reducing ordering. (Not AMD: under Miri faer's AMD reports
+    // undefined behaviour of its own, RELIABILITY.md.)
+    let part = |v: usize| match (up(v), separator(v)) {
+        (true, _) => 0u8,
+        (false, false) => 1,
+        (false, true) => 2,
+    };
+    let mut fwd: Vec<usize> = (0..n).collect();
+    fwd.sort_by(|&a, &b| {
+        let key = |v: usize| (part(v), -mesh.positions[v][2].abs());
+        key(a).partial_cmp(&key(b)).unwrap().then(a.cmp(&b))
+    });
+    let mut inv = vec![0usize; n];
+    for (new, &old) in fwd.iter().enumerate() {
+        inv[old] = new;
+    }
+    let symbolic = factorize_symbolic_cholesky(
+        pattern.base.symbolic(),
+        Side::Lower,
+        SymmetricOrdering::Custom(faer::perm::PermRef::new_checked(&fwd, &inv, n)),
+        CholeskySymbolicParams {
+            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let split = super::solve::TreeSplit::of(&symbolic, 0);
+    assert!(split.is_some(), "a dissection's tree splits");
+    // Inside the spectrum: K − σI is indefinite.
+    let sigma = 0.37;
+    let values = factor_at(&pattern, &symbolic, sigma).unwrap();
+    let msqrt: Vec<f64> = (0..n).map(|i| 1.0 + (i % 5) as f64 * 0.1).collect();
+    let scaling = Metric::new(
+        Mass::Lumped(&msqrt.iter().map(|s| s * s).collect::<Vec<_>>()),
+        n,
+    )
+    .unwrap();
+    let si = ShiftInvert {
+        symbolic: &symbolic,
+        values: values.clone(),
+        metric: &scaling,
+        msqrt: &msqrt,
+        split,
+        scratch: Default::default(),
+    };
+    // Groups of 16, 8, 4 and 1 columns.
+    let p = 29;
+    let mut x = Mat::<f64>::zeros(n, p);
+    super::super::krylov_schur::random_fill(x.as_mut(), 7);
+    let mut first: Option<Mat<f64>> = None;
+    for threads in [1, 2, 3] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let mut ours = Mat::<f64>::zeros(n, p);
+        pool.install(|| si.apply_block(x.as_ref(), ours.as_mut()));
+        match &first {
+            None => first = Some(ours),
+            Some(f) => assert!(
+                (0..p).all(|j| (0..n).all(|i| f[(i, j)].to_bits() == ours[(i, j)].to_bits())),
+                "{threads} threads"
+            ),
+        }
+    }
+    let ours = first.unwrap();
+    let mut reference = Mat::from_fn(n, p, |i, j| x[(i, j)] * msqrt[i]);
+    let mut buf = MemBuffer::new(symbolic.solve_in_place_scratch::<f64>(p, Par::Seq));
+    LdltRef::new(&symbolic, &values).solve_in_place_with_conj(
+        Conj::No,
+        reference.as_mut(),
+        Par::Seq,
+        MemStack::new(&mut buf),
+    );
+    let reference = Mat::from_fn(n, p, |i, j| reference[(i, j)] * msqrt[i]);
+    let err = (&ours - &reference).norm_max() / reference.norm_max();
+    assert!(err < 1e-10, "{err}");
+}
+
 #[test]
 fn band_shifts_find_the_dense_smallest_with_multiplicities() {
     // icosphere:3 (642 vertices): highly repeated eigenvalues.
