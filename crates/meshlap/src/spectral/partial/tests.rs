@@ -85,6 +85,27 @@ fn check_against_dense(k: &SparseMatrix, mass: Option<&[f64]>, ps: &PartialSpect
     }
 }
 
+/// faer's own solve of what [`ShiftInvert::apply_block`] computes: `S F⁻¹ S x` for the
+/// n×p right-hand sides `x`, with `S = diag(msqrt)` and `F` the matrix whose LDLᵀ
+/// factor is `values` (pattern `symbolic`).
+fn faer_scaled_solve(
+    symbolic: &faer::sparse::linalg::cholesky::SymbolicCholesky<usize>,
+    values: &[f64],
+    x: faer::MatRef<'_, f64>,
+    msqrt: &[f64],
+) -> Mat<f64> {
+    let (n, p) = (x.nrows(), x.ncols());
+    let mut y = Mat::from_fn(n, p, |i, j| x[(i, j)] * msqrt[i]);
+    let mut buf = MemBuffer::new(symbolic.solve_in_place_scratch::<f64>(p, Par::Seq));
+    LdltRef::new(symbolic, values).solve_in_place_with_conj(
+        Conj::No,
+        y.as_mut(),
+        Par::Seq,
+        MemStack::new(&mut buf),
+    );
+    Mat::from_fn(n, p, |i, j| y[(i, j)] * msqrt[i])
+}
+
 #[test]
 fn interleaved_supernodal_solve_matches_faer_for_both_orderings() {
     use faer::sparse::linalg::cholesky::SymbolicCholeskyRaw;
@@ -162,16 +183,7 @@ fn interleaved_supernodal_solve_matches_faer_for_both_orderings() {
                         assert!(split_bits[q] == bits, "p = {p}, {threads} threads");
                     }
                 }
-                // faer's solve of the same system.
-                let mut reference = Mat::from_fn(n, p, |i, j| xb[(i, j)] * msqrt[i]);
-                let mut buf = MemBuffer::new(symbolic.solve_in_place_scratch::<f64>(p, Par::Seq));
-                LdltRef::new(&symbolic, &values).solve_in_place_with_conj(
-                    Conj::No,
-                    reference.as_mut(),
-                    Par::Seq,
-                    MemStack::new(&mut buf),
-                );
-                let reference = Mat::from_fn(n, p, |i, j| reference[(i, j)] * msqrt[i]);
+                let reference = faer_scaled_solve(&symbolic, &values, xb, &msqrt);
                 let err = (&ours - &reference).norm_max() / reference.norm_max();
                 assert!(
                     err < 1e-10,
@@ -283,15 +295,7 @@ fn split_solve_on_a_hand_made_dissection_matches_faer() {
         }
     }
     let ours = first.unwrap();
-    let mut reference = Mat::from_fn(n, p, |i, j| x[(i, j)] * msqrt[i]);
-    let mut buf = MemBuffer::new(symbolic.solve_in_place_scratch::<f64>(p, Par::Seq));
-    LdltRef::new(&symbolic, &values).solve_in_place_with_conj(
-        Conj::No,
-        reference.as_mut(),
-        Par::Seq,
-        MemStack::new(&mut buf),
-    );
-    let reference = Mat::from_fn(n, p, |i, j| reference[(i, j)] * msqrt[i]);
+    let reference = faer_scaled_solve(&symbolic, &values, x.as_ref(), &msqrt);
     let err = (&ours - &reference).norm_max() / reference.norm_max();
     assert!(err < 1e-10, "{err}");
 }
