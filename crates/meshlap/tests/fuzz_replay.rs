@@ -108,7 +108,7 @@ fn the_miri_list_names_units_of_every_corpus() {
 #[test]
 #[cfg_attr(
     miri,
-    ignore = "a check of the script's list, no unsafe code: over 20 minutes under Miri"
+    ignore = "a check of the script's list, no unsafe code: over a quarter of an hour under Miri"
 )]
 fn the_miri_script_names_library_tests() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
