@@ -26,7 +26,9 @@ fn main() {
     let ones = Mat::<f64>::from_fn(n, 1, |_, _| 1.0);
     let b = &a * &ones;
     let x = faer::linalg::solvers::Solve::solve(&lu, &b);
-    let err = (0..n).map(|i| (x[(i, 0)] - 1.0).abs()).fold(0.0f64, f64::max);
+    let err = (0..n)
+        .map(|i| (x[(i, 0)] - 1.0).abs())
+        .fold(0.0f64, f64::max);
     println!("n {n}: max |x − 1| = {err:e}");
     assert!(err < 1e-12);
 }
