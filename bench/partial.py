@@ -6,11 +6,20 @@
   precision) and at ours (1e-11, the same per-pair criterion); eigenvalues and residuals
   compared.
 - The 1,000 smallest of igea.ply (meshlap only; `--full`).
+- Goal 5 of issue 17 against the peer (`--at-scale igea,torus`): igea.ply's 1,000
+  smallest and the 200 smallest of `builtin:torus:1250:800` (10⁶ vertices), meshlap
+  (`meshlap-bench partial`, its defaults) and scipy's shift-invert `eigsh` (ARPACK +
+  SuperLU, σ as above, tol 1e-11: our per-pair criterion) alternated over
+  `--rounds-at-scale` rounds, each call in its own process under `/usr/bin/time` for
+  its peak RSS; scipy's calls are stopped after `--peer-timeout` seconds and reported
+  as "> T". scipy's time excludes reading the matrix; ours includes assembling it.
 - Partition edge cut: meshlap (METIS + connectivity repairs) vs pymetis k-way.
 - A patch-wise projection end to end with the peak RSS (`--project MESH`).
 
 Usage: bench/.venv/bin/python bench/partial.py [--full] [--counts 50,200]
        [--project builtin:icosphere:6] [--repeat ROUNDS]
+       bench/.venv/bin/python bench/partial.py --at-scale igea[,torus]
+       [--rounds-at-scale 2] [--peer-timeout 1800]
 
 The bunny rows alternate the two sides (meshlap, scipy at both tolerances, meshlap,
 ...) for ROUNDS rounds of one call each and report the medians; run it on an idle
@@ -47,6 +56,83 @@ def scipy_eigsh(mtx, k, tol=0.0, repeat=1):
     return float(np.median(times)), np.sort(vals), res
 
 
+def timed_child(cmd, timeout=None):
+    """Runs `cmd` under `/usr/bin/time -f %M`: (its stdout, peak RSS in GiB), or
+    (None, None) if it ran past `timeout` seconds (then it is killed)."""
+    import sys
+    try:
+        r = subprocess.run(["/usr/bin/time", "-f", "%M", *map(str, cmd)], capture_output=True,
+                           text=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return None, None
+    if r.returncode != 0:
+        sys.exit(f"{cmd[0]} failed: {r.stderr.strip()}")
+    return r.stdout, int(r.stderr.strip().splitlines()[-1]) / 2**20
+
+
+def eigsh_child(mtx, k):
+    """`--eigsh-child`: one scipy `eigsh` call (2 BLAS threads) on the matrix file; prints
+    its time, largest residual ‖Av − λv‖, orthogonality max |VᵀV − I| and the sorted
+    eigenvalues as JSON."""
+    with common.limit_threads():
+        import scipy.io
+        import scipy.sparse.linalg as sla
+        A = scipy.io.mmread(mtx).tocsc()
+        sigma = -1e-3 * A.diagonal().mean()
+        t = time.perf_counter()
+        vals, vecs = sla.eigsh(A, k=k, sigma=sigma, which="LM", tol=1e-11)
+        seconds = time.perf_counter() - t
+        res = float(np.max(np.linalg.norm(A @ vecs - vecs * vals, axis=0)))
+        orth = float(np.max(np.abs(vecs.T @ vecs - np.eye(k))))
+    print(json.dumps({"seconds": seconds, "max_residual": res, "orthogonality": orth,
+                      "eigenvalues": sorted(map(float, vals))}))
+
+
+def at_scale(args):
+    """Goal 5 of issue 17 side by side: see the module docstring."""
+    import sys
+    known = {"igea": ("igea.ply, k = 1000", str(common.MESHES / "igea.ply"), 1000),
+             "torus": ("torus 1M, k = 200", "builtin:torus:1250:800", 200)}
+    names = args.at_scale.split(",")
+    if any(x not in known for x in names):
+        sys.exit(f"--at-scale takes a list of {', '.join(known)}")
+    problems = [known[x] for x in names]
+    bench = common.build() / "meshlap-bench"
+    rows = []
+    with tempfile.TemporaryDirectory() as d:
+        for label, mesh, k in problems:
+            mtx = Path(d) / "sql.mtx"
+            common.meshlap("operator", mesh, "--kind", "sql", "--output", mtx, "--json")
+            ours, peer = [], []
+            for _ in range(args.rounds_at_scale):
+                out, gib = timed_child([bench, "partial", mesh, "--count", k, "--repeat", 1])
+                p = json.loads(out)["partial"]
+                ours.append((p["median"], gib, p))
+                print(f"{label}: meshlap {p['median']:.2f} s, {gib:.2f} GiB", flush=True)
+                out, gib = timed_child([sys.executable, __file__, "--eigsh-child", mtx, k],
+                                       timeout=args.peer_timeout)
+                peer.append((json.loads(out), gib) if out else None)
+                print(f"{label}: scipy " + (f"{peer[-1][0]['seconds']:.2f} s, {gib:.2f} GiB"
+                                            if out else f"> {args.peer_timeout} s"), flush=True)
+            om = float(np.median([t for t, _, _ in ours]))
+            p = ours[-1][2]
+            done = [x for x in peer if x]
+            if len(done) == len(peer):
+                sm = float(np.median([x[0]["seconds"] for x in done]))
+                s, sgib = done[-1]
+                dv = float(np.max(np.abs(np.array(p["eigenvalues"]) - np.array(s["eigenvalues"]))))
+                rows.append([label, f"{om:.2f}", f"{max(g for _, g, _ in ours):.2f}", f"{sm:.2f}",
+                             f"{max(x[1] for x in done):.2f}", f"{sm / om:.2f}x",
+                             f"{p['max_residual']:.1e} / {s['max_residual']:.1e}",
+                             f"{p['orthogonality']:.1e} / {s['orthogonality']:.1e}", f"{dv:.1e}"])
+            else:
+                rows.append([label, f"{om:.2f}", f"{max(g for _, g, _ in ours):.2f}",
+                             f"> {args.peer_timeout}", "-", f"> {args.peer_timeout / om:.1f}x",
+                             f"{p['max_residual']:.1e} / -", f"{p['orthogonality']:.1e} / -", "-"])
+    common.table(rows, ["problem", "meshlap s", "GiB", "scipy eigsh s", "GiB", "speed-up",
+                        "max residual (ours / scipy)", "orthogonality", "max |Δλ|"])
+
+
 def pymetis_cut(mtx, nparts):
     import pymetis
     import scipy.io
@@ -66,7 +152,18 @@ def main():
     ap.add_argument("--patch-size", type=int, default=300)
     ap.add_argument("--repeat", type=int, default=3,
                     help="alternated rounds (one call per side each) for the bunny rows")
+    ap.add_argument("--at-scale", metavar="igea,torus",
+                    help="only goal 5's problems against scipy eigsh (see the docstring)")
+    ap.add_argument("--rounds-at-scale", type=int, default=2)
+    ap.add_argument("--peer-timeout", type=float, default=1800.0)
+    ap.add_argument("--eigsh-child", nargs=2, metavar=("MTX", "K"), help=argparse.SUPPRESS)
     args = ap.parse_args()
+    if args.eigsh_child:
+        eigsh_child(args.eigsh_child[0], int(args.eigsh_child[1]))
+        return
+    if args.at_scale:
+        at_scale(args)
+        return
     bunny = common.MESHES / "stanford-bunny.obj"
     rows = []
     with tempfile.TemporaryDirectory() as d, common.limit_threads():
