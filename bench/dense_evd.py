@@ -18,7 +18,11 @@ What each side includes:
   that solver alone; "faer only": the dense copy and faer's self_adjoint_evd alone;
 - TL: numpy.linalg.eig on the dense TL + numpy.linalg.solve(E, V) for the
   coefficients of the positions (the paper's Matlab `eig` + `E\\x`), against meshlap's
-  default TL path (the symmetric GL similarity) + `forward` (the coefficients).
+  default TL path (the symmetric GL similarity) + `forward` (the coefficients). Goal 1
+  of issue 17 is set against that pipeline. A second peer ("GL peer") does in numpy
+  what meshlap does: `numpy.linalg.eigh` of the symmetric `G = D^{-1/2} K D^{-1/2}`
+  (K = D − A), `E = D^{-1/2} U` and the coefficients `Uᵀ D^{1/2} V` (E⁻¹ = Uᵀ D^{1/2}),
+  the scalings and the product included (its own column and ratio).
 Threads: ours RAYON_NUM_THREADS (faer's fixed 2-way split runs on that pool, so 1
 thread runs both halves in turn), numpy via threadpoolctl.
 Timing: ROUNDS rounds alternating the sides (ours, numpy, ours, numpy, ...), REPEAT
@@ -97,8 +101,9 @@ def main():
             for kind in kinds:
                 build_op = {"kirchhoff": kirchhoff, "sql": sql, "tutte": tutte}[kind]
                 A = build_op(Fm, n).toarray()
+                K = kirchhoff(Fm, n).toarray() if kind == "tutte" else None
                 for nt in threads:
-                    t_basis, t_faer, t_blocked, t_np = [], [], [], []
+                    t_basis, t_faer, t_blocked, t_np, t_gl = [], [], [], [], []
                     for _ in range(args.rounds):
                         if kind == "tutte":
                             r = ours(exe, path, "tutte-coefficients", args.repeat, nt, args.warmup)
@@ -111,6 +116,14 @@ def main():
                                     w, E = np.linalg.eig(A)
                                     return np.linalg.solve(E, Vm)
                                 t_np.append(peer_time(peer, args.repeat, args.warmup))
+
+                                def gl_peer():
+                                    dg = np.diag(K)
+                                    s = 1.0 / np.sqrt(dg)
+                                    w, U = np.linalg.eigh(K * s[:, None] * s[None, :])
+                                    E = U * s[:, None]
+                                    return w, E, U.T @ (np.sqrt(dg)[:, None] * Vm)
+                                t_gl.append(peer_time(gl_peer, args.repeat, args.warmup))
                         else:
                             r = ours(exe, path, kind, args.repeat, nt, args.warmup)
                             assert r["vertices"] == n, (r["vertices"], n)
@@ -121,16 +134,18 @@ def main():
                                 t_np.append(peer_time(lambda: np.linalg.eigh(A), args.repeat, args.warmup))
                     tb, tf, tbl, tn = (statistics.median(x)
                                        for x in (t_basis, t_faer, t_blocked, t_np))
+                    tg = statistics.median(t_gl) if t_gl else None
                     peer = "numpy eig + solve" if kind == "tutte" else "numpy eigh"
                     ours_name = "basis + coefficients" if kind == "tutte" else "basis"
                     rows.append([label, n, kind, nt, peer, f"{tn:.3f}", ours_name, f"{tb:.3f}",
-                                 f"{tbl:.3f}", f"{tf:.3f}", f"{tn / tb:.2f}x"])
+                                 f"{tbl:.3f}", f"{tf:.3f}", f"{tn / tb:.2f}x",
+                                 f"{tg:.3f}" if tg else "-", f"{tg / tb:.2f}x" if tg else "-"])
                     print(rows[-1], flush=True)
     load = os.getloadavg()
     print(f"rounds = {args.rounds}, repeat = {args.repeat}, warm-up = {args.warmup} (medians of per-round medians, seconds); "
           f"load average at the end {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}")
     table(rows, ["mesh", "n", "operator", "threads", "peer", "peer s", "meshlap", "meshlap s",
-                 "blocked only s", "faer only s", "speed-up"])
+                 "blocked only s", "faer only s", "speed-up", "GL peer s", "speed-up (GL peer)"])
 
 
 if __name__ == "__main__":
