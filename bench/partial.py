@@ -140,7 +140,12 @@ def pymetis_cut(mtx, nparts):
     A.setdiag(0)
     A.eliminate_zeros()
     xadj, adjncy = A.indptr, A.indices
-    cut, _ = pymetis.part_graph(nparts, xadj=xadj, adjncy=adjncy)
+    if hasattr(pymetis, "CSRAdjacency"):
+        # pymetis 2025: `xadj`/`adjncy` are deprecated (to be removed in 2027).
+        graph = pymetis.CSRAdjacency(adj_starts=xadj, adjacent=adjncy)
+        cut, _ = pymetis.part_graph(nparts, adjacency=graph)
+    else:
+        cut, _ = pymetis.part_graph(nparts, xadj=xadj, adjncy=adjncy)
     return cut
 
 
